@@ -1,0 +1,143 @@
+#include <filesystem>
+#include <iostream>
+
+#include "commands.hpp"
+#include "terramrf/atomic_file.hpp"
+#include "terramrf/config.hpp"
+#include "terramrf/pipeline.hpp"
+
+namespace terramrf::cli {
+
+namespace {
+bool parseConfigArgs(Args& a, const char* cmd, std::string& config) {
+  if (a.empty() || a[0].rfind("--", 0) == 0) {
+    std::cerr << "usage: terramrf " << cmd << " CONFIG ...\n";
+    return false;
+  }
+  config = a[0];
+  a.erase(a.begin());
+  return true;
+}
+void printProblems(const PluginRegistry& reg) {
+  for (const auto& p : reg.problems()) std::cerr << "warning: " << p << "\n";
+}
+}  // namespace
+
+int cmdValidate(const Args& args) {
+  Args a = args;
+  std::string config;
+  if (!parseConfigArgs(a, "validate", config)) return kUsage;
+  LoadOptions lo;
+  lo.data_override = takeOption(a, "--data");
+  PluginRegistry reg(PluginRegistry::defaultSearchDirs());
+  try {
+    Pipeline p = loadPipeline(config, lo, reg);
+    std::cout << config << ": ok (" << p.stages.size() << " stages, " << p.outputs.size()
+              << " outputs, " << p.source->size() << " frames)\n";
+    return kOk;
+  } catch (const ConfigError& e) {
+    for (const auto& d : e.diagnostics()) std::cerr << d.str() << "\n";
+    std::cerr << e.diagnostics().size() << " error(s) in " << config << "\n";
+    return kUsage;
+  }
+}
+
+int cmdRun(const Args& args) {
+  Args a = args;
+  std::string config;
+  if (!parseConfigArgs(a, "run", config)) return kUsage;
+  LoadOptions lo;
+  lo.data_override = takeOption(a, "--data");
+  lo.output_dir = takeOption(a, "--out");
+  RunOptions ro;
+  const std::string first = takeOption(a, "--first"), limit = takeOption(a, "--limit");
+  if (!first.empty()) ro.first = std::stoul(first);
+  if (!limit.empty()) ro.limit = std::stoul(limit);
+  ro.progress = !takeFlag(a, "--no-progress");
+  if (!a.empty()) {
+    std::cerr << "terramrf run: unexpected argument '" << a[0] << "'\n";
+    return kUsage;
+  }
+  PluginRegistry reg(PluginRegistry::defaultSearchDirs());
+  Pipeline p;
+  try {
+    p = loadPipeline(config, lo, reg);
+  } catch (const ConfigError& e) {
+    for (const auto& d : e.diagnostics()) std::cerr << d.str() << "\n";
+    std::cerr << e.diagnostics().size() << " error(s) in " << config << "; nothing was run\n";
+    return kUsage;
+  }
+  std::cerr << "terramrf: " << p.source->size() << " frame(s) from " << p.source->type()
+            << ", outputs in " << p.output_dir << "\n";
+  RunResult r = runPipeline(p, ro);
+  const std::string table = timingTable(r);
+  writeFileAtomic(p.output_dir + "/timing.md", table);
+  std::cout << "\nPer-stage timing over " << r.summary.frames_ok << " scan(s):\n" << table;
+  std::cout << "\n" << r.summary.frames_ok << " of " << r.frames_total << " frame(s) ok";
+  if (!r.summary.failed.empty()) {
+    std::cout << ", " << r.summary.failed.size() << " failed and skipped:\n";
+    for (const auto& [id, why] : r.summary.failed) std::cout << "  " << id << ": " << why << "\n";
+  } else {
+    std::cout << "\n";
+  }
+  std::cout << "outputs: " << p.output_dir << "\n";
+  return r.exitCode();
+}
+
+int cmdPlugins(const Args&) {
+  PluginRegistry reg(PluginRegistry::defaultSearchDirs());
+  std::cout << "Plugin folders:\n";
+  for (const auto& d : reg.dirs()) std::cout << "  " << d << "\n";
+  std::cout << "\n";
+  std::string kind;
+  for (const auto& info : reg.list()) {
+    if (kind != toString(info.kind)) {
+      kind = toString(info.kind);
+      std::cout << kind << ":\n";
+    }
+    std::printf("  %-22s %s\n", info.type.c_str(), info.summary.c_str());
+  }
+  std::fflush(stdout);
+  printProblems(reg);
+  return kOk;
+}
+
+int cmdDescribe(const Args& args) {
+  if (args.size() != 1) {
+    std::cerr << "usage: terramrf describe TYPE\n";
+    return kUsage;
+  }
+  PluginRegistry reg(PluginRegistry::defaultSearchDirs());
+  const PluginInfo* info = reg.find(args[0]);
+  if (!info) {
+    std::cerr << "terramrf describe: unknown plugin type '" << args[0]
+              << "'; run 'terramrf plugins'\n";
+    return kUsage;
+  }
+  auto plugin = reg.create(args[0]);
+  ParamDecl d;
+  plugin->declare(d);
+  std::cout << info->type << " (" << toString(info->kind) << "): " << info->summary << "\n";
+  std::cout << "library: " << info->library << "\n\nparameters:\n";
+  if (d.specs().empty()) std::cout << "  (none)\n";
+  for (const auto& s : d.specs()) {
+    std::cout << "  " << s.name << " (" << toString(s.type) << ")";
+    if (s.required) std::cout << ", required";
+    else std::cout << ", default " << toYaml(s.default_value);
+    if (s.min || s.max) {
+      std::cout << ", range [" << (s.min ? std::to_string(*s.min) : "-inf") << ", "
+                << (s.max ? std::to_string(*s.max) : "inf") << "]";
+    }
+    if (!s.unit.empty()) std::cout << ", unit " << s.unit;
+    if (!s.choices.empty()) {
+      std::cout << ", one of {";
+      for (std::size_t k = 0; k < s.choices.size(); ++k) std::cout << (k ? ", " : "") << s.choices[k];
+      std::cout << "}";
+    }
+    if (s.existing_path) std::cout << ", must exist";
+    std::cout << "\n      " << s.doc << "\n";
+  }
+  return kOk;
+}
+
+}  // namespace terramrf::cli

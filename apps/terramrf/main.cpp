@@ -1,0 +1,51 @@
+// terramrf: command-line entry point. Commands live in their own files (cmd_*.cpp).
+#include <cstdio>
+#include <exception>
+#include <iostream>
+#include <map>
+
+#include "commands.hpp"
+
+namespace {
+
+const char* kUsageText =
+    "usage: terramrf <command> [options]\n"
+    "\n"
+    "commands:\n"
+    "  run CONFIG [--data DIR] [--out DIR] [--first N] [--limit N] [--no-progress]\n"
+    "                         classify every frame of the config's source\n"
+    "  validate CONFIG        check a config (all errors at once) without running it\n"
+    "  plugins                list the plugins found (and libraries that failed to load)\n"
+    "  describe TYPE          parameters of one plugin (name, type, default, range, unit, doc)\n"
+    "  simulate --out DIR [--frames N] [--seed S] [--config CONFIG]\n"
+    "                         write simulated scans in SemanticKITTI/KITTI layout\n"
+    "\n"
+    "Plugins are searched in the install's plugin folder, $TERRAMRF_PLUGIN_PATH and the\n"
+    "config's plugin_path. Exit status: 0 ok, 1 error, 2 usage/config error,\n"
+    "3 some frames failed (reported and skipped), 4 all failed.\n";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace terramrf::cli;
+  if (argc < 2 || std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help" ||
+      std::string(argv[1]) == "help") {
+    std::fputs(kUsageText, argc < 2 ? stderr : stdout);
+    return argc < 2 ? kUsage : kOk;
+  }
+  const std::map<std::string, int (*)(const Args&)> commands = {
+      {"run", cmdRun},         {"validate", cmdValidate}, {"plugins", cmdPlugins},
+      {"describe", cmdDescribe}, {"simulate", cmdSimulate}};
+  const std::string cmd = argv[1];
+  auto it = commands.find(cmd);
+  if (it == commands.end()) {
+    std::cerr << "terramrf: unknown command '" << cmd << "'\n\n" << kUsageText;
+    return kUsage;
+  }
+  try {
+    return it->second(Args(argv + 2, argv + argc));
+  } catch (const std::exception& e) {
+    std::cerr << "terramrf " << cmd << ": " << e.what() << "\n";
+    return kError;
+  }
+}

@@ -1,0 +1,16 @@
+#pragma once
+// Outputs are written to a temporary file in the target folder and renamed over the target, so a
+// crash or a failing frame never leaves a truncated file or replaces a good one.
+#include <string>
+#include <string_view>
+
+namespace terramrf {
+
+/// Writes `bytes` to `path` atomically (temp file + fsync + rename). Creates parent folders.
+/// Throws std::runtime_error naming the path on failure; the old file, if any, is untouched.
+void writeFileAtomic(const std::string& path, std::string_view bytes);
+
+/// Reads a whole file; throws InputError naming it if it cannot be read.
+std::string readFile(const std::string& path);
+
+}  // namespace terramrf

@@ -1,0 +1,138 @@
+#pragma once
+// Scoring a labelled grid against per-point ground truth with the rules of paper 001 §VI-B
+// (point-wise and cell-wise precision/recall with the obstacle exceptions) plus the per-class
+// TPR/FPR of paper 000 §5. The rules as implemented are spelled out in docs/evaluation.md.
+//
+// Everything is kept as confusion matrices (true × predicted counts); per-class TP/FP/FN/TN are
+// derived from them, so totals over frames are plain sums and a later `compare` can add runs.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "terramrf/frame.hpp"
+#include "terramrf/label_set.hpp"
+#include "terramrf/terrain_grid.hpp"
+
+namespace terramrf {
+
+/// Counts for one class, one-vs-rest over the scored items (points or cells).
+struct ClassScores {
+  uint64_t tp = 0;  ///< truly and predicted this class
+  uint64_t fp = 0;  ///< predicted this class, truly another
+  uint64_t fn = 0;  ///< truly this class, predicted another (including unknown = unclassified)
+  uint64_t tn = 0;  ///< neither truly nor predicted this class
+
+  /// TP/(TP+FP); NaN when undefined (0/0).
+  double precision() const;
+  /// TP/(TP+FN); NaN when undefined. Paper 000's true positive rate is the same number.
+  double recall() const;
+  double tpr() const { return recall(); }
+  /// FP/(FP+TN) (paper 000 §5); NaN when undefined.
+  double fpr() const;
+};
+
+/// Square matrix of counts indexed [true LabelId][predicted LabelId]. The predicted column
+/// labels::kUnknown holds items in cells that were left unclassified; the true row kUnknown is
+/// always zero because unknown ground truth is not scored.
+class ConfusionMatrix {
+ public:
+  explicit ConfusionMatrix(std::size_t labels = 0) : k_(labels), m_(labels * labels, 0) {}
+
+  std::size_t size() const { return k_; }
+  uint64_t at(LabelId truth, LabelId predicted) const { return m_[truth * k_ + predicted]; }
+  void add(LabelId truth, LabelId predicted, uint64_t n = 1) { m_[truth * k_ + predicted] += n; }
+  /// Number of scored items (sum of all entries).
+  uint64_t total() const;
+  /// One-vs-rest counts of class `c`.
+  ClassScores scores(LabelId c) const;
+  /// Element-wise sum; throws std::invalid_argument if the sizes differ.
+  ConfusionMatrix& operator+=(const ConfusionMatrix& o);
+  bool operator==(const ConfusionMatrix& o) const { return k_ == o.k_ && m_ == o.m_; }
+
+ private:
+  std::size_t k_;
+  std::vector<uint64_t> m_;
+};
+
+/// Rule sets an evaluation can follow. Only paper 001's for now; the enum keeps the door open.
+enum class EvalRules { kPaper001 };
+const char* toString(EvalRules r);
+/// Parses "paper001"; throws std::invalid_argument listing the known names otherwise.
+EvalRules evalRulesFromString(const std::string& name);
+
+/// How a cell's true class is chosen when no ground-truth obstacle point is in it and two or more
+/// classes share the largest point count. Reported in the outputs.
+inline constexpr const char* kTieRule =
+    "if the predicted class is among the tied classes it is taken as true (paper 001: a cell is "
+    "correct when >= 50% of its points share its class); otherwise the tied class with the "
+    "highest id (default ids are ordered by caution: rough over road)";
+
+/// Everything an evaluation counts. Sums over frames with +=.
+struct EvalCounts {
+  explicit EvalCounts(std::size_t labels = 0) : point_wise(labels), cell_wise(labels) {}
+
+  ConfusionMatrix point_wise;  ///< scored points: true × predicted class of their cell
+  ConfusionMatrix cell_wise;   ///< scored cells: true × predicted class
+
+  // ---- paper 001 table header -------------------------------------------------------------
+  uint64_t scans = 0;                   ///< frames evaluated (with ground truth)
+  uint64_t frames_without_truth = 0;    ///< frames skipped because they carry no labels
+  uint64_t points = 0;                  ///< 3D points in the evaluated frames
+  uint64_t labelled_points = 0;         ///< ground truth not unknown ("annotated points")
+  uint64_t classified_points = 0;       ///< points (any truth) in cells predicted not unknown
+  uint64_t points_outside_grid = 0;     ///< any truth; not classified, not scored
+  // ---- where the labelled points went -------------------------------------------------------
+  uint64_t labelled_points_outside_grid = 0;  ///< not scored
+  uint64_t labelled_points_unclassified = 0;  ///< in cells predicted unknown; scored as FN
+  uint64_t excused_points = 0;  ///< non-obstacle points in predicted-obstacle cells holding GT
+                                ///< obstacle points: not scored
+  // ---- cells --------------------------------------------------------------------------------
+  uint64_t cells_scored = 0;                ///< cells holding at least one labelled point
+  uint64_t cells_labelled_unclassified = 0; ///< scored cells predicted unknown (FN)
+  uint64_t cells_obstacle_rule = 0;  ///< scored cells made obstacle by >= 1 GT obstacle point
+                                     ///< although obstacle points were not the majority
+  uint64_t cells_tied = 0;           ///< scored cells whose truth needed the tie rule
+  // ---- geometry (NaN if the evaluated frames used different grids, 0 if none yet) ----------
+  double grid_size_m = 0;  ///< side of the square grid [m]
+  double cell_m = 0;       ///< side of a cell [m]
+
+  uint64_t scoredPoints() const { return point_wise.total(); }
+  /// Sums counts and matrices; geometry stays if equal, becomes NaN if it differs.
+  EvalCounts& operator+=(const EvalCounts& o);
+};
+
+/// Accumulates the evaluation of a run frame by frame.
+class Evaluator {
+ public:
+  explicit Evaluator(const LabelSet& labels, EvalRules rules = EvalRules::kPaper001);
+
+  /// Scores one frame: the predicted class of each cell is grid.labels(), points are taken from
+  /// the grid's CSR point lists and grid.cellOfPoint() (-1 = outside), the true class of point i
+  /// is frame.truth.label[i]. A frame without truth only increments frames_without_truth.
+  /// Returns this frame's counts and adds them to total(). Throws InputError naming the frame
+  /// if truth, grid and points disagree in size or hold ids outside the label set; total() is
+  /// then unchanged.
+  EvalCounts addFrame(const TerrainGrid& grid, const Frame& frame);
+
+  const EvalCounts& total() const { return total_; }
+  const LabelSet& labels() const { return labels_; }
+  EvalRules rules() const { return rules_; }
+
+ private:
+  LabelSet labels_;
+  EvalRules rules_;
+  EvalCounts total_;
+};
+
+/// JSON document of the counts (schema "terramrf.evaluation/1", documented in
+/// docs/evaluation.md). Undefined ratios are null. `frame_id` is included when not empty.
+std::string toJson(const EvalCounts& counts, const LabelSet& labels,
+                   EvalRules rules = EvalRules::kPaper001, const std::string& frame_id = "");
+
+/// Markdown report shaped like paper 001 Table I: header counts, point-wise and cell-wise
+/// TP/FP/FN/precision/recall plus TPR/FPR per class, then both confusion matrices. Undefined
+/// ratios print as "–".
+std::string toTable(const EvalCounts& counts, const LabelSet& labels,
+                    EvalRules rules = EvalRules::kPaper001);
+
+}  // namespace terramrf

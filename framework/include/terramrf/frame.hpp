@@ -1,0 +1,54 @@
+#pragma once
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "terramrf/camera.hpp"
+#include "terramrf/label_set.hpp"
+#include "terramrf/point_cloud.hpp"
+
+namespace terramrf {
+
+struct ImuSample {
+  double t_s = 0;                            ///< timestamp [s]
+  Eigen::Vector3d gyro_rad_s = Eigen::Vector3d::Zero();   ///< angular rate, body frame [rad/s]
+  Eigen::Vector3d accel_m_s2 = Eigen::Vector3d::Zero();   ///< specific force, body frame [m/s²]
+};
+
+struct GpsSample {
+  double t_s = 0;                            ///< timestamp [s]
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();   ///< local north-west-up [m]
+  double sigma_m = 1.0;                      ///< 1σ horizontal accuracy [m]
+};
+
+struct OdometrySample {
+  double t_s = 0;            ///< timestamp [s]
+  double speed_m_s = 0;      ///< forward speed [m/s]
+  double yaw_rate_rad_s = 0; ///< [rad/s]
+};
+
+/// Per-point ground truth, already mapped to project classes.
+struct PointLabels {
+  std::vector<LabelId> label;  ///< project class per point (labels::kUnknown = not scored)
+  std::vector<uint32_t> raw;   ///< dataset id per point (low 16 bits of SemanticKITTI labels)
+  bool empty() const { return label.empty(); }
+};
+
+/// One LiDAR sweep with everything recorded alongside it.
+struct Frame {
+  std::string id;          ///< e.g. "000042" (file stem); used in output names and messages
+  std::string source_path; ///< file the points came from (for error messages)
+  double timestamp_s = 0;  ///< [s]
+  PointCloud points;       ///< LiDAR frame (x forward, y left, z up) [m]
+  std::vector<CameraImage> cameras;
+  std::vector<ImuSample> imu;        ///< since the previous frame
+  std::vector<GpsSample> gps;        ///< since the previous frame
+  std::vector<OdometrySample> odometry;
+  PointLabels truth;                 ///< optional
+  std::optional<Eigen::Isometry3d> pose;  ///< LiDAR pose in the world frame, when known
+  /// Points dropped while reading (NaN/inf coordinates, no-return points): reported, not silent.
+  std::size_t dropped_invalid_points = 0;
+};
+
+}  // namespace terramrf

@@ -1,0 +1,43 @@
+#pragma once
+// Runs a loaded pipeline over every frame of its source: read → egomotion → grid → stages →
+// outputs. Owns order, per-stage timing and error handling; a bad frame is reported and skipped.
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "terramrf/config.hpp"
+
+namespace terramrf {
+
+struct StageTiming {
+  std::string name;         ///< stage instance name ("read", "grid" for the runner's own steps)
+  std::vector<double> ms;   ///< one entry per processed frame [ms]
+  double mean() const;
+  double stddev() const;
+  double min() const;
+  double max() const;
+  double median() const;
+};
+
+struct RunOptions {
+  bool progress = true;          ///< progress bar on stderr
+  std::ostream* log = nullptr;   ///< where failures and the summary go (default std::cerr)
+  std::size_t first = 0;         ///< first frame index
+  std::size_t limit = 0;         ///< 0 = all frames
+};
+
+struct RunResult {
+  RunSummary summary;
+  std::size_t frames_total = 0;
+  std::vector<StageTiming> timings;  ///< read, egomotion…, grid, stages…, outputs…, total
+  std::vector<std::string> output_errors;
+  /// 0 all frames ok; 3 some frames failed; 4 every frame failed or an output failed at the end.
+  int exitCode() const;
+};
+
+RunResult runPipeline(Pipeline& pipeline, const RunOptions& options = {});
+
+/// Per-stage timing table (mean, std, min, max, median per scan [ms]), Markdown.
+std::string timingTable(const RunResult& r);
+
+}  // namespace terramrf

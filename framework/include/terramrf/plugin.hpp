@@ -1,0 +1,143 @@
+#pragma once
+// Plugin interfaces. A plugin is one shared library exporting one class through
+// TERRAMRF_PLUGIN(...). The core finds it by type name, declares its parameters, validates the
+// config against them, calls configure(), and then drives it per frame.
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "terramrf/energy_model.hpp"
+#include "terramrf/errors.hpp"
+#include "terramrf/frame.hpp"
+#include "terramrf/label_set.hpp"
+#include "terramrf/params.hpp"
+#include "terramrf/terrain_grid.hpp"
+#include "terramrf/version.hpp"
+
+namespace terramrf {
+
+enum class PluginKind { kSource, kEgomotion, kFeature, kEnergy, kOptimiser, kOutput };
+const char* toString(PluginKind k);
+
+/// Pseudo-layers for the read/write check: the grid's point lists (written by the runner's grid
+/// builder), the energy model (written by an energy stage) and the label layer.
+namespace artefacts {
+inline constexpr const char* kPoints = "@points";
+inline constexpr const char* kEnergy = "@energy";
+inline constexpr const char* kLabels = "@labels";
+inline constexpr const char* kPose = "@pose";
+}  // namespace artefacts
+
+/// What a plugin may know about the run when it is configured.
+struct PluginContext {
+  std::string config_dir;  ///< folder of the config file; relative paths resolve against it
+  std::string output_dir;  ///< where outputs go (created by the runner)
+  GridGeometry grid;       ///< the configured grid
+  const LabelSet* labels = nullptr;
+  /// Resolves a path relative to config_dir (absolute paths unchanged).
+  std::string resolve(const std::string& path) const;
+};
+
+class Plugin {
+ public:
+  virtual ~Plugin() = default;
+  /// Binds parameters to members (see ParamDecl). Called once, before configure().
+  virtual void declare(ParamDecl& /*params*/) {}
+  /// Called after parameters are set: cross-checks and set-up. Throw ParamError(name, why).
+  virtual void configure(const PluginContext& /*ctx*/) {}
+  /// Grid layers (or artefacts::*) this stage needs from earlier stages / writes.
+  virtual std::vector<std::string> reads() const { return {}; }
+  virtual std::vector<std::string> writes() const { return {}; }
+
+  /// Instance name from the config (`name:`; defaults to the type).
+  const std::string& name() const { return name_; }
+  const std::string& type() const { return type_; }
+  void setIdentity(std::string name, std::string type) {
+    name_ = std::move(name);
+    type_ = std::move(type);
+  }
+
+ private:
+  std::string name_, type_;
+};
+
+/// Yields frames. Random access by index so a batch can skip a bad frame and go on.
+class Source : public Plugin {
+ public:
+  /// Number of frames.
+  virtual std::size_t size() const = 0;
+  /// Short id of frame i (file stem), known without reading it.
+  virtual std::string frameId(std::size_t i) const = 0;
+  /// Reads frame i. Throws InputError naming the file on bad data.
+  virtual Frame read(std::size_t i) = 0;
+};
+
+/// Everything a stage sees for one frame. Stages read what earlier stages wrote.
+struct FrameContext {
+  Frame* frame = nullptr;
+  TerrainGrid* grid = nullptr;
+  const LabelSet* labels = nullptr;
+  EnergyModel energy;
+  OptimiserReport optimiser;
+  std::size_t index = 0;  ///< position in the batch
+  /// Result of the previous successfully processed frame (temporal fusion), or nullptr.
+  const FrameContext* previous = nullptr;
+  /// Scalars a stage wants reported (e.g. "preclass.obstacle_cells").
+  std::map<std::string, double> metrics;
+};
+
+/// Feature, energy, optimiser and egomotion plugins: one work function per frame.
+class Stage : public Plugin {
+ public:
+  virtual void process(FrameContext& ctx) = 0;
+};
+
+/// Information an output gets once per run.
+struct RunInfo {
+  std::string config_path;
+  std::string output_dir;
+  std::size_t frames = 0;
+  const LabelSet* labels = nullptr;
+  GridGeometry grid;
+};
+
+struct RunSummary {
+  std::size_t frames_ok = 0;
+  std::vector<std::pair<std::string, std::string>> failed;  ///< frame id, reason
+};
+
+class Output : public Plugin {
+ public:
+  virtual void begin(const RunInfo& /*info*/) {}
+  /// Called after the stages for each frame that succeeded.
+  virtual void write(const FrameContext& ctx) = 0;
+  /// Called once at the end (e.g. evaluation totals). Files written here must be atomic.
+  virtual void end(const RunSummary& /*summary*/) {}
+};
+
+// ---- registration -------------------------------------------------------------------------
+
+struct PluginDescriptor {
+  PluginKind kind;
+  const char* type;     ///< type name used in configs
+  const char* summary;  ///< one line for `terramrf plugins`
+  Plugin* (*create)();
+};
+
+}  // namespace terramrf
+
+#define TERRAMRF_PLUGIN_ABI_SYMBOL terramrf_plugin_abi
+#define TERRAMRF_PLUGIN_DESCRIPTOR_SYMBOL terramrf_plugin_descriptor
+
+/// Exports `Class` as plugin `type_name` of `kind` (a terramrf::PluginKind). One per library.
+#define TERRAMRF_PLUGIN(Class, kind, type_name, summary)                                      \
+  extern "C" __attribute__((visibility("default"))) const char* terramrf_plugin_abi() {       \
+    return TERRAMRF_ABI_STRING;                                                               \
+  }                                                                                           \
+  extern "C" __attribute__((visibility("default"))) const ::terramrf::PluginDescriptor*      \
+  terramrf_plugin_descriptor() {                                                              \
+    static const ::terramrf::PluginDescriptor d{                                              \
+        kind, type_name, summary, []() -> ::terramrf::Plugin* { return new Class(); }};       \
+    return &d;                                                                                \
+  }

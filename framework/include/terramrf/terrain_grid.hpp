@@ -1,0 +1,97 @@
+#pragma once
+// The 2D terrain grid of paper 000 §4.1: square cells on the x/y plane of a frame, a set of named
+// float layers (NaN = no data, as grid_map does) and one label layer.
+#include <Eigen/Core>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "terramrf/label_set.hpp"
+#include "terramrf/point_cloud.hpp"
+
+namespace terramrf {
+
+struct GridGeometry {
+  double size_m = 40.0;  ///< side length of the square grid [m]
+  double cell_m = 0.5;   ///< side length of one cell [m]
+  /// Centre of the grid in the grid frame [m]; (0,0) = centred on the sensor.
+  Eigen::Vector2d centre_m = Eigen::Vector2d::Zero();
+
+  int cols() const { return static_cast<int>(std::lround(size_m / cell_m)); }
+  int rows() const { return cols(); }
+  std::size_t cells() const { return std::size_t(rows()) * cols(); }
+  /// Lower-left corner (min x, min y) [m].
+  Eigen::Vector2d origin() const { return centre_m - Eigen::Vector2d::Constant(0.5 * cols() * cell_m); }
+  /// Row-major cell index of (x, y) [m], or -1 outside. Row grows with x (forward), column with y.
+  int cellOf(double x, double y) const {
+    const Eigen::Vector2d o = origin();
+    const double fr = (x - o.x()) / cell_m, fc = (y - o.y()) / cell_m;
+    if (!(fr >= 0 && fc >= 0)) return -1;  // also rejects NaN
+    const int r = static_cast<int>(fr), c = static_cast<int>(fc);
+    if (r >= rows() || c >= cols()) return -1;
+    return r * cols() + c;
+  }
+  /// Centre of a cell [m].
+  Eigen::Vector2d cellCentre(int row, int col) const {
+    return origin() + Eigen::Vector2d((row + 0.5) * cell_m, (col + 0.5) * cell_m);
+  }
+};
+
+/// A dense float layer over the grid, row-major, NaN where there is no data.
+using Layer = std::vector<float>;
+
+inline constexpr float kNoData = std::numeric_limits<float>::quiet_NaN();
+
+class TerrainGrid {
+ public:
+  TerrainGrid() = default;
+  explicit TerrainGrid(const GridGeometry& g) { reset(g); }
+
+  /// Resets geometry, clears layers, labels and point lists (keeps capacity).
+  void reset(const GridGeometry& g);
+
+  const GridGeometry& geometry() const { return geom_; }
+  int rows() const { return rows_; }
+  int cols() const { return cols_; }
+  std::size_t cells() const { return std::size_t(rows_) * cols_; }
+  int index(int r, int c) const { return r * cols_ + c; }
+
+  // ---- named layers -------------------------------------------------------------------------
+  bool has(const std::string& name) const { return layers_.count(name) != 0; }
+  /// Adds (or resets to NaN) a layer and returns it.
+  Layer& add(const std::string& name, float fill = kNoData);
+  /// Throws std::out_of_range naming the layer if absent.
+  Layer& layer(const std::string& name);
+  const Layer& layer(const std::string& name) const;
+  std::vector<std::string> layerNames() const;
+
+  // ---- labels ---------------------------------------------------------------------------------
+  std::vector<LabelId>& labels() { return labels_; }
+  const std::vector<LabelId>& labels() const { return labels_; }
+
+  // ---- points per cell (CSR) -----------------------------------------------------------------
+  /// Bins a cloud: fills cell_of_point (-1 outside), offsets and indices. O(N + cells).
+  void binPoints(const PointCloud& cloud);
+  /// Number of points in a cell.
+  uint32_t count(int cell) const { return offsets_[cell + 1] - offsets_[cell]; }
+  /// Indices (into the cloud) of the points in a cell: [begin, end).
+  const uint32_t* pointsBegin(int cell) const { return indices_.data() + offsets_[cell]; }
+  const uint32_t* pointsEnd(int cell) const { return indices_.data() + offsets_[cell + 1]; }
+  /// Cell of each point, -1 if outside the grid.
+  const std::vector<int32_t>& cellOfPoint() const { return cell_of_point_; }
+  std::size_t pointsInside() const { return indices_.size(); }
+
+ private:
+  GridGeometry geom_;
+  int rows_ = 0, cols_ = 0;
+  std::map<std::string, Layer> layers_;
+  std::vector<LabelId> labels_;
+  std::vector<uint32_t> offsets_;  // cells + 1
+  std::vector<uint32_t> indices_;
+  std::vector<int32_t> cell_of_point_;
+};
+
+}  // namespace terramrf

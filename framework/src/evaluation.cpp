@@ -1,0 +1,445 @@
+#include "terramrf/evaluation.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "terramrf/errors.hpp"
+
+namespace terramrf {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double ratio(uint64_t num, uint64_t den) {
+  return den == 0 ? kNaN : static_cast<double>(num) / static_cast<double>(den);
+}
+
+/// Geometry of a sum: the common value, the other one if one side has none yet (0), NaN if
+/// the two differ.
+double mergeGeometry(double a, double b) {
+  if (a == 0) return b;
+  if (b == 0) return a;
+  return a == b ? a : kNaN;
+}
+
+}  // namespace
+
+// ---- ClassScores / ConfusionMatrix ----------------------------------------------------------
+
+double ClassScores::precision() const { return ratio(tp, tp + fp); }
+double ClassScores::recall() const { return ratio(tp, tp + fn); }
+double ClassScores::fpr() const { return ratio(fp, fp + tn); }
+
+uint64_t ConfusionMatrix::total() const {
+  uint64_t s = 0;
+  for (uint64_t v : m_) s += v;
+  return s;
+}
+
+ClassScores ConfusionMatrix::scores(LabelId c) const {
+  ClassScores s;
+  if (c >= k_) return s;
+  uint64_t all = 0;
+  for (std::size_t t = 0; t < k_; ++t) {
+    for (std::size_t p = 0; p < k_; ++p) {
+      const uint64_t v = m_[t * k_ + p];
+      all += v;
+      if (t == c && p == c) {
+        s.tp += v;
+      } else if (p == c) {
+        s.fp += v;
+      } else if (t == c) {
+        s.fn += v;
+      }
+    }
+  }
+  s.tn = all - s.tp - s.fp - s.fn;
+  return s;
+}
+
+ConfusionMatrix& ConfusionMatrix::operator+=(const ConfusionMatrix& o) {
+  if (o.k_ != k_) {
+    throw std::invalid_argument("confusion matrices of different label sets (" +
+                                std::to_string(k_) + " vs " + std::to_string(o.k_) +
+                                " classes) cannot be added");
+  }
+  for (std::size_t i = 0; i < m_.size(); ++i) m_[i] += o.m_[i];
+  return *this;
+}
+
+// ---- rules ----------------------------------------------------------------------------------
+
+const char* toString(EvalRules r) {
+  switch (r) {
+    case EvalRules::kPaper001:
+      return "paper001";
+  }
+  return "?";
+}
+
+EvalRules evalRulesFromString(const std::string& name) {
+  if (name == "paper001") return EvalRules::kPaper001;
+  throw std::invalid_argument("unknown evaluation rules '" + name + "'; known: paper001");
+}
+
+// ---- EvalCounts -----------------------------------------------------------------------------
+
+EvalCounts& EvalCounts::operator+=(const EvalCounts& o) {
+  point_wise += o.point_wise;
+  cell_wise += o.cell_wise;
+  scans += o.scans;
+  frames_without_truth += o.frames_without_truth;
+  points += o.points;
+  labelled_points += o.labelled_points;
+  classified_points += o.classified_points;
+  points_outside_grid += o.points_outside_grid;
+  labelled_points_outside_grid += o.labelled_points_outside_grid;
+  labelled_points_unclassified += o.labelled_points_unclassified;
+  excused_points += o.excused_points;
+  cells_scored += o.cells_scored;
+  cells_labelled_unclassified += o.cells_labelled_unclassified;
+  cells_obstacle_rule += o.cells_obstacle_rule;
+  cells_tied += o.cells_tied;
+  grid_size_m = mergeGeometry(grid_size_m, o.grid_size_m);
+  cell_m = mergeGeometry(cell_m, o.cell_m);
+  return *this;
+}
+
+// ---- Evaluator ------------------------------------------------------------------------------
+
+Evaluator::Evaluator(const LabelSet& labels, EvalRules rules)
+    : labels_(labels), rules_(rules), total_(labels.size()) {}
+
+EvalCounts Evaluator::addFrame(const TerrainGrid& grid, const Frame& frame) {
+  const std::size_t k = labels_.size();
+  EvalCounts f(k);
+  if (frame.truth.empty()) {
+    f.frames_without_truth = 1;
+    total_ += f;
+    return f;
+  }
+
+  // Validate everything before counting so a bad frame leaves the totals untouched.
+  const std::string where = frame.source_path.empty() ? frame.id : frame.source_path;
+  const std::string name = "frame " + frame.id + ": ";
+  const std::size_t n = frame.points.size();
+  const auto& truth = frame.truth.label;
+  if (truth.size() != n) {
+    throw InputError(where, name + "ground truth has " + std::to_string(truth.size()) +
+                                " labels for " + std::to_string(n) +
+                                " points; expected one label per point");
+  }
+  const auto& cell_of = grid.cellOfPoint();
+  if (cell_of.size() != n) {
+    throw InputError(where, name + "grid point lists cover " + std::to_string(cell_of.size()) +
+                                " points but the frame has " + std::to_string(n) +
+                                "; expected the grid to be binned from this frame's points");
+  }
+  const auto& predicted = grid.labels();
+  if (predicted.size() != grid.cells()) {
+    throw InputError(where, name + "grid has " + std::to_string(predicted.size()) +
+                                " labels for " + std::to_string(grid.cells()) +
+                                " cells; expected one label per cell");
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (truth[i] >= k) {
+      throw InputError(where, name + "ground-truth label " + std::to_string(truth[i]) +
+                                  " at point " + std::to_string(i) + " is not a class id (" +
+                                  std::to_string(k) + " classes)");
+    }
+  }
+  for (std::size_t c = 0; c < predicted.size(); ++c) {
+    if (predicted[c] >= k) {
+      throw InputError(where, name + "predicted label " + std::to_string(predicted[c]) +
+                                  " in cell " + std::to_string(c) + " is not a class id (" +
+                                  std::to_string(k) + " classes)");
+    }
+  }
+
+  const int obstacle_id = labels_.obstacle();  // -1: no obstacle class, majority rule only
+  f.scans = 1;
+  f.points = n;
+  f.grid_size_m = grid.cols() * grid.geometry().cell_m;
+  f.cell_m = grid.geometry().cell_m;
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool labelled = truth[i] != labels::kUnknown;
+    f.labelled_points += labelled;
+    if (cell_of[i] < 0) {
+      ++f.points_outside_grid;
+      f.labelled_points_outside_grid += labelled;
+    }
+  }
+
+  std::vector<uint64_t> per_class(k);
+  std::vector<LabelId> tied;
+  const int cells = static_cast<int>(grid.cells());
+  for (int cell = 0; cell < cells; ++cell) {
+    const uint32_t in_cell = grid.count(cell);
+    if (in_cell == 0) continue;
+    const LabelId pred = predicted[cell];
+    if (pred != labels::kUnknown) f.classified_points += in_cell;
+
+    std::fill(per_class.begin(), per_class.end(), 0);
+    for (const uint32_t* p = grid.pointsBegin(cell); p != grid.pointsEnd(cell); ++p) {
+      ++per_class[truth[*p]];
+    }
+    uint64_t labelled = 0, largest = 0;  // from class 1 on: unknown truth is not scored
+    for (std::size_t c = 1; c < k; ++c) {
+      labelled += per_class[c];
+      largest = std::max(largest, per_class[c]);
+    }
+    if (labelled == 0) continue;  // nothing to compare with: cell not scored
+
+    // Cell truth: obstacle-any (the planner must avoid the cell), else majority with tie rule.
+    const bool holds_obstacle = obstacle_id > 0 && per_class[obstacle_id] > 0;
+    LabelId cell_truth = labels::kUnknown;
+    if (holds_obstacle) {
+      cell_truth = static_cast<LabelId>(obstacle_id);
+      if (per_class[obstacle_id] < largest) ++f.cells_obstacle_rule;
+    } else {
+      tied.clear();
+      for (std::size_t c = 1; c < k; ++c) {
+        if (per_class[c] == largest) tied.push_back(static_cast<LabelId>(c));
+      }
+      if (tied.size() == 1) {
+        cell_truth = tied.front();
+      } else {
+        ++f.cells_tied;
+        const bool pred_tied = std::find(tied.begin(), tied.end(), pred) != tied.end();
+        cell_truth = pred_tied ? pred : tied.back();
+      }
+    }
+    ++f.cells_scored;
+    f.cell_wise.add(cell_truth, pred);
+    if (pred == labels::kUnknown) {
+      ++f.cells_labelled_unclassified;
+      f.labelled_points_unclassified += labelled;
+    }
+
+    // Points: scored against the cell's class, except non-obstacle points in a cell that is
+    // rightly an obstacle (it holds a GT obstacle point and is predicted obstacle).
+    const bool excuse = holds_obstacle && pred == obstacle_id;
+    for (std::size_t c = 1; c < k; ++c) {
+      if (per_class[c] == 0) continue;
+      if (excuse && static_cast<int>(c) != obstacle_id) {
+        f.excused_points += per_class[c];
+      } else {
+        f.point_wise.add(static_cast<LabelId>(c), pred, per_class[c]);
+      }
+    }
+  }
+
+  total_ += f;
+  return f;
+}
+
+// ---- JSON -----------------------------------------------------------------------------------
+
+namespace {
+
+std::string jsonString(const std::string& s) {
+  std::string o = "\"";
+  for (const char ch : s) {
+    const auto u = static_cast<unsigned char>(ch);
+    if (ch == '"' || ch == '\\') {
+      o += '\\';
+      o += ch;
+    } else if (u < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", u);
+      o += buf;
+    } else {
+      o += ch;
+    }
+  }
+  return o + "\"";
+}
+
+/// Shortest text that reads back to the same double; null for NaN/inf (not JSON numbers).
+std::string jsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+void jsonScores(std::ostringstream& o, const ConfusionMatrix& m, const LabelSet& labels,
+                const std::string& indent) {
+  o << indent << "\"classes\": [\n";
+  for (std::size_t c = 1; c < labels.size(); ++c) {
+    const ClassScores s = m.scores(static_cast<LabelId>(c));
+    o << indent << "  {\"id\": " << c << ", \"name\": " << jsonString(labels.name(c))
+      << ", \"tp\": " << s.tp << ", \"fp\": " << s.fp << ", \"fn\": " << s.fn
+      << ", \"tn\": " << s.tn << ", \"precision\": " << jsonNumber(s.precision())
+      << ", \"recall\": " << jsonNumber(s.recall()) << ", \"tpr\": " << jsonNumber(s.tpr())
+      << ", \"fpr\": " << jsonNumber(s.fpr()) << "}" << (c + 1 < labels.size() ? "," : "")
+      << "\n";
+  }
+  o << indent << "],\n";
+  o << indent << "\"confusion\": [\n";
+  for (std::size_t t = 0; t < labels.size(); ++t) {
+    o << indent << "  [";
+    for (std::size_t p = 0; p < labels.size(); ++p) {
+      o << (p ? ", " : "") << m.at(static_cast<LabelId>(t), static_cast<LabelId>(p));
+    }
+    o << "]" << (t + 1 < labels.size() ? "," : "") << "\n";
+  }
+  o << indent << "]\n";
+}
+
+}  // namespace
+
+std::string toJson(const EvalCounts& c, const LabelSet& labels, EvalRules rules,
+                   const std::string& frame_id) {
+  std::ostringstream o;
+  o << "{\n";
+  o << "  \"schema\": \"terramrf.evaluation/1\",\n";
+  if (!frame_id.empty()) o << "  \"frame\": " << jsonString(frame_id) << ",\n";
+  o << "  \"rules\": " << jsonString(toString(rules)) << ",\n";
+  o << "  \"tie_rule\": " << jsonString(kTieRule) << ",\n";
+  o << "  \"labels\": [";
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    o << (i ? ", " : "") << jsonString(labels.name(static_cast<LabelId>(i)));
+  }
+  o << "],\n";
+  o << "  \"counts\": {\n"
+    << "    \"scans\": " << c.scans << ",\n"
+    << "    \"frames_without_truth\": " << c.frames_without_truth << ",\n"
+    << "    \"points\": " << c.points << ",\n"
+    << "    \"labelled_points\": " << c.labelled_points << ",\n"
+    << "    \"classified_points\": " << c.classified_points << ",\n"
+    << "    \"points_outside_grid\": " << c.points_outside_grid << ",\n"
+    << "    \"labelled_points_outside_grid\": " << c.labelled_points_outside_grid << ",\n"
+    << "    \"labelled_points_unclassified\": " << c.labelled_points_unclassified << ",\n"
+    << "    \"excused_points\": " << c.excused_points << ",\n"
+    << "    \"scored_points\": " << c.scoredPoints() << ",\n"
+    << "    \"cells_scored\": " << c.cells_scored << ",\n"
+    << "    \"cells_labelled_unclassified\": " << c.cells_labelled_unclassified << ",\n"
+    << "    \"cells_obstacle_rule\": " << c.cells_obstacle_rule << ",\n"
+    << "    \"cells_tied\": " << c.cells_tied << ",\n"
+    << "    \"grid_size_m\": " << jsonNumber(c.grid_size_m) << ",\n"
+    << "    \"cell_m\": " << jsonNumber(c.cell_m) << "\n"
+    << "  },\n";
+  o << "  \"point_wise\": {\n";
+  jsonScores(o, c.point_wise, labels, "    ");
+  o << "  },\n";
+  o << "  \"cell_wise\": {\n";
+  jsonScores(o, c.cell_wise, labels, "    ");
+  o << "  }\n";
+  o << "}\n";
+  return o.str();
+}
+
+// ---- Markdown table -------------------------------------------------------------------------
+
+namespace {
+
+/// 26433792 -> "26,433,792" as in the paper's tables.
+std::string grouped(uint64_t v) {
+  std::string s = std::to_string(v);
+  for (int i = static_cast<int>(s.size()) - 3; i > 0; i -= 3) s.insert(i, ",");
+  return s;
+}
+
+std::string fixed(double v, int digits) {
+  if (!std::isfinite(v)) return "–";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
+  return buf;
+}
+
+std::string metres(double v) {
+  if (!std::isfinite(v)) return "mixed";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+/// Paper 001 lists obstacle first; the other classes follow in id order.
+std::vector<LabelId> tableOrder(const LabelSet& labels) {
+  std::vector<LabelId> order;
+  const int obstacle = labels.obstacle();
+  if (obstacle > 0) order.push_back(static_cast<LabelId>(obstacle));
+  for (std::size_t c = 1; c < labels.size(); ++c) {
+    if (static_cast<int>(c) != obstacle) order.push_back(static_cast<LabelId>(c));
+  }
+  return order;
+}
+
+void scoreTable(std::ostringstream& o, const std::string& title, const ConfusionMatrix& m,
+                const LabelSet& labels) {
+  o << "| " << title << " | TP [No.] | FP [No.] | FN [No.] | Precision | Recall | TPR | FPR |\n";
+  o << "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n";
+  for (const LabelId c : tableOrder(labels)) {
+    const ClassScores s = m.scores(c);
+    o << "| " << labels.name(c) << " | " << grouped(s.tp) << " | " << grouped(s.fp) << " | "
+      << grouped(s.fn) << " | " << fixed(s.precision(), 3) << " | " << fixed(s.recall(), 3)
+      << " | " << fixed(s.tpr(), 3) << " | " << fixed(s.fpr(), 3) << " |\n";
+  }
+}
+
+void confusionTable(std::ostringstream& o, const std::string& title, const ConfusionMatrix& m,
+                    const LabelSet& labels) {
+  // Predicted "unknown" is shown as its own column: labelled items left unclassified.
+  o << "| " << title << ": true \\ predicted |";
+  for (std::size_t p = 1; p < labels.size(); ++p) o << " " << labels.name(p) << " |";
+  o << " unclassified |\n|---|";
+  for (std::size_t p = 0; p < labels.size(); ++p) o << "---:|";
+  o << "\n";
+  for (std::size_t t = 1; t < labels.size(); ++t) {
+    o << "| " << labels.name(t) << " |";
+    for (std::size_t p = 1; p < labels.size(); ++p) {
+      o << " " << grouped(m.at(static_cast<LabelId>(t), static_cast<LabelId>(p))) << " |";
+    }
+    o << " " << grouped(m.at(static_cast<LabelId>(t), labels::kUnknown)) << " |\n";
+  }
+}
+
+}  // namespace
+
+std::string toTable(const EvalCounts& c, const LabelSet& labels, EvalRules rules) {
+  std::ostringstream o;
+  const std::string g = metres(c.grid_size_m), s = metres(c.cell_m);
+  o << "## Terrain classification evaluation (rules: " << toString(rules) << ")\n\n";
+  o << "| Number of scans | " << grouped(c.scans) << " | 3D points [No.] | " << grouped(c.points)
+    << " |\n";
+  o << "| --- | ---: | --- | ---: |\n";
+  o << "| Grid size [m×m] | " << g << "×" << g << " | Annotated points [No.] | "
+    << grouped(c.labelled_points) << " |\n";
+  o << "| Cell size [m×m] | " << s << "×" << s << " | Classified points [No.] | "
+    << grouped(c.classified_points) << " |\n";
+  o << "| Cells scored [No.] | " << grouped(c.cells_scored) << " | Points outside grid [No.] | "
+    << grouped(c.points_outside_grid) << " |\n\n";
+
+  scoreTable(o, "Point-wise", c.point_wise, labels);
+  o << "\n";
+  scoreTable(o, "Cell-wise", c.cell_wise, labels);
+  o << "\n";
+  confusionTable(o, "Point-wise", c.point_wise, labels);
+  o << "\n";
+  confusionTable(o, "Cell-wise", c.cell_wise, labels);
+  o << "\n";
+
+  o << "- Scored points: " << grouped(c.scoredPoints()) << "; labelled points outside the grid "
+    << "(not scored): " << grouped(c.labelled_points_outside_grid)
+    << "; labelled points in unclassified cells (FN): "
+    << grouped(c.labelled_points_unclassified)
+    << "; non-obstacle points excused in obstacle cells: " << grouped(c.excused_points) << "\n";
+  o << "- Cells labelled but unclassified (FN): " << grouped(c.cells_labelled_unclassified)
+    << "; cells made obstacle by a minority of obstacle points: "
+    << grouped(c.cells_obstacle_rule) << "; cells decided by the tie rule: "
+    << grouped(c.cells_tied) << "\n";
+  o << "- Tie rule: " << kTieRule << "\n";
+  if (c.frames_without_truth > 0) {
+    o << "- " << grouped(c.frames_without_truth) << " frames without ground truth (skipped)\n";
+  }
+  return o.str();
+}
+
+}  // namespace terramrf

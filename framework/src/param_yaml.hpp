@@ -1,0 +1,32 @@
+#pragma once
+// Internal: converting YAML parameter maps into declared parameters, collecting every problem.
+#include <yaml-cpp/yaml.h>
+
+#include <string>
+#include <vector>
+
+#include "terramrf/plugin.hpp"
+
+namespace terramrf::detail {
+
+struct ParamIssue {
+  std::string param;  ///< "" = the stage as a whole
+  YAML::Mark mark;
+  std::string message;
+};
+
+/// Nearest candidate by edit distance, or "" if none is close.
+std::string didYouMean(const std::string& word, const std::vector<std::string>& candidates);
+
+/// Sets the plugin's declared parameters from `params` (a map or null), then calls configure().
+/// Returns every problem found (unknown key with "did you mean", wrong type, out of range, not one
+/// of the choices, missing required, path that does not exist, ParamError from configure).
+/// `overrides` are applied after the file's values (e.g. --data for a source's path).
+std::vector<ParamIssue> applyParams(Plugin& plugin, const YAML::Node& params,
+                                    const PluginContext& ctx, const YAML::Mark& stage_mark,
+                                    const std::vector<std::pair<std::string, std::string>>& overrides = {});
+
+/// The plugin's current parameter values as a YAML map (flow style lines "key: value").
+YAML::Node currentParams(Plugin& plugin);
+
+}  // namespace terramrf::detail

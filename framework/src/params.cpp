@@ -1,0 +1,77 @@
+#include "terramrf/params.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace terramrf {
+
+const char* toString(ParamType t) {
+  switch (t) {
+    case ParamType::kBool: return "bool";
+    case ParamType::kInt: return "int";
+    case ParamType::kDouble: return "float";
+    case ParamType::kString: return "string";
+    case ParamType::kStringList: return "list of strings";
+    case ParamType::kDoubleList: return "list of floats";
+  }
+  return "?";
+}
+
+namespace {
+std::string num(double d) {
+  if (std::isnan(d)) return ".nan";
+  if (std::isinf(d)) return d > 0 ? ".inf" : "-.inf";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", d);
+  std::string s(buf);
+  if (s.find_first_of(".eE") == std::string::npos) s += ".0";
+  return s;
+}
+std::string quote(const std::string& s) {
+  bool plain = !s.empty();
+  for (char c : s)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.' ||
+          c == '/'))
+      plain = false;
+  if (plain && (s == "true" || s == "false" || s == "null" || s == "yes" || s == "no")) plain = false;
+  if (plain && (std::isdigit(static_cast<unsigned char>(s[0])) || s[0] == '-' || s[0] == '.'))
+    plain = false;
+  if (plain) return s;
+  std::string q = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') q += '\\';
+    q += c;
+  }
+  return q + "\"";
+}
+}  // namespace
+
+std::string toYaml(const ParamValue& v) {
+  std::ostringstream o;
+  if (auto b = std::get_if<bool>(&v)) return *b ? "true" : "false";
+  if (auto i = std::get_if<int64_t>(&v)) return std::to_string(*i);
+  if (auto d = std::get_if<double>(&v)) return num(*d);
+  if (auto s = std::get_if<std::string>(&v)) return quote(*s);
+  if (auto l = std::get_if<std::vector<std::string>>(&v)) {
+    o << "[";
+    for (std::size_t k = 0; k < l->size(); ++k) o << (k ? ", " : "") << quote((*l)[k]);
+    o << "]";
+    return o.str();
+  }
+  if (auto l = std::get_if<std::vector<double>>(&v)) {
+    o << "[";
+    for (std::size_t k = 0; k < l->size(); ++k) o << (k ? ", " : "") << num((*l)[k]);
+    o << "]";
+    return o.str();
+  }
+  return "?";
+}
+
+const ParamSpec* ParamDecl::find(const std::string& name) const {
+  for (const auto& s : specs_)
+    if (s.name == name) return &s;
+  return nullptr;
+}
+
+}  // namespace terramrf

@@ -1,0 +1,203 @@
+#include "terramrf/pipeline.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <numeric>
+#include <sstream>
+
+#include "terramrf/atomic_file.hpp"
+
+namespace terramrf {
+
+double StageTiming::mean() const {
+  return ms.empty() ? NAN : std::accumulate(ms.begin(), ms.end(), 0.0) / ms.size();
+}
+double StageTiming::stddev() const {
+  if (ms.size() < 2) return 0;
+  const double m = mean();
+  double s = 0;
+  for (double v : ms) s += (v - m) * (v - m);
+  return std::sqrt(s / (ms.size() - 1));
+}
+double StageTiming::min() const { return ms.empty() ? NAN : *std::min_element(ms.begin(), ms.end()); }
+double StageTiming::max() const { return ms.empty() ? NAN : *std::max_element(ms.begin(), ms.end()); }
+double StageTiming::median() const {
+  if (ms.empty()) return NAN;
+  std::vector<double> v = ms;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  double m = v[v.size() / 2];
+  if (v.size() % 2 == 0) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2 - 1, v.end());
+    m = 0.5 * (m + v[v.size() / 2 - 1]);
+  }
+  return m;
+}
+
+int RunResult::exitCode() const {
+  if (!output_errors.empty()) return 4;
+  if (frames_total > 0 && summary.frames_ok == 0) return 4;
+  if (!summary.failed.empty()) return 3;
+  return 0;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+class Progress {
+ public:
+  Progress(std::size_t total, bool enabled)
+      : total_(total), enabled_(enabled), tty_(::isatty(2) != 0) {}
+  void update(std::size_t done, const std::string& id, double last_ms, std::size_t failed) {
+    if (!enabled_ || total_ == 0) return;
+    const std::size_t step = std::max<std::size_t>(1, total_ / 20);
+    if (!tty_ && done != total_ && done % step != 0) return;
+    const int width = 30;
+    const int filled = static_cast<int>(width * done / total_);
+    std::fprintf(stderr, "%s[%s%s] %zu/%zu %s %.1f ms/scan%s%s", tty_ ? "\r" : "",
+                 std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), done,
+                 total_, id.c_str(), last_ms,
+                 failed ? (" (" + std::to_string(failed) + " failed)").c_str() : "",
+                 tty_ ? "\033[K" : "\n");
+    if (tty_ && done == total_) std::fprintf(stderr, "\n");
+    std::fflush(stderr);
+  }
+
+ private:
+  std::size_t total_;
+  bool enabled_, tty_;
+};
+
+}  // namespace
+
+RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
+  std::ostream& log = opt.log ? *opt.log : std::cerr;
+  RunResult res;
+  std::filesystem::create_directories(p.output_dir);
+  writeFileAtomic(p.output_dir + "/resolved_config.yaml", p.resolved_yaml);
+
+  const std::size_t n_all = p.source->size();
+  const std::size_t first = std::min(opt.first, n_all);
+  const std::size_t n = opt.limit ? std::min(opt.limit, n_all - first) : n_all - first;
+  res.frames_total = n;
+
+  RunInfo info;
+  info.config_path = p.config_path;
+  info.output_dir = p.output_dir;
+  info.frames = n;
+  info.labels = p.labels.get();
+  info.grid = p.grid;
+  for (auto& o : p.outputs) o->begin(info);
+
+  // Timing slots: read, egomotion stages, grid, other stages, outputs, total.
+  std::vector<std::string> slot_names = {"read"};
+  std::size_t first_non_ego = 0;
+  while (first_non_ego < p.stages.size() && p.stage_kinds[first_non_ego] == PluginKind::kEgomotion)
+    ++first_non_ego;
+  for (std::size_t s = 0; s < first_non_ego; ++s) slot_names.push_back(p.stages[s]->name());
+  slot_names.push_back("grid");
+  for (std::size_t s = first_non_ego; s < p.stages.size(); ++s) slot_names.push_back(p.stages[s]->name());
+  for (auto& o : p.outputs) slot_names.push_back("output:" + o->name());
+  slot_names.push_back("total");
+  res.timings.resize(slot_names.size());
+  for (std::size_t k = 0; k < slot_names.size(); ++k) res.timings[k].name = slot_names[k];
+
+  // Two contexts: the current one and the previous frame's result (temporal fusion).
+  Frame frames[2];
+  TerrainGrid grids[2];
+  FrameContext ctxs[2];
+  int cur = 0;
+  bool have_prev = false;
+  Progress progress(n, opt.progress);
+  std::vector<double> slot_ms(slot_names.size());
+
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t i = first + k;
+    const std::string id = p.source->frameId(i);
+    FrameContext& ctx = ctxs[cur];
+    ctx = FrameContext{};
+    ctx.frame = &frames[cur];
+    ctx.grid = &grids[cur];
+    ctx.labels = p.labels.get();
+    ctx.index = i;
+    ctx.previous = have_prev ? &ctxs[1 - cur] : nullptr;
+    std::size_t slot = 0;
+    const auto t_frame = Clock::now();
+    std::string stage_name = "read";
+    try {
+      auto t = Clock::now();
+      frames[cur] = p.source->read(i);
+      if (frames[cur].id.empty()) frames[cur].id = id;
+      slot_ms[slot++] = msSince(t);
+      for (std::size_t s = 0; s < first_non_ego; ++s) {
+        stage_name = p.stages[s]->name();
+        t = Clock::now();
+        p.stages[s]->process(ctx);
+        slot_ms[slot++] = msSince(t);
+      }
+      stage_name = "grid";
+      t = Clock::now();
+      grids[cur].reset(p.grid);
+      grids[cur].binPoints(frames[cur].points);
+      slot_ms[slot++] = msSince(t);
+      for (std::size_t s = first_non_ego; s < p.stages.size(); ++s) {
+        stage_name = p.stages[s]->name();
+        t = Clock::now();
+        p.stages[s]->process(ctx);
+        slot_ms[slot++] = msSince(t);
+      }
+      for (auto& o : p.outputs) {
+        stage_name = "output " + o->name();
+        t = Clock::now();
+        o->write(ctx);
+        slot_ms[slot++] = msSince(t);
+      }
+      slot_ms[slot++] = msSince(t_frame);
+      for (std::size_t s = 0; s < slot; ++s) res.timings[s].ms.push_back(slot_ms[s]);
+      ++res.summary.frames_ok;
+      have_prev = true;
+      cur = 1 - cur;
+    } catch (const std::exception& e) {
+      const std::string why = "[" + stage_name + "] " + e.what();
+      res.summary.failed.push_back({id, why});
+      if (opt.progress) std::fprintf(stderr, "%s", ::isatty(2) ? "\n" : "");
+      log << "frame " << id << " failed and was skipped: " << why << "\n";
+    }
+    progress.update(k + 1, id, msSince(t_frame), res.summary.failed.size());
+  }
+
+  for (auto& o : p.outputs) {
+    try {
+      o->end(res.summary);
+    } catch (const std::exception& e) {
+      res.output_errors.push_back("output '" + o->name() + "': " + e.what());
+      log << "output '" << o->name() << "' failed at the end: " << e.what() << "\n";
+    }
+  }
+  return res;
+}
+
+std::string timingTable(const RunResult& r) {
+  std::ostringstream o;
+  char buf[256];
+  o << "| stage | mean [ms] | std [ms] | min [ms] | max [ms] | median [ms] |\n";
+  o << "|---|---:|---:|---:|---:|---:|\n";
+  for (const auto& t : r.timings) {
+    if (t.ms.empty()) continue;
+    std::snprintf(buf, sizeof buf, "| %s | %.3f | %.3f | %.3f | %.3f | %.3f |\n", t.name.c_str(),
+                  t.mean(), t.stddev(), t.min(), t.max(), t.median());
+    o << buf;
+  }
+  return o.str();
+}
+
+}  // namespace terramrf

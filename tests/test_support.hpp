@@ -1,0 +1,48 @@
+#pragma once
+// Paths every test may need. The real data is required: a test that needs it fails loudly.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+namespace terramrf::test {
+
+inline std::string dataDir() {
+  const char* env = std::getenv("TERRAMRF_DATA_DIR");
+  return env && *env ? env : TERRAMRF_DATA_DIR;
+}
+/// Absolute path of a file under the shared data folder; fails the test if it is missing.
+inline std::string dataPath(const std::string& rel) {
+  const std::string p = dataDir() + "/" + rel;
+  if (!std::filesystem::exists(p)) {
+    ADD_FAILURE() << "required real data missing: " << p
+                  << " (set TERRAMRF_DATA_DIR or -DTERRAMRF_DATA_DIR to ../shared/data)";
+  }
+  return p;
+}
+inline std::string pluginDir() { return TERRAMRF_PLUGIN_DIR; }
+inline std::string sourceDir() { return TERRAMRF_SOURCE_DIR; }
+inline std::string cli() { return TERRAMRF_CLI; }
+
+/// A fresh temporary folder per test, removed at the end.
+class TempDir {
+ public:
+  TempDir() {
+    path_ = std::filesystem::temp_directory_path() /
+            ("terramrf_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter()++));
+    std::filesystem::remove_all(path_);
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() { std::error_code ec; std::filesystem::remove_all(path_, ec); }
+  const std::filesystem::path& path() const { return path_; }
+  std::string str() const { return path_.string(); }
+
+ private:
+  static int& counter() { static int c = 0; return c; }
+  std::filesystem::path path_;
+};
+
+}  // namespace terramrf::test
