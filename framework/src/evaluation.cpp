@@ -143,8 +143,8 @@ EvalCounts Evaluator::addFrame(const TerrainGrid& grid, const Frame& frame) {
   }
   const auto& predicted = grid.labels();
   if (predicted.size() != grid.cells()) {
-    throw InputError(where, name + "grid has " + std::to_string(predicted.size()) +
-                                " labels for " + std::to_string(grid.cells()) +
+    throw InputError(where, name + "grid has " + std::to_string(predicted.size()) + " labels for " +
+                                std::to_string(grid.cells()) +
                                 " cells; expected one label per cell");
   }
   for (std::size_t i = 0; i < n; ++i) {
@@ -278,8 +278,7 @@ void jsonScores(std::ostringstream& o, const ConfusionMatrix& m, const LabelSet&
       << ", \"tp\": " << s.tp << ", \"fp\": " << s.fp << ", \"fn\": " << s.fn
       << ", \"tn\": " << s.tn << ", \"precision\": " << jsonNumber(s.precision())
       << ", \"recall\": " << jsonNumber(s.recall()) << ", \"tpr\": " << jsonNumber(s.tpr())
-      << ", \"fpr\": " << jsonNumber(s.fpr()) << "}" << (c + 1 < labels.size() ? "," : "")
-      << "\n";
+      << ", \"fpr\": " << jsonNumber(s.fpr()) << "}" << (c + 1 < labels.size() ? "," : "") << "\n";
   }
   o << indent << "],\n";
   o << indent << "\"confusion\": [\n";
@@ -379,8 +378,8 @@ void scoreTable(std::ostringstream& o, const std::string& title, const Confusion
   for (const LabelId c : tableOrder(labels)) {
     const ClassScores s = m.scores(c);
     o << "| " << labels.name(c) << " | " << grouped(s.tp) << " | " << grouped(s.fp) << " | "
-      << grouped(s.fn) << " | " << fixed(s.precision(), 3) << " | " << fixed(s.recall(), 3)
-      << " | " << fixed(s.tpr(), 3) << " | " << fixed(s.fpr(), 3) << " |\n";
+      << grouped(s.fn) << " | " << fixed(s.precision(), 3) << " | " << fixed(s.recall(), 3) << " | "
+      << fixed(s.tpr(), 3) << " | " << fixed(s.fpr(), 3) << " |\n";
   }
 }
 
@@ -428,13 +427,11 @@ std::string toTable(const EvalCounts& c, const LabelSet& labels, EvalRules rules
 
   o << "- Scored points: " << grouped(c.scoredPoints()) << "; labelled points outside the grid "
     << "(not scored): " << grouped(c.labelled_points_outside_grid)
-    << "; labelled points in unclassified cells (FN): "
-    << grouped(c.labelled_points_unclassified)
+    << "; labelled points in unclassified cells (FN): " << grouped(c.labelled_points_unclassified)
     << "; non-obstacle points excused in obstacle cells: " << grouped(c.excused_points) << "\n";
   o << "- Cells labelled but unclassified (FN): " << grouped(c.cells_labelled_unclassified)
-    << "; cells made obstacle by a minority of obstacle points: "
-    << grouped(c.cells_obstacle_rule) << "; cells decided by the tie rule: "
-    << grouped(c.cells_tied) << "\n";
+    << "; cells made obstacle by a minority of obstacle points: " << grouped(c.cells_obstacle_rule)
+    << "; cells decided by the tie rule: " << grouped(c.cells_tied) << "\n";
   o << "- Tie rule: " << kTieRule << "\n";
   if (c.frames_without_truth > 0) {
     o << "- " << grouped(c.frames_without_truth) << " frames without ground truth (skipped)\n";

@@ -75,20 +75,20 @@ struct EvalCounts {
   ConfusionMatrix cell_wise;   ///< scored cells: true × predicted class
 
   // ---- paper 001 table header -------------------------------------------------------------
-  uint64_t scans = 0;                   ///< frames evaluated (with ground truth)
-  uint64_t frames_without_truth = 0;    ///< frames skipped because they carry no labels
-  uint64_t points = 0;                  ///< 3D points in the evaluated frames
-  uint64_t labelled_points = 0;         ///< ground truth not unknown ("annotated points")
-  uint64_t classified_points = 0;       ///< points (any truth) in cells predicted not unknown
-  uint64_t points_outside_grid = 0;     ///< any truth; not classified, not scored
+  uint64_t scans = 0;                 ///< frames evaluated (with ground truth)
+  uint64_t frames_without_truth = 0;  ///< frames skipped because they carry no labels
+  uint64_t points = 0;                ///< 3D points in the evaluated frames
+  uint64_t labelled_points = 0;       ///< ground truth not unknown ("annotated points")
+  uint64_t classified_points = 0;     ///< points (any truth) in cells predicted not unknown
+  uint64_t points_outside_grid = 0;   ///< any truth; not classified, not scored
   // ---- where the labelled points went -------------------------------------------------------
   uint64_t labelled_points_outside_grid = 0;  ///< not scored
   uint64_t labelled_points_unclassified = 0;  ///< in cells predicted unknown; scored as FN
   uint64_t excused_points = 0;  ///< non-obstacle points in predicted-obstacle cells holding GT
                                 ///< obstacle points: not scored
   // ---- cells --------------------------------------------------------------------------------
-  uint64_t cells_scored = 0;                ///< cells holding at least one labelled point
-  uint64_t cells_labelled_unclassified = 0; ///< scored cells predicted unknown (FN)
+  uint64_t cells_scored = 0;                 ///< cells holding at least one labelled point
+  uint64_t cells_labelled_unclassified = 0;  ///< scored cells predicted unknown (FN)
   uint64_t cells_obstacle_rule = 0;  ///< scored cells made obstacle by >= 1 GT obstacle point
                                      ///< although obstacle points were not the majority
   uint64_t cells_tied = 0;           ///< scored cells whose truth needed the tie rule

@@ -1,0 +1,58 @@
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <filesystem>
+
+#include "terramrf/atomic_file.hpp"
+#include "terramrf/errors.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+
+TEST(AtomicFile, WritesAndReplaces) {
+  test::TempDir d;
+  const std::string p = d.str() + "/sub/dir/x.txt";
+  writeFileAtomic(p, "first");
+  EXPECT_EQ(readFile(p), "first");
+  writeFileAtomic(p, "second");
+  EXPECT_EQ(readFile(p), "second");
+  // No temp files left behind.
+  int n = 0;
+  for (auto& e : std::filesystem::directory_iterator(d.str() + "/sub/dir")) ++n, (void)e;
+  EXPECT_EQ(n, 1);
+}
+
+TEST(AtomicFile, FailureNamesPathAndKeepsOldFile) {
+  if (::geteuid() == 0) {
+    // Root ignores permissions; use a path whose parent is a file instead.
+    test::TempDir d;
+    writeFileAtomic(d.str() + "/file", "x");
+    try {
+      writeFileAtomic(d.str() + "/file/child.txt", "y");
+      FAIL();
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(d.str() + "/file"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(readFile(d.str() + "/file"), "x");
+    return;
+  }
+  test::TempDir d;
+  const std::string p = d.str() + "/good.txt";
+  writeFileAtomic(p, "good");
+  ::chmod(d.str().c_str(), 0555);
+  EXPECT_THROW(writeFileAtomic(p, "bad"), std::runtime_error);
+  ::chmod(d.str().c_str(), 0755);
+  EXPECT_EQ(readFile(p), "good");
+}
+
+TEST(AtomicFile, ReadMissingFileNamesIt) {
+  try {
+    readFile("/no/such/file.bin");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/no/such/file.bin"), std::string::npos);
+  }
+}
+
+}  // namespace terramrf

@@ -1,0 +1,41 @@
+#pragma once
+#include <fstream>
+#include <string>
+
+#include "terramrf/config.hpp"
+#include "test_support.hpp"
+
+namespace terramrf::test {
+
+/// A temp folder with a model file, and a registry that sees the real and the test plugins.
+struct ConfigFixture {
+  TempDir dir;
+  PluginRegistry registry{{pluginDir(), std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_source"}};
+
+  ConfigFixture() {
+    std::ofstream(dir.str() + "/model.yaml") << R"(provenance: hand-written for tests
+classes:
+  road:     {height_diff: {mean: 0.02, sigma: 0.02}}
+  rough:    {height_diff: {mean: 0.08, sigma: 0.05}}
+  obstacle: {height_diff: {mean: 1.0, sigma: 0.8}}
+)";
+  }
+  std::string write(const std::string& name, const std::string& text) {
+    const std::string p = dir.str() + "/" + name;
+    std::ofstream(p) << text;
+    return p;
+  }
+  static std::string validPipeline(const std::string& source_params = "{frames: 3}") {
+    return "version: 1\n"
+           "grid: {size_m: 40, cell_m: 0.5}\n"
+           "source: {type: test_synthetic, params: " + source_params + "}\n"
+           "stages:\n"
+           "  - {name: pre, type: eigen_preclass}\n"
+           "  - {name: hdiff, type: height_difference}\n"
+           "  - {name: mrf, type: potts_gaussian, params: {model: model.yaml, features: [height_diff], preclass_layer: preclass}}\n"
+           "  - {name: solve, type: icm}\n"
+           "outputs: []\n";
+  }
+};
+
+}  // namespace terramrf::test

@@ -1,0 +1,156 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "config_fixture.hpp"
+
+namespace terramrf {
+
+namespace {
+std::vector<std::string> errorsOf(test::ConfigFixture& f, const std::string& text,
+                                  LoadOptions lo = {}) {
+  const std::string path = f.write("c.yaml", text);
+  try {
+    loadPipeline(path, lo, f.registry);
+  } catch (const ConfigError& e) {
+    std::vector<std::string> v;
+    for (const auto& d : e.diagnostics()) v.push_back(d.str());
+    return v;
+  }
+  return {};
+}
+bool contains(const std::vector<std::string>& v, const std::string& s) {
+  for (const auto& x : v)
+    if (x.find(s) != std::string::npos) return true;
+  return false;
+}
+std::string joined(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += x + "\n";
+  return s;
+}
+}  // namespace
+
+TEST(Config, ValidPipelineLoadsWithDefaultsResolved) {
+  test::ConfigFixture f;
+  LoadOptions lo;
+  lo.output_dir = f.dir.str() + "/out";
+  Pipeline p = loadPipeline(f.write("ok.yaml", test::ConfigFixture::validPipeline()), lo, f.registry);
+  EXPECT_EQ(p.stages.size(), 4u);
+  EXPECT_EQ(p.source->size(), 3u);
+  EXPECT_EQ(p.grid.cols(), 80);
+  EXPECT_NE(p.resolved_yaml.find("threshold_m2"), std::string::npos) << p.resolved_yaml;
+  EXPECT_NE(p.resolved_yaml.find("max_sweeps"), std::string::npos);
+}
+
+TEST(Config, ReportsAllErrorsWithPositions) {
+  test::ConfigFixture f;
+  const std::string text =
+      "version: 1\n"
+      "grid: {size_m: 400, cell_m: 0.5}\n"                                    // line 2
+      "source: {type: test_synthetic, params: {frames: 3, framez: 2}}\n"      // line 3
+      "stages:\n"
+      "  - {name: pre, type: eigen_preclas}\n"                                // line 5
+      "  - {name: hdiff, type: height_difference, params: {min_points: 0}}\n" // line 6
+      "  - {name: mrf, type: potts_gaussian, params: {features: [height_diff]}}\n"  // line 7
+      "  - {name: solve, type: icm, params: {max_sweeps: many}}\n"           // line 8
+      "outputs: []\n"
+      "extra: 1\n";                                                           // line 10
+  const auto errs = errorsOf(f, text);
+  const std::string all = joined(errs);
+  EXPECT_TRUE(contains(errs, ":2:")) << all;
+  EXPECT_TRUE(contains(errs, "grid.size_m = 400 out of range: expected [20, 100] m")) << all;
+  EXPECT_TRUE(contains(errs, ":3:")) << all;
+  EXPECT_TRUE(contains(errs, "stage 'test_synthetic' (test_synthetic): unknown parameter 'framez' (did you mean 'frames'?)")) << all;
+  EXPECT_TRUE(contains(errs, ":5:")) << all;
+  EXPECT_TRUE(contains(errs, "unknown plugin type 'eigen_preclas' (did you mean 'eigen_preclass'?)")) << all;
+  EXPECT_TRUE(contains(errs, ":6:")) << all;
+  EXPECT_TRUE(contains(errs, "stage 'hdiff' (height_difference): parameter 'min_points': value 0 out of range")) << all;
+  EXPECT_TRUE(contains(errs, ":7:")) << all;
+  EXPECT_TRUE(contains(errs, "missing required parameter 'model'")) << all;
+  EXPECT_TRUE(contains(errs, ":8:")) << all;
+  EXPECT_TRUE(contains(errs, "parameter 'max_sweeps': expected int, got 'many'")) << all;
+  EXPECT_TRUE(contains(errs, ":10:")) << all;
+  EXPECT_TRUE(contains(errs, "unknown key 'extra' in the config")) << all;
+  EXPECT_GE(errs.size(), 7u) << all;
+  // Every diagnostic starts with the file name.
+  for (const auto& e : errs) EXPECT_EQ(e.rfind(f.dir.str() + "/c.yaml", 0), 0u) << e;
+}
+
+TEST(Config, LayerReadThatNoEarlierStageWrites) {
+  test::ConfigFixture f;
+  const std::string text =
+      "version: 1\n"
+      "source: {type: test_synthetic}\n"
+      "stages:\n"
+      "  - {name: mrf, type: potts_gaussian, params: {model: model.yaml, features: [height_diff]}}\n"
+      "  - {name: hdiff, type: height_difference}\n"
+      "  - {name: solve, type: icm}\n";
+  const auto errs = errorsOf(f, text);
+  EXPECT_TRUE(contains(errs, "c.yaml:4:5: stage 'mrf' (potts_gaussian): reads 'height_diff', which no earlier stage writes"))
+      << joined(errs);
+}
+
+TEST(Config, OptimiserWithoutEnergyIsRejected) {
+  test::ConfigFixture f;
+  const auto errs = errorsOf(f, "version: 1\nsource: {type: test_synthetic}\nstages:\n  - {type: icm}\n");
+  EXPECT_TRUE(contains(errs, "stage 'icm' (icm): reads '@energy'")) << joined(errs);
+}
+
+TEST(Config, MissingDataPathIsNamed) {
+  test::ConfigFixture f;
+  auto errs = errorsOf(f, test::ConfigFixture::validPipeline("{path: no/such/folder}"));
+  EXPECT_TRUE(contains(errs, "data path '" + f.dir.str() + "/no/such/folder' does not exist"))
+      << joined(errs);
+  LoadOptions lo;
+  lo.data_override = f.dir.str() + "/elsewhere";
+  errs = errorsOf(f, test::ConfigFixture::validPipeline(), lo);
+  EXPECT_TRUE(contains(errs, "elsewhere' does not exist")) << joined(errs);
+}
+
+TEST(Config, WrongKindAndWrongTypeAndChoices) {
+  test::ConfigFixture f;
+  const auto errs = errorsOf(
+      f, "version: 1\nsource: {type: icm}\nstages:\n  - {type: test_synthetic, params: {mode: plain}}\n");
+  EXPECT_TRUE(contains(errs, "'icm' is a optimiser plugin, but source takes source plugins")) << joined(errs);
+  EXPECT_TRUE(contains(errs, "'test_synthetic' is a source plugin")) << joined(errs);
+}
+
+TEST(Config, ModelForOtherFeaturesIsRejected) {
+  test::ConfigFixture f;
+  std::string text = test::ConfigFixture::validPipeline();
+  text.replace(text.find("features: [height_diff]"), 23, "features: [height_diff, roughness]");
+  const auto errs = errorsOf(f, text);
+  EXPECT_TRUE(contains(errs, "feature 'roughness' is not in model")) << joined(errs);
+}
+
+TEST(Config, SyntaxErrorAndMissingFile) {
+  test::ConfigFixture f;
+  auto errs = errorsOf(f, "version: 1\nsource: {type: [\n");
+  EXPECT_TRUE(contains(errs, "YAML syntax error")) << joined(errs);
+  try {
+    loadPipeline(f.dir.str() + "/absent.yaml", {}, f.registry);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("absent.yaml: config file does not exist"), std::string::npos);
+  }
+}
+
+TEST(Config, ShippedConfigsValidate) {
+  // Every config in configs/ must load (the data folder they name is the shared one).
+  PluginRegistry reg({test::pluginDir()});
+  for (const auto& e : std::filesystem::directory_iterator(test::sourceDir() + "/configs")) {
+    if (e.path().extension() != ".yaml") continue;
+    SCOPED_TRACE(e.path().string());
+    try {
+      LoadOptions lo;
+      lo.output_dir = test::TempDir().str();
+      Pipeline p = loadPipeline(e.path().string(), lo, reg);
+      EXPECT_GT(p.source->size(), 0u);
+    } catch (const ConfigError& err) {
+      ADD_FAILURE() << err.what();
+    }
+  }
+}
+
+}  // namespace terramrf

@@ -1,0 +1,81 @@
+#include <gtest/gtest.h>
+
+#include "terramrf/param_values.hpp"
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+namespace {
+
+struct Demo : Stage {
+  double cell_m = 0.5;
+  int window = 5;
+  bool flag = false;
+  std::string mode = "a";
+  std::vector<std::string> feats = {"x"};
+  std::vector<double> weights;
+  void declare(ParamDecl& d) override {
+    d.add("cell_m", cell_m, "cell size").unit("m").range(0.1, 2);
+    d.add("window", window, "window").range(1, 99);
+    d.add("flag", flag, "a flag");
+    d.add("mode", mode, "mode").choices({"a", "b"});
+    d.add("features", feats, "features");
+    d.add("weights", weights, "weights").min(0);
+  }
+  void configure(const PluginContext&) override {
+    if (mode == "b" && window > 10) throw ParamError("window", "must be <= 10 in mode b");
+  }
+  void process(FrameContext&) override {}
+};
+
+}  // namespace
+
+TEST(Params, DefaultsComeFromMembers) {
+  Demo d;
+  auto specs = declaredParams(d);
+  ASSERT_EQ(specs.size(), 6u);
+  EXPECT_EQ(std::get<double>(specs[0].default_value), 0.5);
+  EXPECT_EQ(std::get<int64_t>(specs[1].default_value), 5);
+  EXPECT_EQ(specs[0].unit, "m");
+  EXPECT_EQ(toYaml(specs[4].default_value), "[x]");
+}
+
+TEST(Params, SetsValuesAndCallsConfigure) {
+  Demo d;
+  setParams(d, "{cell_m: 1.5, window: 7, flag: true, mode: b, features: [p, q], weights: [1, 2.5]}",
+            PluginContext{});
+  EXPECT_EQ(d.cell_m, 1.5);
+  EXPECT_EQ(d.window, 7);
+  EXPECT_TRUE(d.flag);
+  EXPECT_EQ(d.mode, "b");
+  EXPECT_EQ(d.feats, (std::vector<std::string>{"p", "q"}));
+  EXPECT_EQ(d.weights, (std::vector<double>{1, 2.5}));
+}
+
+TEST(Params, CollectsEveryProblem) {
+  Demo d;
+  try {
+    setParams(d, "{cell_m: 5, window: x, mode: c, windw: 3, weights: [-1]}", PluginContext{});
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("value 5 out of range: expected in [0.1, 2] m"), std::string::npos) << m;
+    EXPECT_NE(m.find("'window': expected int, got 'x'"), std::string::npos) << m;
+    EXPECT_NE(m.find("'c' is not one of: a, b"), std::string::npos) << m;
+    EXPECT_NE(m.find("unknown parameter 'windw' (did you mean 'window'?)"), std::string::npos) << m;
+    EXPECT_NE(m.find("'weights'"), std::string::npos) << m;
+  }
+}
+
+TEST(Params, ConfigureErrorNamesTheParameter) {
+  Demo d;
+  try {
+    setParams(d, "{mode: b, window: 20}", PluginContext{});
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("parameter 'window': must be <= 10 in mode b"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace terramrf

@@ -1,0 +1,76 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <sstream>
+
+#include "config_fixture.hpp"
+#include "terramrf/pipeline.hpp"
+
+namespace terramrf {
+
+TEST(Pipeline, ClassifiesPlaneAndBox) {
+  test::ConfigFixture f;
+  LoadOptions lo;
+  lo.output_dir = f.dir.str() + "/out";
+  Pipeline p = loadPipeline(f.write("ok.yaml", test::ConfigFixture::validPipeline("{frames: 1}")),
+                            lo, f.registry);
+  RunOptions ro;
+  ro.progress = false;
+  RunResult r = runPipeline(p, ro);
+  EXPECT_EQ(r.exitCode(), 0);
+  EXPECT_EQ(r.summary.frames_ok, 1u);
+  EXPECT_TRUE(std::filesystem::exists(lo.output_dir + "/resolved_config.yaml"));
+  // Timing slots: read, grid, 4 stages, total.
+  ASSERT_EQ(r.timings.size(), 7u);
+  EXPECT_EQ(r.timings[1].name, "grid");
+  EXPECT_EQ(r.timings[1].ms.size(), 1u);
+
+  // The same stages driven by hand: the box's cells are obstacles, the plane is not.
+  Frame frame = p.source->read(0);
+  TerrainGrid grid(p.grid);
+  grid.binPoints(frame.points);
+  FrameContext ctx;
+  ctx.frame = &frame;
+  ctx.grid = &grid;
+  ctx.labels = p.labels.get();
+  for (auto& s : p.stages) s->process(ctx);
+  EXPECT_LE(ctx.optimiser.final_energy, ctx.optimiser.initial_energy);
+  EXPECT_EQ(grid.labels()[p.grid.cellOf(3.05, 0.3)], labels::kObstacle);
+  EXPECT_EQ(grid.labels()[p.grid.cellOf(-5.2, 5.2)], labels::kRoad);  // flat plane, tiny noise
+  EXPECT_EQ(grid.labels()[p.grid.cellOf(15, 15)], labels::kUnknown);  // no points
+}
+
+TEST(Pipeline, BadFrameIsReportedAndSkipped) {
+  test::ConfigFixture f;
+  LoadOptions lo;
+  lo.output_dir = f.dir.str() + "/out";
+  Pipeline p = loadPipeline(
+      f.write("bad.yaml", test::ConfigFixture::validPipeline("{frames: 4, bad_frames: [1, 2]}")), lo,
+      f.registry);
+  std::ostringstream log;
+  RunOptions ro;
+  ro.progress = false;
+  ro.log = &log;
+  RunResult r = runPipeline(p, ro);
+  EXPECT_EQ(r.summary.frames_ok, 2u);
+  ASSERT_EQ(r.summary.failed.size(), 2u);
+  EXPECT_EQ(r.summary.failed[0].first, "000001");
+  EXPECT_NE(r.summary.failed[0].second.find("synthetic/000001.bin: size 13 bytes is not a multiple of 16"),
+            std::string::npos);
+  EXPECT_NE(log.str().find("frame 000002 failed and was skipped"), std::string::npos) << log.str();
+  EXPECT_EQ(r.exitCode(), 3);
+}
+
+TEST(Pipeline, EmptyScanGivesAllUnknownGrid) {
+  test::ConfigFixture f;
+  LoadOptions lo;
+  lo.output_dir = f.dir.str() + "/out";
+  Pipeline p = loadPipeline(
+      f.write("e.yaml", test::ConfigFixture::validPipeline("{frames: 1, mode: empty}")), lo, f.registry);
+  RunOptions ro;
+  ro.progress = false;
+  RunResult r = runPipeline(p, ro);
+  EXPECT_EQ(r.exitCode(), 0);
+}
+
+}  // namespace terramrf
