@@ -1,0 +1,69 @@
+// Relative height: a cell's lowest point minus the median lowest point of the cells around it.
+//
+// Why: height difference and eq. 1 only see inside a cell, so the flat floor of a ditch or a pit
+// (a negative obstacle, a limitation paper 000 names) looks like road. Against its surroundings
+// the floor sits clearly below the local ground; raised flat tops (a low wall, a car roof seen
+// alone in a cell) sit above it. Units: metres, negative = below the surroundings.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+
+class RelativeHeight final : public Stage {
+ public:
+  void declare(ParamDecl& d) override {
+    d.add("layer", layer_, "name of the output layer: lowest point − local median of lowest points [m]");
+    d.add("radius_cells", radius_, "half-width of the square neighbourhood").unit("cells").range(1, 20);
+    d.add("min_neighbours", min_neighbours_, "cells with fewer neighbours holding points get NaN")
+        .unit("cells").range(1, 1000);
+  }
+  std::vector<std::string> reads() const override { return {artefacts::kPoints}; }
+  std::vector<std::string> writes() const override { return {layer_}; }
+
+  void process(FrameContext& ctx) override {
+    TerrainGrid& g = *ctx.grid;
+    const float* Z = ctx.frame->points.z.data();
+    Layer& out = g.add(layer_);
+    const int R = g.rows(), C = g.cols();
+    zmin_.assign(g.cells(), std::numeric_limits<float>::quiet_NaN());
+    for (int c = 0; c < static_cast<int>(g.cells()); ++c) {
+      if (!g.count(c)) continue;
+      float lo = std::numeric_limits<float>::max();
+      for (const uint32_t* it = g.pointsBegin(c); it != g.pointsEnd(c); ++it) lo = std::min(lo, Z[*it]);
+      zmin_[c] = lo;
+    }
+    std::vector<float>& win = window_;
+    for (int r = 0; r < R; ++r) {
+      for (int c = 0; c < C; ++c) {
+        const float z = zmin_[r * C + c];
+        if (std::isnan(z)) continue;
+        win.clear();
+        for (int rr = std::max(0, r - radius_); rr <= std::min(R - 1, r + radius_); ++rr)
+          for (int cc = std::max(0, c - radius_); cc <= std::min(C - 1, c + radius_); ++cc) {
+            const float v = zmin_[rr * C + cc];
+            if (!std::isnan(v) && (rr != r || cc != c)) win.push_back(v);
+          }
+        if (static_cast<int>(win.size()) < min_neighbours_) continue;
+        auto mid = win.begin() + win.size() / 2;
+        std::nth_element(win.begin(), mid, win.end());
+        out[r * C + c] = z - *mid;
+      }
+    }
+  }
+
+ private:
+  std::string layer_ = "relative_height";
+  int radius_ = 3;
+  int min_neighbours_ = 4;
+  std::vector<float> zmin_, window_;
+};
+
+}  // namespace terramrf
+
+TERRAMRF_PLUGIN(terramrf::RelativeHeight, terramrf::PluginKind::kFeature, "relative_height",
+                "lowest point of a cell relative to the median lowest point around it "
+                "(negative obstacles such as ditches)")

@@ -1,0 +1,104 @@
+// Roughness f_r (paper 000 §4.3, after Neuhaus et al.): along each laser ring the measured ranges
+// are high-pass filtered; what remains is assigned to the cells the points fall in.
+//
+// Why it works: at grazing incidence a small height change δz moves the range by about
+// δz / sin(incidence), so a few centimetres of grass or gravel show up as decimetres of range
+// jitter along a ring, while asphalt only shows the sensor's range noise.
+//
+// Filter: residual_i = r_i − mean(r_{i−w..i+w} \ r_i) over the ring's neighbours in scan order;
+// a neighbour beyond `max_jump_m` or missing ends the window (object edges are not roughness).
+// Cell value: RMS of its points' residuals [m].
+#include <cmath>
+#include <vector>
+
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+
+class Roughness final : public Stage {
+ public:
+  void declare(ParamDecl& d) override {
+    d.add("layer", layer_, "name of the output layer: RMS of high-pass filtered ranges [m]");
+    d.add("window", window_, "neighbours on each side along the ring in the low-pass mean")
+        .unit("points").range(1, 50);
+    d.add("max_jump_m", max_jump_m_,
+          "a neighbour whose range differs more than this is an edge, not roughness")
+        .unit("m").range(0.01, 100);
+    d.add("min_points", min_points_, "cells with fewer filtered points get NaN")
+        .unit("points").range(1, 1000);
+  }
+  std::vector<std::string> reads() const override { return {artefacts::kPoints}; }
+  std::vector<std::string> writes() const override { return {layer_}; }
+
+  void process(FrameContext& ctx) override {
+    const PointCloud& pc = ctx.frame->points;
+    TerrainGrid& g = *ctx.grid;
+    Layer& out = g.add(layer_);
+    const std::size_t n = pc.size();
+    if (n == 0) return;
+    if (!pc.hasRing())
+      throw InputError(ctx.frame->source_path,
+                       "roughness needs the laser ring of every point; this scan has none (use a "
+                       "source that reads or recovers rings)");
+    // Stable counting sort by ring keeps each ring in scan order, whatever the file's layout.
+    int rings = 0;
+    for (uint16_t r : pc.ring)
+      if (r != kUnknownRing) rings = std::max(rings, r + 1);
+    offsets_.assign(rings + 1, 0);
+    for (uint16_t r : pc.ring)
+      if (r != kUnknownRing) ++offsets_[r + 1];
+    for (int r = 0; r < rings; ++r) offsets_[r + 1] += offsets_[r];
+    order_.resize(offsets_[rings]);
+    cursor_.assign(offsets_.begin(), offsets_.end() - 1);
+    for (std::size_t i = 0; i < n; ++i)
+      if (pc.ring[i] != kUnknownRing) order_[cursor_[pc.ring[i]]++] = static_cast<uint32_t>(i);
+    range_.resize(order_.size());
+    for (std::size_t k = 0; k < order_.size(); ++k) {
+      const uint32_t i = order_[k];
+      range_[k] = std::sqrt(pc.x[i] * pc.x[i] + pc.y[i] * pc.y[i] + pc.z[i] * pc.z[i]);
+    }
+    sum_.assign(g.cells(), 0.f);
+    cnt_.assign(g.cells(), 0);
+    const auto& cell_of = g.cellOfPoint();
+    const float jump = static_cast<float>(max_jump_m_);
+    for (int r = 0; r < rings; ++r) {
+      const int b = static_cast<int>(offsets_[r]), e = static_cast<int>(offsets_[r + 1]);
+      for (int k = b; k < e; ++k) {
+        const int cell = cell_of[order_[k]];
+        if (cell < 0) continue;
+        const float rk = range_[k];
+        float s = 0;
+        int m = 0;
+        for (int j = k - 1; j >= b && j >= k - window_; --j) {
+          if (std::abs(range_[j] - rk) > jump) break;
+          s += range_[j], ++m;
+        }
+        const int left = m;
+        for (int j = k + 1; j < e && j <= k + window_; ++j) {
+          if (std::abs(range_[j] - rk) > jump) break;
+          s += range_[j], ++m;
+        }
+        if (left == 0 || m == left) continue;  // need neighbours on both sides
+        const float res = rk - s / m;
+        sum_[cell] += res * res;
+        ++cnt_[cell];
+      }
+    }
+    for (std::size_t c = 0; c < g.cells(); ++c)
+      if (cnt_[c] >= static_cast<uint32_t>(min_points_)) out[c] = std::sqrt(sum_[c] / cnt_[c]);
+  }
+
+ private:
+  std::string layer_ = "roughness";
+  int window_ = 2;
+  double max_jump_m_ = 0.5;
+  int min_points_ = 1;
+  std::vector<uint32_t> offsets_, cursor_, order_, cnt_;
+  std::vector<float> range_, sum_;
+};
+
+}  // namespace terramrf
+
+TERRAMRF_PLUGIN(terramrf::Roughness, terramrf::PluginKind::kFeature, "roughness",
+                "roughness f_r: RMS of high-pass filtered ranges along each laser ring "
+                "(paper 000 §4.3, Neuhaus et al.)")

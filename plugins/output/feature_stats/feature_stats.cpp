@@ -1,0 +1,125 @@
+// Learns the per-class Gaussian feature model of paper 000 §4.6 from annotated cells: for every
+// cell whose labelled points agree on one class (purity), each feature value is added to that
+// class's running mean/variance. The model file it writes is what potts_gaussian loads, with a
+// provenance line naming the config and frames it came from.
+#include <cmath>
+#include <sstream>
+
+#include "terramrf/atomic_file.hpp"
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+
+class FeatureStats final : public Output {
+ public:
+  void declare(ParamDecl& d) override {
+    d.add("features", features_, "grid layers to model").required();
+    d.add("model", out_path_, "model file to write (relative to the output folder)");
+    d.add("min_purity", min_purity_,
+          "a cell is a training sample of class c if at least this fraction of its labelled "
+          "points are c").unit("1").range(0.5, 1.0);
+    d.add("min_labelled_points", min_points_, "cells with fewer labelled points are not used")
+        .unit("points").range(1, 100000);
+    d.add("min_sigma", min_sigma_,
+          "lower bound on σ per feature (one value for all, or one per feature, in the feature's "
+          "unit): keeps a feature that is nearly constant in the training data from vetoing a "
+          "class on unseen data")
+        .min(0);
+  }
+  void configure(const PluginContext&) override {
+    if (min_sigma_.size() > 1 && min_sigma_.size() != features_.size())
+      throw ParamError("min_sigma", "give one value, or one per feature (" +
+                                        std::to_string(features_.size()) + ")");
+  }
+  std::vector<std::string> reads() const override { return features_; }
+
+  void begin(const RunInfo& info) override {
+    info_ = info;
+    const std::size_t K = info.labels->size(), F = features_.size();
+    n_.assign(K * F, 0);
+    mean_.assign(K * F, 0);
+    m2_.assign(K * F, 0);
+    frames_ = 0;
+  }
+
+  void write(const FrameContext& ctx) override {
+    const Frame& fr = *ctx.frame;
+    const TerrainGrid& g = *ctx.grid;
+    if (fr.truth.label.size() != fr.points.size()) return;  // unlabelled frame
+    ++frames_;
+    const std::size_t K = info_.labels->size(), F = features_.size();
+    std::vector<const float*> layers(F);
+    for (std::size_t f = 0; f < F; ++f) layers[f] = g.layer(features_[f]).data();
+    std::vector<uint32_t> count(K);
+    for (int c = 0, n = static_cast<int>(g.cells()); c < n; ++c) {
+      std::fill(count.begin(), count.end(), 0);
+      uint32_t labelled = 0;
+      for (const uint32_t* it = g.pointsBegin(c); it != g.pointsEnd(c); ++it) {
+        const LabelId l = fr.truth.label[*it];
+        if (l == labels::kUnknown || l >= K) continue;
+        ++count[l];
+        ++labelled;
+      }
+      if (labelled < static_cast<uint32_t>(min_points_)) continue;
+      std::size_t best = 1;
+      for (std::size_t k = 1; k < K; ++k)
+        if (count[k] > count[best]) best = k;
+      if (count[best] < min_purity_ * labelled) continue;
+      for (std::size_t f = 0; f < F; ++f) {
+        const float v = layers[f][c];
+        if (std::isnan(v)) continue;
+        // Welford's update: stable for millions of cells.
+        const std::size_t i = best * F + f;
+        ++n_[i];
+        const double d = v - mean_[i];
+        mean_[i] += d / n_[i];
+        m2_[i] += d * (v - mean_[i]);
+      }
+    }
+  }
+
+  void end(const RunSummary&) override {
+    std::ostringstream o;
+    o << "# Per-class Gaussian feature model (paper 000 §4.6), learnt by the feature_stats output.\n";
+    o << "provenance: \"config " << info_.config_path << ", " << frames_
+      << " labelled frame(s), cells with purity >= " << min_purity_ << " and >= " << min_points_
+      << " labelled points\"\n";
+    o << "classes:\n";
+    const std::size_t K = info_.labels->size(), F = features_.size();
+    o.precision(6);
+    for (std::size_t k = 1; k < K; ++k) {
+      std::ostringstream cls;
+      bool any = false;
+      for (std::size_t f = 0; f < F; ++f) {
+        const std::size_t i = k * F + f;
+        if (n_[i] < 2) continue;
+        any = true;
+        const double floor = min_sigma_.empty() ? 0 : min_sigma_[min_sigma_.size() == 1 ? 0 : f];
+        const double sigma = std::max(floor, std::sqrt(m2_[i] / (n_[i] - 1)));
+        cls << "    " << features_[f] << ": {mean: " << mean_[i] << ", sigma: " << sigma
+            << "}  # " << n_[i] << " cells\n";
+      }
+      if (any) o << "  " << info_.labels->name(static_cast<LabelId>(k)) << ":\n" << cls.str();
+    }
+    const std::string path =
+        out_path_.front() == '/' ? out_path_ : info_.output_dir + "/" + out_path_;
+    writeFileAtomic(path, o.str());
+  }
+
+ private:
+  std::vector<std::string> features_;
+  std::string out_path_ = "model.yaml";
+  double min_purity_ = 0.9;
+  int min_points_ = 3;
+  std::vector<double> min_sigma_ = {1e-4};
+  RunInfo info_;
+  std::vector<uint64_t> n_;
+  std::vector<double> mean_, m2_;
+  std::size_t frames_ = 0;
+};
+
+}  // namespace terramrf
+
+TERRAMRF_PLUGIN(terramrf::FeatureStats, terramrf::PluginKind::kOutput, "feature_stats",
+                "learns per-class feature mean/σ from annotated cells and writes a model file "
+                "for potts_gaussian (paper 000 §4.6)")
