@@ -17,9 +17,11 @@ cat <<YAML
 version: 1
 $1
 grid: {size_m: 40, cell_m: 0.5}
-source: {type: simulator, params: {frames: 1}}
+source: {type: simulator, params: {frames: 1, enable_camera: false}}
 stages:
 $2  - {name: hdiff, type: height_difference}
+  - {name: mrf, type: potts_gaussian, params: {model: $tmp/prefix/share/terramrf/configs/models/laser_simulator.yaml, features: [height_diff]}}
+  - {name: solve, type: icm}
 outputs:
   - {type: grid_csv}
 YAML

@@ -1,0 +1,52 @@
+#pragma once
+// Publishes grids (and the scan's points) on an LCM channel. The LCM handle is opaque so this
+// header can be included next to CGAL.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "terramrf/label_set.hpp"
+#include "terramrf/lcm/message_header.hpp"
+#include "terramrf/point_cloud.hpp"
+#include "terramrf/terrain_grid.hpp"
+
+/// LCM's C handle (`lcm_t` in lcm/lcm.h), declared here so callers need not include LCM.
+struct _lcm_t;
+
+namespace terramrf {
+
+class GridPublisher {
+ public:
+  /// Opens its own LCM instance on `url` (e.g. "udpm://239.255.76.67:7667?ttl=0", "memq://",
+  /// "" = LCM's default / $LCM_DEFAULT_URL). Throws std::runtime_error naming the URL if LCM
+  /// cannot be set up (bad URL, no multicast route, ...).
+  GridPublisher(const std::string& url, std::string channel);
+  /// Publishes through an LCM instance the caller owns (lcm::LCM::getUnderlyingLCM() or
+  /// lcm_create()); it must outlive the publisher. Throws std::invalid_argument if null.
+  GridPublisher(::_lcm_t* lcm, std::string channel);
+  ~GridPublisher();
+  GridPublisher(GridPublisher&&) noexcept;
+  GridPublisher& operator=(GridPublisher&&) noexcept;
+  GridPublisher(const GridPublisher&) = delete;
+  GridPublisher& operator=(const GridPublisher&) = delete;
+
+  /// Channel of the grid messages (terrain_grid_t).
+  const std::string& channel() const;
+  /// Channel of the point clouds: `<channel>_POINTS` (point_cloud_t).
+  std::string pointsChannel() const { return channel() + "_POINTS"; }
+
+  /// Encodes (see encodeGrid) and publishes on channel(). Throws std::runtime_error naming the
+  /// channel if LCM refuses the message.
+  void publish(const TerrainGrid& grid, const LabelSet& labels, const MessageHeader& header,
+               const std::vector<std::string>& layers = {});
+  /// Encodes (see encodePointCloud) and publishes on pointsChannel().
+  void publishPoints(const PointCloud& cloud, const MessageHeader& header);
+  /// Publishes an already encoded message on any channel.
+  void publishBytes(const std::string& channel, const MessageBytes& bytes);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace terramrf

@@ -1,0 +1,67 @@
+#include "terramrf/lcm/grid_publisher.hpp"
+
+#include <lcm/lcm.h>
+
+#include <climits>
+#include <stdexcept>
+
+#include "terramrf/lcm/grid_codec.hpp"
+#include "terramrf/lcm/sensor_codec.hpp"
+
+namespace terramrf {
+
+// Only LCM's C API is used here: the handle is what callers pass in, and it keeps lcm-cpp.hpp out.
+struct GridPublisher::Impl {
+  lcm_t* lcm = nullptr;
+  bool owned = false;
+  std::string url;  // for messages; "(caller's instance)" when borrowed
+  std::string channel;
+  ~Impl() {
+    if (owned && lcm != nullptr) lcm_destroy(lcm);
+  }
+};
+
+GridPublisher::GridPublisher(const std::string& url, std::string channel)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->lcm = lcm_create(url.empty() ? nullptr : url.c_str());
+  if (impl_->lcm == nullptr) {
+    throw std::runtime_error("LCM could not be set up on '" + url +
+                             "' (bad URL, or no multicast route for udpm: see docs/messages.md)");
+  }
+  impl_->owned = true;
+  impl_->url = url;
+  impl_->channel = std::move(channel);
+}
+
+GridPublisher::GridPublisher(::_lcm_t* lcm, std::string channel) : impl_(std::make_unique<Impl>()) {
+  if (lcm == nullptr) throw std::invalid_argument("GridPublisher: null LCM handle");
+  impl_->lcm = lcm;
+  impl_->url = "(caller's LCM instance)";
+  impl_->channel = std::move(channel);
+}
+
+GridPublisher::~GridPublisher() = default;
+GridPublisher::GridPublisher(GridPublisher&&) noexcept = default;
+GridPublisher& GridPublisher::operator=(GridPublisher&&) noexcept = default;
+
+const std::string& GridPublisher::channel() const { return impl_->channel; }
+
+void GridPublisher::publishBytes(const std::string& channel, const MessageBytes& bytes) {
+  if (bytes.size() > static_cast<std::size_t>(UINT_MAX) ||
+      lcm_publish(impl_->lcm, channel.c_str(), bytes.data(),
+                  static_cast<unsigned int>(bytes.size())) != 0) {
+    throw std::runtime_error("LCM could not publish " + std::to_string(bytes.size()) +
+                             " bytes on channel '" + channel + "' (" + impl_->url + ")");
+  }
+}
+
+void GridPublisher::publish(const TerrainGrid& grid, const LabelSet& labels,
+                            const MessageHeader& header, const std::vector<std::string>& layers) {
+  publishBytes(impl_->channel, encodeGrid(grid, labels, header, layers));
+}
+
+void GridPublisher::publishPoints(const PointCloud& cloud, const MessageHeader& header) {
+  publishBytes(pointsChannel(), encodePointCloud(cloud, header));
+}
+
+}  // namespace terramrf

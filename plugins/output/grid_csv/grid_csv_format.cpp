@@ -1,0 +1,88 @@
+#include "grid_csv_format.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <stdexcept>
+#include <type_traits>
+
+namespace terramrf {
+namespace {
+
+template <class T>
+void appendNumber(std::string& out, T v) {
+  if constexpr (std::is_floating_point_v<T>) {
+    if (std::isnan(v)) return;  // no data: empty field
+  }
+  char buf[64];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  out.append(buf, res.ptr);
+}
+
+}  // namespace
+
+std::string csvField(const std::string& s) {
+  if (s.find_first_of(",\"\r\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char ch : s) {
+    if (ch == '"') q += '"';
+    q += ch;
+  }
+  return q + "\"";
+}
+
+std::string gridToCsv(const TerrainGrid& grid, const LabelSet& labels,
+                      const std::vector<std::string>& layer_names) {
+  const std::vector<std::string> names = layer_names.empty() ? grid.layerNames() : layer_names;
+  std::vector<const Layer*> layers;
+  for (const auto& n : names) {
+    if (!grid.has(n)) {
+      std::string have;
+      for (const auto& h : grid.layerNames()) have += (have.empty() ? "" : ", ") + h;
+      throw std::invalid_argument("grid_csv: layer '" + n + "' is not in the grid (it has: " +
+                                  (have.empty() ? "none" : have) + ")");
+    }
+    layers.push_back(&grid.layer(n));
+  }
+  const std::size_t cells = grid.cells();
+  const auto& lab = grid.labels();
+  const bool has_labels = lab.size() == cells;
+  // binPoints() fills cellOfPoint(); before it the point lists must not be read (count = 0).
+  const bool binned = !grid.cellOfPoint().empty();
+
+  std::string out = "row,col,x_m,y_m,label,label_name,points";
+  for (const auto& n : names) out += "," + csvField(n);
+  out += '\n';
+  out.reserve(out.size() + cells * (32 + 10 * names.size()));
+  for (int r = 0; r < grid.rows(); ++r) {
+    for (int c = 0; c < grid.cols(); ++c) {
+      const int cell = grid.index(r, c);
+      const Eigen::Vector2d centre = grid.geometry().cellCentre(r, c);
+      appendNumber(out, r);
+      out += ',';
+      appendNumber(out, c);
+      out += ',';
+      appendNumber(out, centre.x());
+      out += ',';
+      appendNumber(out, centre.y());
+      out += ',';
+      if (has_labels) {
+        const LabelId id = lab[cell];
+        appendNumber(out, static_cast<int>(id));
+        out += ',';
+        if (id < labels.size()) out += csvField(labels.name(id));
+      } else {
+        out += ',';
+      }
+      out += ',';
+      appendNumber(out, binned ? grid.count(cell) : 0u);
+      for (const Layer* l : layers) {
+        out += ',';
+        appendNumber(out, (*l)[cell]);
+      }
+      out += '\n';
+    }
+  }
+  return out;
+}
+
+}  // namespace terramrf

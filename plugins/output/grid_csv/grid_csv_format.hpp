@@ -1,0 +1,22 @@
+#pragma once
+// The per-cell CSV table of output "grid_csv" (format in docs/plugins/outputs.md).
+#include <string>
+#include <vector>
+
+#include "terramrf/label_set.hpp"
+#include "terramrf/terrain_grid.hpp"
+
+namespace terramrf {
+
+/// One line per cell, row-major (row grows with x, column with y), after the header
+/// `row,col,x_m,y_m,label,label_name,points,<layers...>`. x_m/y_m are the cell centre [m]; layer
+/// values in the shortest form that reads back to the same float; NaN (no data) is an empty field.
+/// `layers` empty = all layers in name order. Throws std::invalid_argument naming a missing layer.
+std::string gridToCsv(const TerrainGrid& grid, const LabelSet& labels,
+                      const std::vector<std::string>& layers);
+
+/// RFC 4180 quoting: the field as is, or in double quotes (inner quotes doubled) if it holds a
+/// comma, a quote or a line break.
+std::string csvField(const std::string& s);
+
+}  // namespace terramrf

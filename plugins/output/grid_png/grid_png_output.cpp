@@ -1,0 +1,97 @@
+// Output "grid_png": one bird's-eye PNG of the labelled grid per frame (see grid_render.hpp for
+// the orientation), optionally with the frame's camera images beside it.
+#include <filesystem>
+#include <iostream>
+#include <stdexcept>
+#include <string>
+
+#include "grid_render.hpp"
+#include "terramrf/adapters/opencv_image.hpp"
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+namespace {
+
+// Frame ids and camera names become file names; keep them inside the output folder.
+std::string safeName(std::string s) {
+  for (char& ch : s) {
+    if (ch == '/' || ch == '\\' || ch == ':' || ch == ' ') ch = '_';
+  }
+  if (s.empty() || s == "." || s == "..") s = "_" + s;
+  return s;
+}
+
+class GridPngOutput : public Output {
+ public:
+  void declare(ParamDecl& d) override {
+    d.add("subdir", subdir_, "folder for the PNGs, relative to the run's output folder");
+    d.add("pixels_per_cell", pixels_per_cell_, "side of the square pixel block drawn per cell")
+        .unit("px")
+        .range(1, 64);
+    d.add("write_camera_images", write_camera_images_,
+          "also write each camera image of the frame as <frame_id>_<camera>.png");
+  }
+
+  void configure(const PluginContext& ctx) override {
+    if (subdir_.empty())
+      throw ParamError("subdir", "is empty; expected a folder name such as 'grid'");
+    if (std::filesystem::path(subdir_).is_absolute()) {
+      throw ParamError("subdir", "'" + subdir_ +
+                                     "' is absolute; expected a folder relative to "
+                                     "the run's output folder");
+    }
+    output_dir_ = ctx.output_dir;
+    if (ctx.labels) labels_ = *ctx.labels;
+  }
+
+  std::vector<std::string> reads() const override { return {artefacts::kLabels}; }
+
+  void begin(const RunInfo& info) override {
+    if (!info.output_dir.empty()) output_dir_ = info.output_dir;
+    if (info.labels) labels_ = *info.labels;
+  }
+
+  void write(const FrameContext& ctx) override {
+    if (!ctx.frame || !ctx.grid) {
+      throw std::invalid_argument("grid_png: frame context without a frame or a grid");
+    }
+    const std::string id =
+        safeName(ctx.frame->id.empty() ? std::to_string(ctx.index) : ctx.frame->id);
+    GridRenderStats stats;
+    const Image img =
+        renderGrid(*ctx.grid, ctx.labels ? *ctx.labels : labels_, pixels_per_cell_, &stats);
+    if (stats.unnamed_label_cells > 0 && !warned_unnamed_) {
+      std::cerr << "grid_png: frame " << id << ": " << stats.unnamed_label_cells
+                << " cells carry label ids the label set does not name (drawn magenta)\n";
+      warned_unnamed_ = true;
+    }
+    writeImageAtomic(path(id + ".png"), img);
+    if (!write_camera_images_) return;
+    for (std::size_t i = 0; i < ctx.frame->cameras.size(); ++i) {
+      const CameraImage& cam = ctx.frame->cameras[i];
+      if (!cam.image || cam.image->empty()) continue;  // calibration-only camera: nothing to show
+      const std::string name =
+          cam.model.name.empty() ? "camera" + std::to_string(i) : cam.model.name;
+      writeImageAtomic(path(id + "_" + safeName(name) + ".png"), *cam.image);
+    }
+  }
+
+ private:
+  std::string path(const std::string& file) const {
+    return (std::filesystem::path(output_dir_) / subdir_ / file).string();
+  }
+
+  std::string subdir_ = "grid";
+  int pixels_per_cell_ = 8;
+  bool write_camera_images_ = true;
+
+  std::string output_dir_ = ".";
+  LabelSet labels_ = LabelSet::defaults();
+  bool warned_unnamed_ = false;
+};
+
+}  // namespace
+}  // namespace terramrf
+
+TERRAMRF_PLUGIN(terramrf::GridPngOutput, terramrf::PluginKind::kOutput, "grid_png",
+                "bird's-eye PNG of the labelled grid per frame (+ camera images)")

@@ -1,0 +1,30 @@
+#pragma once
+// Bird's-eye rendering of a labelled grid: forward (+x, growing row) is up, left (+y, growing
+// column) is left, so the picture looks like the scene seen from above with the vehicle facing up.
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include "terramrf/image.hpp"
+#include "terramrf/label_set.hpp"
+#include "terramrf/terrain_grid.hpp"
+
+namespace terramrf {
+
+/// Colour of label ids that the label set does not know (so they stand out).
+inline constexpr std::array<uint8_t, 3> kUnnamedLabelRgb{255, 0, 255};
+/// Colour of the sensor cross.
+inline constexpr std::array<uint8_t, 3> kSensorRgb{255, 255, 255};
+
+struct GridRenderStats {
+  std::size_t unnamed_label_cells = 0;  ///< cells whose id has no entry in the label set
+  bool sensor_marked = false;           ///< false when the sensor lies outside the grid
+};
+
+/// Renders each cell as a `pixels_per_cell`² block in its label's colour (unknown when the grid
+/// has no labels) and marks the grid frame's origin (0, 0), the sensor of a sensor-centred grid,
+/// with a cross whose arms are `pixels_per_cell` pixels long.
+Image renderGrid(const TerrainGrid& grid, const LabelSet& labels, int pixels_per_cell,
+                 GridRenderStats* stats = nullptr);
+
+}  // namespace terramrf

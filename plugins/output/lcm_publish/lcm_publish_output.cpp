@@ -1,0 +1,86 @@
+// Output "lcm_publish": publishes each labelled grid as terramrf_msgs.terrain_grid_t (and, if
+// asked, the scan's points as point_cloud_t on <channel>_POINTS). Writes nothing to disk.
+#include <memory>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "terramrf/lcm/grid_publisher.hpp"
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+namespace {
+
+class LcmPublishOutput : public Output {
+ public:
+  void declare(ParamDecl& d) override {
+    d.add("url", url_,
+          "LCM provider URL (udpm://group:port?ttl=N for the network, memq:// in-process, "
+          "file://path.lcmlog to log; empty = $LCM_DEFAULT_URL)");
+    d.add("channel", channel_, "channel of the terrain_grid_t messages");
+    d.add("layers", layers_, "float layers to send; empty = every layer of the grid");
+    d.add("publish_points", publish_points_,
+          "also publish the scan's points as point_cloud_t on <channel>_POINTS");
+  }
+
+  void configure(const PluginContext& ctx) override {
+    if (channel_.empty()) throw ParamError("channel", "is empty; expected e.g. TERRAMRF_GRID");
+    if (!url_.empty()) {
+      const auto sep = url_.find("://");
+      const std::string provider = sep == std::string::npos ? "" : url_.substr(0, sep);
+      static const std::set<std::string> kProviders = {"udpm", "tcpq", "file", "memq"};
+      if (!kProviders.count(provider)) {
+        throw ParamError("url", "'" + url_ +
+                                    "' is not an LCM URL; expected provider://address "
+                                    "with provider udpm, tcpq, file or memq");
+      }
+    }
+    std::set<std::string> seen;
+    for (const auto& l : layers_) {
+      if (!seen.insert(l).second) throw ParamError("layers", "layer '" + l + "' is listed twice");
+    }
+    if (ctx.labels) labels_ = *ctx.labels;
+  }
+
+  std::vector<std::string> reads() const override {
+    std::vector<std::string> r{artefacts::kLabels};
+    r.insert(r.end(), layers_.begin(), layers_.end());
+    return r;
+  }
+
+  // LCM is opened here rather than in configure() so validating a config opens no socket.
+  void begin(const RunInfo& info) override {
+    if (info.labels) labels_ = *info.labels;
+    publisher_ = std::make_unique<GridPublisher>(url_, channel_);
+  }
+
+  void write(const FrameContext& ctx) override {
+    if (!ctx.frame || !ctx.grid) {
+      throw std::invalid_argument("lcm_publish: frame context without a frame or a grid");
+    }
+    if (!publisher_) publisher_ = std::make_unique<GridPublisher>(url_, channel_);
+    MessageHeader header;
+    header.frame_id = ctx.frame->id;
+    header.timestamp_s = ctx.frame->timestamp_s;
+    publisher_->publish(*ctx.grid, ctx.labels ? *ctx.labels : labels_, header, layers_);
+    if (publish_points_) publisher_->publishPoints(ctx.frame->points, header);
+  }
+
+  void end(const RunSummary& /*summary*/) override { publisher_.reset(); }
+
+ private:
+  std::string url_ = "udpm://239.255.76.67:7667?ttl=0";
+  std::string channel_ = "TERRAMRF_GRID";
+  std::vector<std::string> layers_;
+  bool publish_points_ = false;
+
+  LabelSet labels_ = LabelSet::defaults();
+  std::unique_ptr<GridPublisher> publisher_;
+};
+
+}  // namespace
+}  // namespace terramrf
+
+TERRAMRF_PLUGIN(terramrf::LcmPublishOutput, terramrf::PluginKind::kOutput, "lcm_publish",
+                "publishes the labelled grid (and optionally the points) over LCM")

@@ -1,0 +1,135 @@
+// The "grid_csv" output end to end: header, known rows, NaN as empty field, layer selection,
+// atomic writes.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <sstream>
+#include <vector>
+
+#include "output_test_support.hpp"
+#include "terramrf/atomic_file.hpp"
+
+namespace terramrf {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<std::string> lines(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  for (std::string l; std::getline(in, l);) out.push_back(l);
+  return out;
+}
+
+class GridCsvTest : public ::testing::Test {
+ protected:
+  GridCsvTest() : grid(test::outputTestGeometry()) {
+    frame.id = "000007";
+    grid.labels()[grid.index(3, 0)] = labels::kObstacle;
+    grid.labels()[grid.index(0, 3)] = labels::kRoad;
+    Layer& h = grid.add("height");
+    h[grid.index(3, 0)] = 0.25f;
+    h[grid.index(0, 3)] = -1.5f;
+    grid.add("slope", 0.1f);
+    // Two points in cell (3,0) (x in [1,2), y in [-2,-1)), one outside the grid.
+    frame.points.push_back(1.5f, -1.5f, 0.f, 0.f);
+    frame.points.push_back(1.2f, -1.9f, 0.f, 0.f);
+    frame.points.push_back(9.f, 9.f, 0.f, 0.f);
+    grid.binPoints(frame.points);
+  }
+  PluginContext pctx() const {
+    PluginContext c;
+    c.output_dir = dir.str();
+    c.grid = test::outputTestGeometry();
+    c.labels = &labels;
+    return c;
+  }
+  std::unique_ptr<Output> make(const std::string& params) {
+    auto out = test::makeOutput("grid_csv", params, pctx());
+    RunInfo r;
+    r.output_dir = dir.str();
+    r.labels = &labels;
+    r.grid = test::outputTestGeometry();
+    if (out) out->begin(r);
+    return out;
+  }
+  FrameContext ctx() {
+    FrameContext c;
+    c.frame = &frame;
+    c.grid = &grid;
+    c.labels = &labels;
+    return c;
+  }
+  test::TempDir dir;
+  LabelSet labels = LabelSet::defaults();
+  Frame frame;
+  TerrainGrid grid;
+};
+
+TEST_F(GridCsvTest, KnownRowsWithSelectedLayer) {
+  auto out = make("{layers: [height]}");
+  ASSERT_TRUE(out);
+  out->write(ctx());
+  const auto l = lines(readFile(dir.str() + "/grid_csv/000007.csv"));
+  ASSERT_EQ(l.size(), 17u);
+  EXPECT_EQ(l[0], "row,col,x_m,y_m,label,label_name,points,height");
+  EXPECT_EQ(l[1], "0,0,-1.5,-1.5,0,unknown,0,");           // NaN = empty field
+  EXPECT_EQ(l[1 + 3], "0,3,-1.5,1.5,1,road,0,-1.5");       // back-left
+  EXPECT_EQ(l[1 + 12], "3,0,1.5,-1.5,3,obstacle,2,0.25");  // forward-right, 2 points
+  EXPECT_EQ(l[16], "3,3,1.5,1.5,0,unknown,0,");
+}
+
+TEST_F(GridCsvTest, AllLayersByDefaultInNameOrder) {
+  make("{subdir: tables}")->write(ctx());
+  const auto l = lines(readFile(dir.str() + "/tables/000007.csv"));
+  ASSERT_EQ(l.size(), 17u);
+  EXPECT_EQ(l[0], "row,col,x_m,y_m,label,label_name,points,height,slope");
+  EXPECT_EQ(l[1 + 12], "3,0,1.5,-1.5,3,obstacle,2,0.25,0.1");
+}
+
+TEST_F(GridCsvTest, MissingLayerAndBadParams) {
+  auto out = make("{layers: [roughness]}");
+  try {
+    out->write(ctx());
+    FAIL() << "missing layer accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'roughness'"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir.str() + "/grid_csv/000007.csv"));
+  EXPECT_THROW(test::makeOutput("grid_csv", "{layers: [a, a]}", pctx()), std::exception);
+  EXPECT_THROW(test::makeOutput("grid_csv", "{subdir: /abs}", pctx()), std::exception);
+}
+
+TEST_F(GridCsvTest, UnwritableFolderThrowsNamingThePath) {
+  writeFileAtomic(dir.str() + "/grid_csv", "not a folder");
+  try {
+    make("{}")->write(ctx());
+    FAIL() << "writing into a non-folder succeeded";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(dir.str() + "/grid_csv"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(GridCsvTest, FailedWriteLeavesTheGoodFileIntact) {
+  auto out = make("{}");
+  out->write(ctx());
+  const std::string path = dir.str() + "/grid_csv/000007.csv";
+  const std::string good = readFile(path);
+  grid.labels()[grid.index(1, 1)] = labels::kRough;
+  {
+    test::FileSizeLimit limit(100);  // far less than the ~600-byte table
+    ASSERT_TRUE(limit.ok());
+    try {
+      out->write(ctx());
+      ADD_FAILURE() << "write beyond the file size limit succeeded";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(readFile(path), good);
+  out->write(ctx());
+  EXPECT_NE(readFile(path).find("1,1,-0.5,-0.5,2,rough,0"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace terramrf

@@ -1,0 +1,185 @@
+// The "grid_png" output end to end: pixel colours at known places, orientation, sensor cross,
+// camera images, and atomic writes.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+
+#include "output_test_support.hpp"
+#include "terramrf/atomic_file.hpp"
+
+namespace terramrf {
+namespace {
+
+namespace fs = std::filesystem;
+
+class GridPngTest : public ::testing::Test {
+ protected:
+  GridPngTest() : grid(test::outputTestGeometry()) {
+    frame.id = "000042";
+    grid.labels()[grid.index(3, 0)] = labels::kObstacle;
+    grid.labels()[grid.index(0, 3)] = labels::kRoad;
+    grid.labels()[grid.index(0, 0)] = labels::kRough;
+  }
+  PluginContext pctx() const {
+    PluginContext c;
+    c.output_dir = dir.str();
+    c.grid = test::outputTestGeometry();
+    c.labels = &labels;
+    return c;
+  }
+  RunInfo info() const {
+    RunInfo r;
+    r.output_dir = dir.str();
+    r.labels = &labels;
+    r.grid = test::outputTestGeometry();
+    return r;
+  }
+  FrameContext ctx() {
+    FrameContext c;
+    c.frame = &frame;
+    c.grid = &grid;
+    c.labels = &labels;
+    return c;
+  }
+  std::unique_ptr<Output> make(const std::string& params) {
+    auto out = test::makeOutput("grid_png", params, pctx());
+    if (out) out->begin(info());
+    return out;
+  }
+  /// RGB at pixel (u, v) of a PNG read back with OpenCV (which stores BGR).
+  static std::array<int, 3> rgbAt(const cv::Mat& m, int u, int v) {
+    const cv::Vec3b p = m.at<cv::Vec3b>(v, u);
+    return {p[2], p[1], p[0]};
+  }
+
+  test::TempDir dir;
+  LabelSet labels = LabelSet::defaults();
+  Frame frame;
+  TerrainGrid grid;
+};
+
+using Rgb = std::array<int, 3>;
+
+TEST_F(GridPngTest, CellsAreDrawnForwardUpLeftLeftWithLabelColours) {
+  auto out = make("{pixels_per_cell: 8}");
+  ASSERT_TRUE(out);
+  out->write(ctx());
+  const std::string path = dir.str() + "/grid/000042.png";
+  ASSERT_TRUE(fs::exists(path));
+  const cv::Mat m = cv::imread(path, cv::IMREAD_COLOR);
+  ASSERT_EQ(m.cols, 32);
+  ASSERT_EQ(m.rows, 32);
+  // Cell (row r, col c) covers image rows (3-r)*8.., columns (3-c)*8..
+  EXPECT_EQ(rgbAt(m, 28, 4), (Rgb{220, 30, 30}));    // (3,0) obstacle: forward-right = top-right
+  EXPECT_EQ(rgbAt(m, 4, 28), (Rgb{128, 128, 128}));  // (0,3) road: back-left = bottom-left
+  EXPECT_EQ(rgbAt(m, 28, 28), (Rgb{139, 90, 43}));   // (0,0) rough: back-right = bottom-right
+  EXPECT_EQ(rgbAt(m, 4, 4), (Rgb{0, 0, 0}));         // (3,3) unknown: forward-left = top-left
+  // Whole block has one colour.
+  EXPECT_EQ(rgbAt(m, 24, 0), (Rgb{220, 30, 30}));
+  EXPECT_EQ(rgbAt(m, 31, 7), (Rgb{220, 30, 30}));
+  EXPECT_EQ(rgbAt(m, 23, 0), (Rgb{0, 0, 0}));
+  // Sensor cross at the image centre (the sensor sits on the corner of four cells), arms 8 px.
+  EXPECT_EQ(rgbAt(m, 16, 16), (Rgb{255, 255, 255}));
+  EXPECT_EQ(rgbAt(m, 24, 16), (Rgb{255, 255, 255}));
+  EXPECT_EQ(rgbAt(m, 8, 16), (Rgb{255, 255, 255}));
+  EXPECT_EQ(rgbAt(m, 16, 9), (Rgb{255, 255, 255}));
+  EXPECT_EQ(rgbAt(m, 20, 20), (Rgb{0, 0, 0}));  // off the cross
+  EXPECT_EQ(rgbAt(m, 26, 16), (Rgb{0, 0, 0}));  // past the arm
+}
+
+TEST_F(GridPngTest, PixelsPerCellScalesTheImage) {
+  auto out = make("{pixels_per_cell: 3, subdir: png}");
+  out->write(ctx());
+  const cv::Mat m = cv::imread(dir.str() + "/png/000042.png", cv::IMREAD_COLOR);
+  ASSERT_EQ(m.cols, 12);
+  EXPECT_EQ(rgbAt(m, 10, 1), (Rgb{220, 30, 30}));
+  EXPECT_THROW(test::makeOutput("grid_png", "{pixels_per_cell: 0}", pctx()), std::exception);
+  EXPECT_THROW(test::makeOutput("grid_png", "{subdir: ''}", pctx()), std::exception);
+}
+
+TEST_F(GridPngTest, CameraImagesAreWrittenBesideTheGrid) {
+  auto img = std::make_shared<Image>(5, 3, 3);
+  img->at(4, 2)[0] = 200;
+  img->at(4, 2)[1] = 100;
+  img->at(4, 2)[2] = 50;
+  CameraImage cam;
+  cam.model.name = "image_2";
+  cam.image = img;
+  frame.cameras.push_back(cam);
+  CameraImage calib_only;
+  calib_only.model.name = "image_3";
+  frame.cameras.push_back(calib_only);
+
+  make("{}")->write(ctx());
+  const std::string path = dir.str() + "/grid/000042_image_2.png";
+  ASSERT_TRUE(fs::exists(path));
+  const cv::Mat m = cv::imread(path, cv::IMREAD_COLOR);
+  ASSERT_EQ(m.cols, 5);
+  ASSERT_EQ(m.rows, 3);
+  EXPECT_EQ(rgbAt(m, 4, 2), (Rgb{200, 100, 50}));
+  EXPECT_FALSE(fs::exists(dir.str() + "/grid/000042_image_3.png"));
+
+  test::TempDir other;
+  PluginContext c = pctx();
+  c.output_dir = other.str();
+  auto no_cams = test::makeOutput("grid_png", "{write_camera_images: false}", c);
+  no_cams->write(ctx());
+  EXPECT_TRUE(fs::exists(other.str() + "/grid/000042.png"));
+  EXPECT_FALSE(fs::exists(other.str() + "/grid/000042_image_2.png"));
+}
+
+TEST_F(GridPngTest, UnwritableFolderThrowsNamingThePath) {
+  // A file where the output folder should be: fails for root too, unlike chmod.
+  writeFileAtomic(dir.str() + "/grid", "not a folder");
+  auto out = make("{}");
+  try {
+    out->write(ctx());
+    FAIL() << "writing into a non-folder succeeded";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(dir.str() + "/grid"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(GridPngTest, NonWritableFolderWhenNotRoot) {
+  if (::geteuid() == 0) return;  // root ignores permissions; covered by the tests around it
+  auto out = make("{}");
+  out->write(ctx());
+  const std::string path = dir.str() + "/grid/000042.png";
+  const std::string good = readFile(path);
+  fs::permissions(dir.path() / "grid", fs::perms::owner_read | fs::perms::owner_exec);
+  grid.labels()[0] = labels::kObstacle;
+  EXPECT_THROW(out->write(ctx()), std::runtime_error);
+  fs::permissions(dir.path() / "grid", fs::perms::owner_all);
+  EXPECT_EQ(readFile(path), good);
+}
+
+TEST_F(GridPngTest, FailedWriteLeavesTheGoodFileIntact) {
+  auto out = make("{pixels_per_cell: 16}");
+  out->write(ctx());
+  const std::string path = dir.str() + "/grid/000042.png";
+  const std::string good = readFile(path);
+  ASSERT_GT(good.size(), 64u);
+  grid.labels()[grid.index(1, 1)] = labels::kObstacle;  // a different picture
+  {
+    test::FileSizeLimit limit(32);  // the new PNG cannot be written in full
+    ASSERT_TRUE(limit.ok());
+    try {
+      out->write(ctx());
+      ADD_FAILURE() << "write beyond the file size limit succeeded";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(readFile(path), good);
+  // No temporary files are left behind.
+  std::size_t files = 0;
+  for (const auto& f : fs::directory_iterator(dir.path() / "grid")) files += f.is_regular_file();
+  EXPECT_EQ(files, 1u);
+  out->write(ctx());  // and the next write works again
+  EXPECT_NE(readFile(path), good);
+}
+
+}  // namespace
+}  // namespace terramrf
