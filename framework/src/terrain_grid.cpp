@@ -14,6 +14,7 @@ void TerrainGrid::reset(const GridGeometry& g) {
   offsets_.assign(cells() + 1, 0);
   indices_.clear();
   cell_of_point_.clear();
+  cell_pixels_.clear();
 }
 
 Layer& TerrainGrid::add(const std::string& name, float fill) {

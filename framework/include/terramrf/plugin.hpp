@@ -27,6 +27,14 @@ inline constexpr const char* kPoints = "@points";
 inline constexpr const char* kEnergy = "@energy";
 inline constexpr const char* kLabels = "@labels";
 inline constexpr const char* kPose = "@pose";
+inline constexpr const char* kCellPixels = "@cell_pixels";  ///< TerrainGrid::cellPixels()
+}  // namespace artefacts
+
+/// Layer names by convention. An optimiser that can score its labelling writes one layer per
+/// active class, `score.<class name>`, higher = more confident (Gibbs: marginal probability;
+/// deterministic optimisers: a monotone map of the energy margin). ROC curves read them.
+namespace layers {
+inline std::string score(const std::string& class_name) { return "score." + class_name; }
 }  // namespace artefacts
 
 /// What a plugin may know about the run when it is configured.

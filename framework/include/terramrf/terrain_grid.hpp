@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "terramrf/cell_pixels.hpp"
 #include "terramrf/label_set.hpp"
 #include "terramrf/point_cloud.hpp"
 
@@ -84,6 +85,10 @@ class TerrainGrid {
   const std::vector<int32_t>& cellOfPoint() const { return cell_of_point_; }
   std::size_t pointsInside() const { return indices_.size(); }
 
+  // ---- pixels per cell, one entry per fused camera (empty until a fusion stage runs) ---------
+  std::vector<CellPixels>& cellPixels() { return cell_pixels_; }
+  const std::vector<CellPixels>& cellPixels() const { return cell_pixels_; }
+
  private:
   GridGeometry geom_;
   int rows_ = 0, cols_ = 0;
@@ -92,6 +97,7 @@ class TerrainGrid {
   std::vector<uint32_t> offsets_;  // cells + 1
   std::vector<uint32_t> indices_;
   std::vector<int32_t> cell_of_point_;
+  std::vector<CellPixels> cell_pixels_;
 };
 
 }  // namespace terramrf
