@@ -35,7 +35,7 @@ inline constexpr const char* kCellPixels = "@cell_pixels";  ///< TerrainGrid::ce
 /// deterministic optimisers: a monotone map of the energy margin). ROC curves read them.
 namespace layers {
 inline std::string score(const std::string& class_name) { return "score." + class_name; }
-}  // namespace artefacts
+}  // namespace layers
 
 /// What a plugin may know about the run when it is configured.
 struct PluginContext {
