@@ -137,20 +137,29 @@ TEST(Config, SyntaxErrorAndMissingFile) {
 }
 
 TEST(Config, ShippedConfigsValidate) {
-  // Every config in configs/ must load (the data folder they name is the shared one).
+  // Every pipeline config shipped in configs/ and configs/train/ must load (the data folders they
+  // name are the shared ones). Model files, label maps and sweeps are not pipelines.
   PluginRegistry reg({test::pluginDir()});
-  for (const auto& e : std::filesystem::directory_iterator(test::sourceDir() + "/configs")) {
-    if (e.path().extension() != ".yaml") continue;
-    SCOPED_TRACE(e.path().string());
-    try {
-      LoadOptions lo;
-      lo.output_dir = test::TempDir().str();
-      Pipeline p = loadPipeline(e.path().string(), lo, reg);
-      EXPECT_GT(p.source->size(), 0u);
-    } catch (const ConfigError& err) {
-      ADD_FAILURE() << err.what();
+  int n = 0;
+  bool demo = false;
+  for (const std::string sub : {"", "/train"}) {
+    for (const auto& e : std::filesystem::directory_iterator(test::sourceDir() + "/configs" + sub)) {
+      if (e.path().extension() != ".yaml") continue;
+      SCOPED_TRACE(e.path().string());
+      ++n;
+      demo |= e.path().filename() == "demo.yaml";
+      try {
+        LoadOptions lo;
+        lo.output_dir = test::TempDir().str();
+        Pipeline p = loadPipeline(e.path().string(), lo, reg);
+        EXPECT_GT(p.source->size(), 0u);
+      } catch (const ConfigError& err) {
+        ADD_FAILURE() << err.what();
+      }
     }
   }
+  EXPECT_TRUE(demo);
+  EXPECT_GE(n, 4);
 }
 
 }  // namespace terramrf

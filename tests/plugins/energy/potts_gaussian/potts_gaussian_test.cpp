@@ -1,0 +1,81 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "plugin_harness.hpp"
+
+namespace terramrf {
+
+namespace {
+std::string writeModel(const test::TempDir& d) {
+  const std::string p = d.str() + "/m.yaml";
+  std::ofstream(p) << "classes:\n"
+                      "  road:     {f: {mean: 0.0, sigma: 0.1}}\n"
+                      "  rough:    {f: {mean: 1.0, sigma: 0.5}}\n"
+                      "  obstacle: {f: {mean: 5.0, sigma: 2.0}}\n";
+  return p;
+}
+}  // namespace
+
+TEST(PottsGaussian, UnaryIsAlphaTimesEq11) {
+  test::TempDir d;
+  test::StageHarness h;
+  h.frame.points.push_back(1.1f, 1.1f, -1.7f, 0);
+  h.bin();
+  h.grid.add("f")[h.geom.cellOf(1.1, 1.1)] = 1.0f;
+  h.make("potts_gaussian", "{model: " + writeModel(d) + ", features: [f], alpha: 2.0}")->process(h.ctx);
+  const EnergyModel& em = h.ctx.energy;
+  ASSERT_EQ(em.numLabels(), 3);
+  EXPECT_EQ(em.active[0], labels::kRoad);
+  const int c = h.geom.cellOf(1.1, 1.1);
+  auto eq11 = [](double f, double mu, double s) {
+    return (f - mu) * (f - mu) / (2 * s * s) + std::log(std::sqrt(2 * M_PI) * s);
+  };
+  EXPECT_NEAR(em.unary[c * 3 + 0], 2 * eq11(1, 0, 0.1), 1e-3);
+  EXPECT_NEAR(em.unary[c * 3 + 1], 2 * eq11(1, 1, 0.5), 1e-5);
+  EXPECT_NEAR(em.unary[c * 3 + 2], 2 * eq11(1, 5, 2.0), 1e-5);
+  EXPECT_EQ(em.initial[c], 1);  // rough has the lowest unary
+  EXPECT_EQ(em.fixed[c], 0);
+  EXPECT_EQ(em.fixed[h.geom.cellOf(-3, -3)], 1);  // no points: fixed unknown
+  EXPECT_FLOAT_EQ(em.beta, 0.8f);
+  EXPECT_FLOAT_EQ(em.beta_diagonal, 0.8f);
+}
+
+TEST(PottsGaussian, NaNFeatureDoesNotVoteAndPreclassSetsStart) {
+  test::TempDir d;
+  test::StageHarness h;
+  h.frame.points.push_back(1.1f, 1.1f, -1.7f, 0);
+  h.bin();
+  h.grid.add("f");  // all NaN
+  Layer& pre = h.grid.add("preclass", 0);
+  pre[h.geom.cellOf(1.1, 1.1)] = 2;  // obstacle
+  h.make("potts_gaussian", "{model: " + writeModel(d) + ", features: [f], preclass_layer: preclass}")
+      ->process(h.ctx);
+  const int c = h.geom.cellOf(1.1, 1.1);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(h.ctx.energy.unary[c * 3 + k], 0.f);
+  EXPECT_EQ(h.ctx.energy.initial[c], 2);
+}
+
+TEST(PottsGaussian, ModelForOtherFeaturesNamesTheFile) {
+  test::TempDir d;
+  test::StageHarness h;
+  const std::string m = writeModel(d);
+  try {
+    h.make("potts_gaussian", "{model: " + m + ", features: [f, g]}");
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    const std::string s = e.what();
+    EXPECT_NE(s.find("feature 'g' is not in model " + m), std::string::npos) << s;
+  }
+  std::ofstream(d.str() + "/bad.yaml") << "classes:\n  road: {f: {mean: 0, sigma: -1}}\n";
+  try {
+    h.make("potts_gaussian", "{model: " + d.str() + "/bad.yaml, features: [f]}");
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.yaml:2:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("sigma must be > 0"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace terramrf
