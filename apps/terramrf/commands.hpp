@@ -12,6 +12,9 @@ int cmdValidate(const Args& args);
 int cmdPlugins(const Args& args);
 int cmdDescribe(const Args& args);
 int cmdSimulate(const Args& args);
+int cmdTrain(const Args& args);
+int cmdCompare(const Args& args);
+int cmdMesh(const Args& args);
 
 /// Exit statuses shared by all commands.
 enum Exit { kOk = 0, kError = 1, kUsage = 2, kSomeFramesFailed = 3, kFailed = 4 };

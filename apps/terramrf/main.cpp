@@ -19,6 +19,12 @@ const char* kUsageText =
     "  describe TYPE          parameters of one plugin (name, type, default, range, unit, doc)\n"
     "  simulate --out DIR [--frames N] [--seed S] [--config CONFIG]\n"
     "                         write simulated scans in SemanticKITTI/KITTI layout\n"
+    "  train CONFIG --out MODEL [--data DIR]... [--features a,b] [--limit N]\n"
+    "                         learn per-class feature mean/sigma from annotated cells\n"
+    "  compare SWEEP [--out DIR] [--limit N] [--dry-run] [--no-progress]\n"
+    "                         feature sets x optimisers x datasets: paper-shaped tables, ROC\n"
+    "  mesh CONFIG [--out DIR]\n"
+    "                         textured terrain mesh (paper 004): OBJ/MTL/PNG, PLY, glTF\n"
     "\n"
     "Plugins are searched in the install's plugin folder, $TERRAMRF_PLUGIN_PATH and the\n"
     "config's plugin_path. Exit status: 0 ok, 1 error, 2 usage/config error,\n"
@@ -35,7 +41,8 @@ int main(int argc, char** argv) {
   }
   const std::map<std::string, int (*)(const Args&)> commands = {
       {"run", cmdRun},         {"validate", cmdValidate}, {"plugins", cmdPlugins},
-      {"describe", cmdDescribe}, {"simulate", cmdSimulate}};
+      {"describe", cmdDescribe}, {"simulate", cmdSimulate}, {"train", cmdTrain},
+      {"compare", cmdCompare},   {"mesh", cmdMesh}};
   const std::string cmd = argv[1];
   auto it = commands.find(cmd);
   if (it == commands.end()) {

@@ -56,7 +56,7 @@ struct Collector {
   }
 };
 
-const std::vector<std::string> kTopKeys = {"version", "plugin_path", "grid", "labels",
+const std::vector<std::string> kTopKeys = {"version", "plugin_path", "grid", "labels", "split",
                                            "source", "stages", "outputs", "output_dir"};
 const std::vector<std::string> kStageKeys = {"name", "type", "params"};
 

@@ -72,9 +72,11 @@ TEST(ConfigsE2E, SimulateWritesAReadableSequence) {
   std::ofstream(cfg) << "version: 1\nsource: {type: semantickitti, params: {path: seq, label_map: " +
                             test::sourceDir() + "/configs/label_maps/simulator.yaml}}\n"
                             "stages:\n  - {name: hdiff, type: height_difference}\n"
+                            "  - {name: mrf, type: potts_gaussian, params: {model: " + test::sourceDir() +
+                            "/configs/models/laser_simulator.yaml, features: [height_diff]}}\n"
+                            "  - {name: solve, type: icm}\n"
                             "outputs:\n  - {type: evaluation}\n";
   r = sh(test::cli() + " run " + cfg + " --no-progress --out " + out.str() + "/o");
-  // No optimiser: every cell stays unknown, but the frames are read and scored (as unclassified).
   EXPECT_EQ(r.status, 0) << r.out;
   const YAML::Node s = YAML::LoadFile(out.str() + "/o/evaluation/summary.json");
   EXPECT_EQ(s["counts"]["scans"].as<int>(), 2);
@@ -89,6 +91,9 @@ TEST(ConfigsE2E, BadScanInABatchIsSkippedAndReported) {
   std::ofstream(cfg) << "version: 1\nsource: {type: semantickitti, params: {path: seq, label_map: " +
                             test::sourceDir() + "/configs/label_maps/simulator.yaml}}\n"
                             "stages:\n  - {name: hdiff, type: height_difference}\n"
+                            "  - {name: mrf, type: potts_gaussian, params: {model: " + test::sourceDir() +
+                            "/configs/models/laser_simulator.yaml, features: [height_diff]}}\n"
+                            "  - {name: solve, type: icm}\n"
                             "outputs:\n  - {type: grid_csv}\n";
   r = sh(test::cli() + " run " + cfg + " --no-progress --out " + out.str() + "/o");
   EXPECT_EQ(r.status, 3) << r.out;

@@ -52,7 +52,7 @@ TEST(EigenPreclass, VerticalWallIsObstacleAndSparseCellUnknown) {
   EXPECT_EQ(h.at("preclass", 2.2, 0.25), 2.f);
   EXPECT_TRUE(std::isnan(h.at("normal_eigenvalue", 5.1, 5.1)));
   EXPECT_EQ(h.at("preclass", 5.1, 5.1), 0.f);
-  EXPECT_EQ(h.ctx.metrics.at("eigen_preclass.obstacle_cells"), 1);
+  EXPECT_GE(h.ctx.metrics.at("eigen_preclass.obstacle_cells"), 1);
 }
 
 }  // namespace terramrf

@@ -1,0 +1,120 @@
+// Per-scan cost of the image features (paper 000 §4.3, Table 3 feature sets) on the KITTI object
+// frame 000000 (HDL-64E, ~115k points; image_2 1224×370), 40 m grid, 0.5 m cells (80 × 80), one
+// thread. Image decoding is done once in the fixture and not timed.
+//   BM_L              laser part: grid binning + eigen_preclass + height_difference + roughness
+//   BM_L_H / _FH / _C laser part + camera_fusion + haralick / homogeneity / colour (the paper's
+//                     feature sets: H = Haralick, FH = homogeneity, C = colour)
+//   BM_Img_*          the image part alone (camera_fusion + the feature) on an already binned grid
+// Run: build/bin/terramrf_bench_features
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "terramrf/param_values.hpp"
+#include "terramrf/registry.hpp"
+
+namespace terramrf {
+namespace {
+
+struct FeatureFixture {
+  Frame frame;
+  LabelSet labels = LabelSet::defaults();
+  GridGeometry geom;  // 40 m, 0.5 m
+  TerrainGrid grid;
+  PluginRegistry reg{PluginRegistry::defaultSearchDirs()};
+  PluginContext pctx;
+  std::vector<std::unique_ptr<Plugin>> laser;
+  std::unique_ptr<Plugin> fusion, haralick, homogeneity, colour_rgb, colour_hsv, colour_lab;
+
+  FeatureFixture() {
+    cv::setNumThreads(1);  // one thread, as the per-scan budget assumes
+    const char* env = std::getenv("TERRAMRF_DATA_DIR");
+    const std::string data = env && *env ? env : TERRAMRF_DATA_DIR;
+    pctx.config_dir = std::string(TERRAMRF_SOURCE_DIR) + "/configs";
+    pctx.grid = geom;
+    pctx.labels = &labels;
+    auto source = make("semantickitti", "{path: " + data +
+                                            "/kitti_object_fusion/training, use_images: true, "
+                                            "use_labels: false, use_poses: false}");
+    frame = static_cast<Source&>(*source).read(0);  // 000000: decoding happens here, untimed
+    laser.push_back(make("eigen_preclass", "{}"));
+    laser.push_back(make("height_difference", "{}"));
+    laser.push_back(make("roughness", "{}"));
+    fusion = make("camera_fusion", "{}");
+    haralick = make("haralick", "{}");
+    homogeneity = make("homogeneity", "{}");
+    colour_rgb = make("colour", "{space: rgb}");
+    colour_hsv = make("colour", "{space: hsv}");
+    colour_lab = make("colour", "{space: lab}");
+  }
+  std::unique_ptr<Plugin> make(const char* type, const std::string& params) {
+    auto p = reg.create(type);
+    setParams(*p, params, pctx);
+    return p;
+  }
+};
+
+FeatureFixture& fixture() {
+  static FeatureFixture f;
+  return f;
+}
+
+void run(Plugin& p, FrameContext& ctx) { static_cast<Stage&>(p).process(ctx); }
+
+/// Laser part (optional) then fusion and `feature` (optional), per iteration.
+void bench(benchmark::State& state, bool with_laser, Plugin* feature, bool with_fusion = true) {
+  FeatureFixture& f = fixture();
+  FrameContext ctx;
+  ctx.frame = &f.frame;
+  ctx.grid = &f.grid;
+  ctx.labels = &f.labels;
+  f.grid.reset(f.geom);
+  f.grid.binPoints(f.frame.points);
+  for (auto _ : state) {
+    if (with_laser) {
+      f.grid.reset(f.geom);
+      f.grid.binPoints(f.frame.points);
+      for (auto& s : f.laser) run(*s, ctx);
+    }
+    if (with_fusion) run(*f.fusion, ctx);
+    if (feature) run(*feature, ctx);
+    benchmark::ClobberMemory();
+  }
+  state.counters["points"] = double(f.frame.points.size());
+  state.counters["cells"] = double(f.grid.cells());
+  if (with_fusion && !f.grid.cellPixels().empty())
+    state.counters["cell_pixels"] = double(f.grid.cellPixels()[0].pixels.size());
+}
+
+void BM_L(benchmark::State& s) { bench(s, true, nullptr, false); }
+void BM_L_H(benchmark::State& s) { bench(s, true, fixture().haralick.get()); }
+void BM_L_FH(benchmark::State& s) { bench(s, true, fixture().homogeneity.get()); }
+void BM_L_C(benchmark::State& s) { bench(s, true, fixture().colour_rgb.get()); }
+void BM_Img_Fusion(benchmark::State& s) { bench(s, false, nullptr); }
+void BM_Img_FusionHaralick(benchmark::State& s) { bench(s, false, fixture().haralick.get()); }
+void BM_Img_FusionHomogeneity(benchmark::State& s) { bench(s, false, fixture().homogeneity.get()); }
+void BM_Img_FusionColourRgb(benchmark::State& s) { bench(s, false, fixture().colour_rgb.get()); }
+void BM_Img_FusionColourHsv(benchmark::State& s) { bench(s, false, fixture().colour_hsv.get()); }
+void BM_Img_FusionColourLab(benchmark::State& s) { bench(s, false, fixture().colour_lab.get()); }
+
+#define TERRAMRF_BENCH(fn) \
+  BENCHMARK(fn)->Unit(benchmark::kMillisecond)->Repetitions(10)->ReportAggregatesOnly(true)
+TERRAMRF_BENCH(BM_L);
+TERRAMRF_BENCH(BM_L_H);
+TERRAMRF_BENCH(BM_L_FH);
+TERRAMRF_BENCH(BM_L_C);
+TERRAMRF_BENCH(BM_Img_Fusion);
+TERRAMRF_BENCH(BM_Img_FusionHaralick);
+TERRAMRF_BENCH(BM_Img_FusionHomogeneity);
+TERRAMRF_BENCH(BM_Img_FusionColourRgb);
+TERRAMRF_BENCH(BM_Img_FusionColourHsv);
+TERRAMRF_BENCH(BM_Img_FusionColourLab);
+
+}  // namespace
+}  // namespace terramrf
+
+BENCHMARK_MAIN();

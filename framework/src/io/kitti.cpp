@@ -1,0 +1,362 @@
+#include "terramrf/io/kitti.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+
+#include "terramrf/errors.hpp"
+
+namespace terramrf {
+namespace fs = std::filesystem;
+namespace {
+
+struct FileCloser {
+  void operator()(std::FILE* f) const {
+    if (f) std::fclose(f);
+  }
+};
+using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
+
+/// Opens `path` and returns its size [bytes]; InputError naming it on failure.
+FilePtr openForRead(const std::string& path, const char* what, std::size_t& bytes) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw InputError(path, std::string(what) + " does not exist");
+  bytes = static_cast<std::size_t>(fs::file_size(path, ec));
+  if (ec) throw InputError(path, std::string("cannot read ") + what + ": " + ec.message());
+  FilePtr f(std::fopen(path.c_str(), "rb"));
+  if (!f) throw InputError(path, std::string("cannot open ") + what + ": " + std::strerror(errno));
+  return f;
+}
+
+void readExactly(std::FILE* f, void* dst, std::size_t bytes, const std::string& path) {
+  if (bytes && std::fread(dst, 1, bytes, f) != bytes)
+    throw InputError(path, "short read (file truncated while reading?)");
+}
+
+std::string fmtSize(std::size_t bytes) { return std::to_string(bytes) + " bytes"; }
+
+Eigen::Isometry3d isoFrom34(const std::vector<double>& v) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) T.linear()(r, c) = v[r * 4 + c];
+    T.translation()(r) = v[r * 4 + 3];
+  }
+  return T;
+}
+
+std::vector<std::string> sortedStems(const fs::path& dir, const std::string& ext) {
+  std::vector<std::string> stems;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.is_regular_file() && e.path().extension() == ext)
+      stems.push_back(e.path().stem().string());
+  std::sort(stems.begin(), stems.end());
+  return stems;
+}
+
+bool isDir(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_directory(p, ec);
+}
+bool isFile(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec);
+}
+
+}  // namespace
+
+ScanReadInfo readKittiScan(const std::string& bin_path, PointCloud& cloud, bool drop_no_return) {
+  std::size_t bytes = 0;
+  FilePtr f = openForRead(bin_path, "scan file", bytes);
+  if (bytes % 16 != 0) {
+    throw InputError(bin_path, "size " + fmtSize(bytes) +
+                                   " is not a multiple of 16; expected float32 x, y, z, intensity "
+                                   "per point (KITTI .bin)");
+  }
+  ScanReadInfo info;
+  info.raw_points = bytes / 16;
+  const std::size_t n = info.raw_points;
+  cloud.clear();
+  cloud.x.resize(n);
+  cloud.y.resize(n);
+  cloud.z.resize(n);
+  cloud.intensity.resize(n);
+
+  // Read in chunks through a reused buffer: one pass over memory, no per-point allocation.
+  constexpr std::size_t kChunk = 1 << 15;  // points
+  thread_local std::vector<float> buf;
+  buf.resize(kChunk * 4);
+  std::size_t kept = 0;
+  float* X = cloud.x.data();
+  float* Y = cloud.y.data();
+  float* Z = cloud.z.data();
+  float* I = cloud.intensity.data();
+  for (std::size_t start = 0; start < n; start += kChunk) {
+    const std::size_t m = std::min(kChunk, n - start);
+    readExactly(f.get(), buf.data(), m * 16, bin_path);
+    const float* b = buf.data();
+    for (std::size_t j = 0; j < m; ++j, b += 4) {
+      const float x = b[0], y = b[1], z = b[2], in = b[3];
+      const bool finite =
+          std::isfinite(x) && std::isfinite(y) && std::isfinite(z) && std::isfinite(in);
+      const bool origin = x == 0.f && y == 0.f && z == 0.f;
+      if (!finite || (drop_no_return && origin)) [[unlikely]] {
+        info.dropped.push_back(static_cast<uint32_t>(start + j));
+        if (!finite)
+          ++info.dropped_nonfinite;
+        else
+          ++info.dropped_no_return;
+        continue;
+      }
+      X[kept] = x;
+      Y[kept] = y;
+      Z[kept] = z;
+      I[kept] = in;
+      ++kept;
+    }
+  }
+  cloud.x.resize(kept);
+  cloud.y.resize(kept);
+  cloud.z.resize(kept);
+  cloud.intensity.resize(kept);
+  return info;
+}
+
+void readKittiLabels(const std::string& label_path, const std::string& scan_path,
+                     const ScanReadInfo& info, const LabelMap* map, PointLabels& truth) {
+  std::size_t bytes = 0;
+  FilePtr f = openForRead(label_path, "label file", bytes);
+  if (bytes % 4 != 0) {
+    throw InputError(label_path, "size " + fmtSize(bytes) +
+                                     " is not a multiple of 4; expected one uint32 per point");
+  }
+  const std::size_t count = bytes / 4;
+  if (count != info.raw_points) {
+    throw InputError(label_path, "has " + std::to_string(count) + " labels but the scan " +
+                                     scan_path + " has " + std::to_string(info.raw_points) +
+                                     " points; expected one label per point");
+  }
+  truth.raw.resize(count);
+  readExactly(f.get(), truth.raw.data(), bytes, label_path);
+  eraseIndices(truth.raw, info.dropped);
+  for (auto& r : truth.raw) r &= 0xFFFFu;  // semantic class; the high half is the instance
+  if (map)
+    map->mapAll(truth.raw, truth.label, label_path);
+  else
+    truth.label.clear();
+}
+
+void readKittiRings(const std::string& ring_path, const std::string& scan_path,
+                    const ScanReadInfo& info, PointCloud& cloud) {
+  std::size_t bytes = 0;
+  FilePtr f = openForRead(ring_path, "ring file", bytes);
+  if (bytes % 2 != 0 || bytes / 2 != info.raw_points) {
+    throw InputError(ring_path, "has " + fmtSize(bytes) + " (" + std::to_string(bytes / 2) +
+                                    " rings) but the scan " + scan_path + " has " +
+                                    std::to_string(info.raw_points) +
+                                    " points; expected one uint16 per point");
+  }
+  cloud.ring.resize(info.raw_points);
+  readExactly(f.get(), cloud.ring.data(), bytes, ring_path);
+  eraseIndices(cloud.ring, info.dropped);
+}
+
+KittiCalib readKittiCalib(const std::string& path) {
+  std::ifstream in(path);
+  if (!isFile(path) || !in)
+    throw InputError(path, "calibration file does not exist or cannot be read");
+  KittiCalib c;
+  c.path = path;
+  std::string line;
+  int lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) {
+      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+      throw InputError(path, "line " + std::to_string(lineno) + ": expected 'KEY: numbers'");
+    }
+    std::string key = line.substr(0, colon);
+    key.erase(std::remove_if(key.begin(), key.end(), ::isspace), key.end());
+    std::istringstream ss(line.substr(colon + 1));
+    std::vector<double> v;
+    std::string tok;
+    while (ss >> tok) {
+      try {
+        std::size_t used = 0;
+        v.push_back(std::stod(tok, &used));
+        if (used != tok.size()) throw std::invalid_argument(tok);
+      } catch (const std::exception&) {
+        // Raw KITTI calib files carry a "calib_time: <date>" line: keep it out of the numbers.
+        v.clear();
+        break;
+      }
+    }
+    if (!v.empty()) c.entries[key] = std::move(v);
+  }
+  auto need = [&](const std::string& key, std::size_t n) -> const std::vector<double>& {
+    auto it = c.entries.find(key);
+    if (it == c.entries.end()) throw InputError(path, "no '" + key + ":' entry");
+    if (it->second.size() != n)
+      throw InputError(path, "'" + key + ":' has " + std::to_string(it->second.size()) +
+                                 " numbers; expected " + std::to_string(n));
+    return it->second;
+  };
+  for (int i = 0; i < 4; ++i) {
+    const auto& v = need("P" + std::to_string(i), 12);
+    for (int r = 0; r < 3; ++r)
+      for (int col = 0; col < 4; ++col) c.P[i](r, col) = v[r * 4 + col];
+  }
+  if (c.entries.count("Tr_velo_to_cam")) {
+    c.object_format = true;
+    const Eigen::Isometry3d velo_to_cam = isoFrom34(need("Tr_velo_to_cam", 12));
+    Eigen::Isometry3d rect = Eigen::Isometry3d::Identity();
+    const auto& r0 = need("R0_rect", 9);
+    for (int r = 0; r < 3; ++r)
+      for (int col = 0; col < 3; ++col) rect.linear()(r, col) = r0[r * 3 + col];
+    c.T_cam_velo = rect * velo_to_cam;
+  } else if (c.entries.count("Tr")) {
+    c.T_cam_velo = isoFrom34(need("Tr", 12));
+  } else {
+    throw InputError(path,
+                     "no LiDAR->camera transform: expected 'Tr:' (odometry) or "
+                     "'R0_rect:' + 'Tr_velo_to_cam:' (object)");
+  }
+  return c;
+}
+
+CameraModel kittiCamera(const KittiCalib& calib, int index, int width_px, int height_px) {
+  CameraModel m;
+  m.name = "image_" + std::to_string(index);
+  m.width = width_px;
+  m.height = height_px;
+  m.P = calib.P[index];
+  m.T_camera_lidar = calib.T_cam_velo;
+  return m;
+}
+
+std::vector<Eigen::Isometry3d> readKittiPoses(const std::string& path) {
+  std::ifstream in(path);
+  if (!isFile(path) || !in) throw InputError(path, "poses file does not exist or cannot be read");
+  std::vector<Eigen::Isometry3d> poses;
+  std::string line;
+  int lineno = 0;
+  std::vector<double> v;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    std::istringstream ss(line);
+    v.clear();
+    double d;
+    while (ss >> d) v.push_back(d);
+    if (v.size() != 12 || !ss.eof()) {
+      throw InputError(path, "line " + std::to_string(lineno) +
+                                 ": expected 12 numbers (row-major 3x4 pose), got " +
+                                 std::to_string(v.size()));
+    }
+    poses.push_back(isoFrom34(v));
+  }
+  return poses;
+}
+
+Eigen::Isometry3d kittiLidarPose(const Eigen::Isometry3d& cam0_pose, const Eigen::Isometry3d& Tr) {
+  return Tr.inverse() * cam0_pose * Tr;
+}
+
+std::vector<double> readKittiTimes(const std::string& path) {
+  std::ifstream in(path);
+  if (!isFile(path) || !in) throw InputError(path, "times file does not exist or cannot be read");
+  std::vector<double> t;
+  std::string line;
+  int lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    try {
+      t.push_back(std::stod(line));
+    } catch (const std::exception&) {
+      throw InputError(path, "line " + std::to_string(lineno) + ": expected a time [s]");
+    }
+  }
+  return t;
+}
+
+std::string KittiLayout::scanPath(std::size_t i) const {
+  return (fs::path(root) / "velodyne" / (stems.at(i) + ".bin")).string();
+}
+std::string KittiLayout::labelPath(std::size_t i) const {
+  return (fs::path(root) / "labels" / (stems.at(i) + ".label")).string();
+}
+std::string KittiLayout::imagePath(std::size_t i) const {
+  return (fs::path(root) / "image_2" / (stems.at(i) + ".png")).string();
+}
+std::string KittiLayout::ringPath(std::size_t i) const {
+  return (fs::path(root) / "rings" / (stems.at(i) + ".bin")).string();
+}
+std::string KittiLayout::calibPath(std::size_t i) const {
+  if (kind == Kind::kObject) return (fs::path(root) / "calib" / (stems.at(i) + ".txt")).string();
+  return calib_file;
+}
+
+KittiLayout resolveKittiLayout(const std::string& path, const std::string& sequence) {
+  fs::path p(path);
+  if (!isDir(p)) throw ParamError("path", "'" + path + "' is not a folder");
+  fs::path folder;
+  fs::path dataset_root;  // for <root>/poses/NN.txt of the original odometry layout
+  std::string seq_name;
+  if (isDir(p / "velodyne")) {
+    folder = p;
+  } else if (isDir(p / "sequences")) {
+    std::vector<std::string> seqs;
+    for (const auto& e : fs::directory_iterator(p / "sequences"))
+      if (e.is_directory()) seqs.push_back(e.path().filename().string());
+    std::sort(seqs.begin(), seqs.end());
+    std::string list;
+    for (const auto& s : seqs) list += (list.empty() ? "" : ", ") + s;
+    if (sequence.empty()) {
+      if (seqs.size() != 1)
+        throw ParamError("sequence", "'" + path + "' holds several sequences (" + list +
+                                         "); set 'sequence' to one of them");
+      seq_name = seqs[0];
+    } else {
+      seq_name = sequence;
+      if (!isDir(p / "sequences" / seq_name)) {
+        // Accept "0" for "00".
+        if (seq_name.size() < 2) seq_name = std::string(2 - seq_name.size(), '0') + seq_name;
+        if (!isDir(p / "sequences" / seq_name))
+          throw ParamError("sequence", "no sequences/" + sequence + " under '" + path +
+                                           "' (available: " + list + ")");
+      }
+    }
+    folder = p / "sequences" / seq_name;
+    dataset_root = p;
+    if (!isDir(folder / "velodyne"))
+      throw ParamError("path", "'" + folder.string() + "' has no velodyne/ folder");
+  } else if (isDir(p / "training" / "velodyne")) {
+    folder = p / "training";
+  } else {
+    throw ParamError("path", "'" + path +
+                                 "' is not a KITTI folder: expected velodyne/ (a sequence or an "
+                                 "object 'training' folder), sequences/NN/velodyne/, or training/");
+  }
+  KittiLayout L;
+  L.root = folder.string();
+  L.kind = isDir(folder / "calib") ? KittiLayout::Kind::kObject : KittiLayout::Kind::kSequence;
+  L.stems = sortedStems(folder / "velodyne", ".bin");
+  if (L.kind == KittiLayout::Kind::kSequence) {
+    L.calib_file = (folder / "calib.txt").string();
+    if (isFile(folder / "poses.txt"))
+      L.poses_file = (folder / "poses.txt").string();
+    else if (!dataset_root.empty() && isFile(dataset_root / "poses" / (seq_name + ".txt")))
+      L.poses_file = (dataset_root / "poses" / (seq_name + ".txt")).string();
+    if (isFile(folder / "times.txt")) L.times_file = (folder / "times.txt").string();
+  }
+  return L;
+}
+
+}  // namespace terramrf

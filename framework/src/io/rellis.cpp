@@ -1,0 +1,163 @@
+#include "terramrf/io/rellis.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include "terramrf/errors.hpp"
+
+namespace terramrf {
+namespace fs = std::filesystem;
+namespace {
+
+bool allDigits(const std::string& s) {
+  return !s.empty() &&
+         std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); });
+}
+
+bool isDir(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_directory(p, ec);
+}
+bool isFile(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec);
+}
+
+/// frame<id>-<stamp>.<ext> files of `dir`, by id.
+std::map<std::string, std::string> cameraFiles(const fs::path& dir, const std::string& ext) {
+  std::map<std::string, std::string> out;
+  if (!isDir(dir)) return out;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (!e.is_regular_file() || e.path().extension() != ext) continue;
+    const std::string stem = e.path().stem().string();
+    if (stem.rfind("frame", 0) != 0) continue;
+    const auto dash = stem.find('-');
+    const std::string id = stem.substr(5, dash == std::string::npos ? std::string::npos : dash - 5);
+    if (allDigits(id)) out[id] = e.path().string();
+  }
+  return out;
+}
+
+std::string firstExisting(const std::vector<fs::path>& candidates) {
+  for (const auto& c : candidates)
+    if (isFile(c)) return c.string();
+  return "";
+}
+
+}  // namespace
+
+RellisLayout resolveRellisLayout(const std::string& path) {
+  const fs::path p(path);
+  if (!isDir(p)) throw ParamError("path", "'" + path + "' is not a folder");
+  RellisLayout L;
+  L.root = p.string();
+  fs::path scans = p, labels = p, images = p, image_labels = p;
+  if (isDir(p / "os1_cloud_node_kitti_bin")) {
+    scans = p / "os1_cloud_node_kitti_bin";
+    labels = p / "os1_cloud_node_semantickitti_label_id";
+    images = p / "pylon_camera_node";
+    image_labels = p / "pylon_camera_node_label_id";
+  }
+  const auto jpgs = cameraFiles(images, ".jpg");
+  const auto pngs = cameraFiles(image_labels, ".png");
+  for (const auto& e : fs::directory_iterator(scans)) {
+    if (!e.is_regular_file() || e.path().extension() != ".bin") continue;
+    const std::string id = e.path().stem().string();
+    if (!allDigits(id)) continue;
+    RellisFrameFiles f;
+    f.id = id;
+    f.scan = e.path().string();
+    const fs::path lab = labels / (id + ".label");
+    if (isFile(lab)) f.label = lab.string();
+    // Image file names carry the frame number without zero padding rules fixed: match by value.
+    for (const auto* m : {&jpgs, &pngs}) {
+      for (const auto& [img_id, file] : *m) {
+        if (std::stoull(img_id) == std::stoull(id)) (m == &jpgs ? f.image : f.image_label) = file;
+      }
+    }
+    L.frames.push_back(std::move(f));
+  }
+  std::sort(L.frames.begin(), L.frames.end(),
+            [](const RellisFrameFiles& a, const RellisFrameFiles& b) { return a.id < b.id; });
+  if (L.frames.empty())
+    throw ParamError("path", "no RELLIS-3D scans (NNNNNN.bin) in '" + scans.string() + "'");
+  L.camera_info = firstExisting({p / "camera_info.txt", p.parent_path() / "camera_info.txt"});
+  L.transforms = firstExisting({p / "transforms.yaml", p.parent_path() / "transforms.yaml"});
+  return L;
+}
+
+void organisedRings(PointCloud& cloud, const ScanReadInfo& info, int rings) {
+  cloud.ring.resize(cloud.size());
+  std::size_t out = 0, d = 0;
+  for (std::size_t i = 0; i < info.raw_points && out < cloud.ring.size(); ++i) {
+    if (d < info.dropped.size() && info.dropped[d] == i) {
+      ++d;
+      continue;
+    }
+    cloud.ring[out++] = static_cast<uint16_t>(i % rings);
+  }
+}
+
+Matrix34d readRellisIntrinsics(const std::string& path) {
+  std::ifstream in(path);
+  if (!isFile(path) || !in) throw InputError(path, "camera intrinsics file does not exist");
+  double fx, fy, cx, cy;
+  if (!(in >> fx >> fy >> cx >> cy) || fx <= 0 || fy <= 0)
+    throw InputError(path, "expected 'fx fy cx cy' [px] with positive focal lengths");
+  Matrix34d P = Matrix34d::Zero();
+  P(0, 0) = fx;
+  P(1, 1) = fy;
+  P(0, 2) = cx;
+  P(1, 2) = cy;
+  P(2, 2) = 1;
+  return P;
+}
+
+Eigen::Isometry3d readRellisCameraFromLidar(const std::string& path) {
+  if (!isFile(path)) throw InputError(path, "LiDAR-camera transform file does not exist");
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    throw InputError(path, std::string("not valid YAML: ") + e.what());
+  }
+  const YAML::Node t = root["os1_cloud_node-pylon_camera_node"];
+  if (!t || !t["q"] || !t["t"])
+    throw InputError(path,
+                     "expected 'os1_cloud_node-pylon_camera_node: {q: {w, x, y, z}, "
+                     "t: {x, y, z}}'");
+  Eigen::Quaterniond q;
+  Eigen::Vector3d tr;
+  try {
+    q = Eigen::Quaterniond(t["q"]["w"].as<double>(), t["q"]["x"].as<double>(),
+                           t["q"]["y"].as<double>(), t["q"]["z"].as<double>());
+    tr = {t["t"]["x"].as<double>(), t["t"]["y"].as<double>(), t["t"]["z"].as<double>()};
+  } catch (const YAML::Exception& e) {
+    throw InputError(path,
+                     std::string("q needs w, x, y, z and t needs x, y, z numbers: ") + e.what());
+  }
+  if (std::abs(q.norm() - 1.0) > 1e-3)
+    throw InputError(path, "quaternion norm " + std::to_string(q.norm()) + " is not 1");
+  Eigen::Isometry3d camera_in_lidar = Eigen::Isometry3d::Identity();
+  camera_in_lidar.linear() = q.normalized().toRotationMatrix();
+  camera_in_lidar.translation() = tr;
+  return camera_in_lidar.inverse();
+}
+
+CameraModel rellisCamera(const std::string& camera_info, const std::string& transforms,
+                         int width_px, int height_px) {
+  CameraModel m;
+  m.name = "pylon_camera";
+  m.width = width_px;
+  m.height = height_px;
+  m.P = readRellisIntrinsics(camera_info);
+  m.T_camera_lidar = readRellisCameraFromLidar(transforms);
+  return m;
+}
+
+}  // namespace terramrf

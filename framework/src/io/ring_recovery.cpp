@@ -1,0 +1,538 @@
+#include "terramrf/io/ring_recovery.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace terramrf {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kTwoPi = 2 * kPi;
+constexpr double kDeg = kPi / 180.0;
+
+double wrapPi(double a) {
+  while (a > kPi) a -= kTwoPi;
+  while (a <= -kPi) a += kTwoPi;
+  return a;
+}
+
+/// atan2 to ~1e-5 rad (0.0006°, far below a ring spacing of ~0.35°) at a fraction of libm's
+/// cost; two per point were a third of recoverRings.
+inline float fastAtan2(float y, float x) {
+  const float ax = std::fabs(x), ay = std::fabs(y);
+  const float mx = std::max(ax, ay), mn = std::min(ax, ay);
+  if (mx == 0.f) return 0.f;
+  const float a = mn / mx, s = a * a;
+  float r = ((((-0.0117212f * s + 0.05265332f) * s - 0.11643287f) * s + 0.19354346f) * s -
+             0.33262347f) * s * a + 0.99997726f * a;
+  if (ay > ax) r = 1.57079637f - r;
+  if (x < 0.f) r = 3.14159274f - r;
+  return y < 0.f ? -r : r;
+}
+
+/// Median of v[begin, end) (reorders that range).
+float medianOf(std::vector<float>& v, std::size_t begin, std::size_t end) {
+  if (begin >= end) return std::numeric_limits<float>::quiet_NaN();
+  auto mid = v.begin() + begin + (end - begin) / 2;
+  std::nth_element(v.begin() + begin, mid, v.begin() + end);
+  return *mid;
+}
+
+// Scratch arrays are thread_local and keep their capacity: fresh multi-megabyte allocations per
+// scan cost more in page faults than the whole computation.
+
+/// Elevation [deg] of every point, seen from (0, 0, z_offset).
+const std::vector<float>& elevationsDeg(const PointCloud& c, double z_offset_m) {
+  thread_local std::vector<float> el;
+  el.resize(c.size());
+  const float dz = static_cast<float>(z_offset_m), to_deg = static_cast<float>(1 / kDeg);
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const float r = std::sqrt(c.x[i] * c.x[i] + c.y[i] * c.y[i]);
+    el[i] = fastAtan2(c.z[i] - dz, r) * to_deg;
+  }
+  return el;
+}
+
+/// Per-ring median elevation (NaN for empty rings) via a counting sort of the elevations. Rings
+/// with many points are subsampled evenly to ~256 (the median barely moves; nth_element over
+/// every point was the largest cost of recoverRings).
+std::vector<float> ringMedians(const std::vector<uint16_t>& ring, const std::vector<float>& el,
+                               int nrings) {
+  constexpr std::size_t kSamples = 256;
+  std::vector<std::size_t> count(nrings, 0);
+  for (uint16_t r : ring)
+    if (r < nrings) ++count[r];
+  std::vector<std::size_t> stride(nrings), offs(nrings + 1, 0);
+  for (int k = 0; k < nrings; ++k) {
+    stride[k] = std::max<std::size_t>(1, count[k] / kSamples);
+    offs[k + 1] = offs[k] + (count[k] + stride[k] - 1) / stride[k];
+  }
+  thread_local std::vector<float> sorted;
+  sorted.resize(offs.back());
+  std::vector<std::size_t> pos(offs.begin(), offs.end() - 1), skip(nrings, 0);
+  for (std::size_t i = 0; i < ring.size(); ++i) {
+    const uint16_t r = ring[i];
+    if (r >= nrings) continue;
+    if (skip[r] == 0) {
+      sorted[pos[r]++] = el[i];
+      skip[r] = stride[r];
+    }
+    --skip[r];
+  }
+  std::vector<float> med(nrings);
+  for (int k = 0; k < nrings; ++k) med[k] = medianOf(sorted, offs[k], pos[k]);
+  return med;
+}
+
+/// Share of points whose elevation is nearest to their own ring's median.
+double elevationConsistency(const std::vector<uint16_t>& ring, const std::vector<float>& el,
+                            const std::vector<float>& med) {
+  std::vector<std::pair<float, int>> sorted;
+  for (int k = 0; k < int(med.size()); ++k)
+    if (std::isfinite(med[k])) sorted.push_back({med[k], k});
+  if (sorted.empty() || ring.empty()) return 0;
+  std::sort(sorted.begin(), sorted.end());
+  std::size_t good = 0;
+  for (std::size_t i = 0; i < ring.size(); ++i) {
+    auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(el[i], -1));
+    int best = -1;
+    float bd = std::numeric_limits<float>::infinity();
+    if (it != sorted.end()) bd = it->first - el[i], best = it->second;
+    if (it != sorted.begin()) {
+      auto p = std::prev(it);
+      if (el[i] - p->first < bd) best = p->second;
+    }
+    good += (best == ring[i]);
+  }
+  return double(good) / ring.size();
+}
+
+int countViolations(const std::vector<float>& med) {
+  int v = 0;
+  float last = std::numeric_limits<float>::quiet_NaN();
+  for (float m : med) {
+    if (!std::isfinite(m)) continue;
+    if (std::isfinite(last) && !(m < last)) ++v;
+    last = m;
+  }
+  return v;
+}
+
+/// Moves the head of each ring that the first-point cut put at the end of the previous run.
+/// Runs are split where the azimuth (measured from the first point) steps back. If the first
+/// point is not where the sweep starts (the first ring has no return there, or the file begins
+/// mid-ring), every run ends with the first degrees of the next ring. The cut that fits the
+/// elevations best is found over a 0.05° azimuth histogram: moving the points at azimuth >= c of
+/// run s to run s+1 changes the summed elevation misfit by the sum of their per-point deltas.
+void refineCut(const std::vector<float>& a, const std::vector<float>& el, std::vector<int>& seg,
+               int nseg) {
+  if (nseg < 2) return;
+  thread_local std::vector<uint16_t> ids;
+  ids.assign(seg.begin(), seg.end());
+  const std::vector<float> med = ringMedians(ids, el, nseg);
+  constexpr int kBins = 7200;   // 0.05°
+  constexpr float kCap = 1.0f;  // [deg] misfit cap, so near-range points and edges do not dominate
+  std::vector<double> gain(kBins, 0.0);
+  std::vector<std::size_t> count(kBins, 0);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const int s = seg[i];
+    if (s + 1 >= nseg || !std::isfinite(med[s]) || !std::isfinite(med[s + 1])) continue;
+    const float now = std::min(kCap, std::fabs(el[i] - med[s]));
+    const float moved = std::min(kCap, std::fabs(el[i] - med[s + 1]));
+    const int b = std::min(kBins - 1, int(a[i] / kTwoPi * kBins));
+    gain[b] += moved - now;
+    ++count[b];
+  }
+  double sum = 0, best = 0;
+  std::size_t moved = 0, best_moved = 0;
+  int best_bin = kBins;
+  for (int b = kBins - 1; b > 0; --b) {
+    sum += gain[b];
+    moved += count[b];
+    if (sum < best) best = sum, best_bin = b, best_moved = moved;
+  }
+  // Only a clear gain (a ring spacing is 0.3-0.5°) moves points.
+  if (best_bin == kBins || best > -0.1 * double(best_moved)) return;
+  const float cut = float(best_bin) / kBins * float(kTwoPi);
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (seg[i] + 1 < nseg && a[i] >= cut) ++seg[i];
+}
+
+/// Scan-order segmentation. Returns false (with a reason) when the order carries no rings.
+bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nrings,
+                    std::vector<uint16_t>& ring, RingRecoveryStats& st) {
+  const std::size_t n = c.size();
+  thread_local std::vector<float> az, a;
+  thread_local std::vector<int> seg;
+  az.resize(n);
+  for (std::size_t i = 0; i < n; ++i) az[i] = fastAtan2(c.y[i], c.x[i]);
+  // Sweep direction and evidence of ring-major order: most steps are small and one-signed.
+  std::size_t fwd = 0, bwd = 0;
+  const double small = 5 * kDeg;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double d = wrapPi(double(az[i]) - az[i - 1]);
+    if (d > 0 && d < small)
+      ++fwd;
+    else if (d < 0 && d > -small)
+      ++bwd;
+  }
+  const int dir = fwd >= bwd ? 1 : -1;
+  st.ordered_fraction = double(std::max(fwd, bwd)) / double(n - 1);
+  if (st.ordered_fraction < 0.5) {
+    st.fallback_reason = "points are not in scan order (" +
+                         std::to_string(int(st.ordered_fraction * 100 + 0.5)) +
+                         "% small forward azimuth steps)";
+    return false;
+  }
+  // Azimuth in the sweep direction from the first point: every ring sweeps one turn from the
+  // same cut (KITTI cuts facing forward); refineCut() corrects the guess.
+  const double start = az[0] - dir * 0.01 * kDeg;
+  a.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    double v = dir * (double(az[i]) - start);  // within (-3π, 3π)
+    while (v < 0) v += kTwoPi;
+    while (v >= kTwoPi) v -= kTwoPi;
+    a[i] = static_cast<float>(v);
+  }
+  // A ring starts where the azimuth steps back by more than kBack below the recent level of the
+  // current run and stays there: a lone point across the cut, or jitter of near points, does not.
+  constexpr float kBack = float(10 * kDeg);
+  constexpr std::size_t kWindow = 9, kPersist = 2;
+  seg.assign(n, 0);
+  int s = 0;
+  std::size_t run_start = 0;
+  float window[kWindow];
+  for (std::size_t i = 1; i < n; ++i) {
+    if (a[i] < a[i - 1] - kBack) {
+      const std::size_t from = std::max(run_start, i > kWindow ? i - kWindow : 0);
+      const std::size_t m = i - from;
+      std::copy(a.begin() + from, a.begin() + i, window);
+      std::nth_element(window, window + m / 2, window + m);
+      const float level = window[m / 2] - kBack;
+      bool persists = a[i] < level;
+      for (std::size_t j = 1; j < kPersist && i + j < n && persists; ++j)
+        persists = a[i + j] < level;
+      if (persists) ++s, run_start = i;
+    }
+    seg[i] = s;
+  }
+  const int nseg = s + 1;
+  st.segments = nseg;
+  if (nseg > 2 * nrings + 16) {
+    st.fallback_reason = "scan order gives " + std::to_string(nseg) + " azimuth runs for " +
+                         std::to_string(nrings) + " rings";
+    return false;
+  }
+  if (nseg < (nrings + 1) / 2) {
+    // Firing (column) order or a single sweep: the runs are not rings.
+    st.fallback_reason = "scan order gives " + std::to_string(nseg) + " azimuth runs for " +
+                         std::to_string(nrings) + " rings";
+    return false;
+  }
+  refineCut(a, el, seg, nseg);
+  std::vector<float> med;
+  {
+    thread_local std::vector<uint16_t> ids;
+    ids.assign(seg.begin(), seg.end());
+    med = ringMedians(ids, el, nseg);
+  }
+  // Runs listed bottom ring first are reversed so that ring 0 is the top beam.
+  const bool reversed = countViolations(med) > nseg / 2;
+  if (reversed) std::reverse(med.begin(), med.end());
+  // Too many runs: merge neighbours with (nearly) the same elevation, i.e. one ring cut twice.
+  std::vector<int> id(nseg);
+  std::iota(id.begin(), id.end(), 0);
+  int groups = nseg;
+  if (groups > nrings) {
+    std::vector<float> gaps;
+    for (int k = 0; k + 1 < nseg; ++k) gaps.push_back(med[k] - med[k + 1]);
+    std::vector<float> g2(gaps);
+    const float typical = g2.empty() ? 0.f : medianOf(g2, 0, g2.size());
+    std::vector<int> order(gaps.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(),
+              [&](int l, int r) { return std::fabs(gaps[l]) < std::fabs(gaps[r]); });
+    std::vector<char> merge(gaps.size(), 0);
+    for (int k : order) {
+      if (groups <= nrings) break;
+      if (std::fabs(gaps[k]) > 0.3f * typical) break;
+      merge[k] = 1;
+      --groups;
+    }
+    if (groups > nrings) {
+      st.fallback_reason = "scan order gives " + std::to_string(nseg) + " azimuth runs for " +
+                           std::to_string(nrings) + " rings";
+      return false;
+    }
+    int cur = 0;
+    for (int k = 0; k < nseg; ++k) {
+      if (k > 0 && !merge[k - 1]) ++cur;
+      id[k] = cur;
+    }
+  }
+  // Too few runs: rings with no return at all. Usually the top beams (open sky), so that is
+  // where they go unless an elevation gap is clearly a hole: >= 2.5 times its neighbours' (a
+  // single missing ring in a uniform block makes 2, but HDL-64E's gap between its two laser
+  // blocks is already ~1.9 times the spacing next to it).
+  if (groups < nrings) {
+    int missing = nrings - groups;
+    std::vector<float> gmed(groups, std::numeric_limits<float>::quiet_NaN());
+    for (int k = 0; k < nseg; ++k)
+      if (!std::isfinite(gmed[id[k]])) gmed[id[k]] = med[k];
+    std::vector<int> extra(groups, 0);  // extra ids inserted before group g
+    std::vector<std::pair<float, int>> ratios;
+    for (int g = 0; g + 1 < groups; ++g) {
+      std::vector<float> nb;
+      for (int j = g - 2; j <= g + 2; ++j)
+        if (j != g && j >= 0 && j + 1 < groups) nb.push_back(gmed[j] - gmed[j + 1]);
+      if (nb.empty()) continue;
+      const float local = medianOf(nb, 0, nb.size());
+      if (local > 0) ratios.push_back({(gmed[g] - gmed[g + 1]) / local, g});
+    }
+    std::sort(ratios.rbegin(), ratios.rend());
+    for (const auto& [ratio, g] : ratios) {
+      if (missing == 0 || ratio < 2.5f) break;
+      const int add = std::min(missing, std::max(1, int(std::lround(ratio)) - 1));
+      extra[g + 1] += add;
+      missing -= add;
+    }
+    std::vector<int> shift(groups, 0);
+    int acc = missing;  // leftover: assumed above the top run
+    for (int g = 0; g < groups; ++g) {
+      acc += extra[g];
+      shift[g] = acc;
+    }
+    for (int k = 0; k < nseg; ++k) id[k] += shift[id[k]];
+    st.missing_rings = nrings - groups;
+  }
+  ring.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const int k = reversed ? nseg - 1 - seg[i] : seg[i];  // top-first index
+    ring[i] = static_cast<uint16_t>(id[k]);
+  }
+  return true;
+}
+
+void elevationRings(const std::vector<float>& el, const RingRecoveryOptions& o,
+                    std::vector<uint16_t>& ring) {
+  std::vector<double> centres;  // descending elevation: ring 0 first
+  if (!o.elevations_deg.empty()) {
+    centres = o.elevations_deg;
+  } else {
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    for (float e : el) lo = std::min(lo, e), hi = std::max(hi, e);
+    constexpr double kBin = 0.02;  // [deg]
+    const int nb = std::min(20000, int((hi - lo) / kBin) + 1);
+    const double bin = std::max(kBin, double(hi - lo) / std::max(1, nb - 1));
+    std::vector<double> h(nb, 0.0), hs(nb, 0.0);
+    for (float e : el) h[std::min(nb - 1, int((e - lo) / bin))] += 1;
+    constexpr int kHalf = 6;
+    double kern[2 * kHalf + 1];
+    for (int j = -kHalf; j <= kHalf; ++j) kern[j + kHalf] = std::exp(-0.5 * (j / 2.0) * (j / 2.0));
+    for (int i = 0; i < nb; ++i)
+      for (int j = -kHalf; j <= kHalf; ++j)
+        if (i + j >= 0 && i + j < nb) hs[i] += h[i + j] * kern[j + kHalf];
+    std::vector<std::pair<double, int>> peaks;
+    for (int i = 0; i < nb; ++i) {
+      const double l = i > 0 ? hs[i - 1] : 0, r = i + 1 < nb ? hs[i + 1] : 0;
+      if (hs[i] > 0 && hs[i] > l && hs[i] >= r) peaks.push_back({hs[i], i});
+    }
+    std::sort(peaks.rbegin(), peaks.rend());
+    if (int(peaks.size()) > o.rings) peaks.resize(o.rings);
+    for (const auto& p : peaks) centres.push_back(lo + (p.second + 0.5) * bin);
+  }
+  std::sort(centres.rbegin(), centres.rend());
+  // Boundaries halfway between neighbouring centres (descending).
+  std::vector<double> bounds;
+  for (std::size_t k = 0; k + 1 < centres.size(); ++k)
+    bounds.push_back(0.5 * (centres[k] + centres[k + 1]));
+  ring.resize(el.size());
+  for (std::size_t i = 0; i < el.size(); ++i) {
+    // Number of boundaries above the point = its ring.
+    auto it = std::upper_bound(bounds.begin(), bounds.end(), double(el[i]), std::greater<double>());
+    ring[i] = static_cast<uint16_t>(it - bounds.begin());
+  }
+}
+
+}  // namespace
+
+const char* toString(RingMethod m) {
+  switch (m) {
+    case RingMethod::kScanOrder:
+      return "scan_order";
+    case RingMethod::kElevation:
+      return "elevation";
+    case RingMethod::kNone:
+      break;
+  }
+  return "none";
+}
+
+RingRecoveryStats recoverRings(PointCloud& cloud, const RingRecoveryOptions& o) {
+  RingRecoveryStats st;
+  st.points = cloud.size();
+  cloud.ring.clear();
+  const int nrings = std::max(1, o.rings);
+  if (cloud.size() < std::size_t(nrings) * std::max(1, o.min_points_per_ring)) {
+    st.fallback_reason = "too few points (" + std::to_string(cloud.size()) + ") for " +
+                         std::to_string(nrings) + " rings";
+    return st;
+  }
+  const std::vector<float>& el = elevationsDeg(cloud, o.z_offset_m);
+  std::vector<uint16_t> ring;
+  bool done = false;
+  if (o.use_scan_order) {
+    done = scanOrderRings(cloud, el, nrings, ring, st);
+    if (done) {
+      const auto med = ringMedians(ring, el, nrings);
+      st.monotonic_violations = countViolations(med);
+      // A few rings out of elevation order are tolerated (a sparse ring's median can sit off);
+      // more means the runs are not rings.
+      if (st.monotonic_violations > std::max(2, nrings / 16)) {
+        st.fallback_reason = "scan-order runs are not ordered by elevation (" +
+                             std::to_string(st.monotonic_violations) + " inversions)";
+        done = false;
+      } else {
+        st.method = RingMethod::kScanOrder;
+      }
+    }
+  } else {
+    st.fallback_reason = "scan order disabled";
+  }
+  if (!done) {
+    elevationRings(el, o, ring);
+    st.method = RingMethod::kElevation;
+  }
+  st.ring_median_elevation_deg = ringMedians(ring, el, nrings);
+  st.monotonic_violations = countViolations(st.ring_median_elevation_deg);
+  st.rings_found = 0;
+  for (float m : st.ring_median_elevation_deg) st.rings_found += std::isfinite(m);
+  st.elevation_consistency = elevationConsistency(ring, el, st.ring_median_elevation_deg);
+  cloud.ring = std::move(ring);
+  return st;
+}
+
+// ---- sensor origin ------------------------------------------------------------------------
+
+void translateXY(PointCloud& cloud, double dx_m, double dy_m) {
+  const float dx = static_cast<float>(dx_m), dy = static_cast<float>(dy_m);
+  for (auto& v : cloud.x) v += dx;
+  for (auto& v : cloud.y) v += dy;
+}
+
+SensorOriginEstimate estimateSensorOrigin(const PointCloud& c) {
+  SensorOriginEstimate est;
+  const std::size_t n = c.size();
+  if (n < 500) {
+    est.note = "too few points (" + std::to_string(n) + ")";
+    return est;
+  }
+  // 1. Coarse: point density is highest within ~10 m of a rotating LiDAR. Densest 17×17 m
+  //    window of a 1 m occupancy grid (summed-area table).
+  double xmin = c.x[0], xmax = xmin, ymin = c.y[0], ymax = ymin;
+  for (std::size_t i = 0; i < n; ++i) {
+    xmin = std::min<double>(xmin, c.x[i]), xmax = std::max<double>(xmax, c.x[i]);
+    ymin = std::min<double>(ymin, c.y[i]), ymax = std::max<double>(ymax, c.y[i]);
+  }
+  const double cell = std::max({1.0, (xmax - xmin) / 1000.0, (ymax - ymin) / 1000.0});
+  const int nx = int((xmax - xmin) / cell) + 1, ny = int((ymax - ymin) / cell) + 1;
+  std::vector<double> sat(std::size_t(nx + 1) * (ny + 1), 0.0);
+  auto S = [&](int ix, int iy) -> double& { return sat[std::size_t(iy) * (nx + 1) + ix]; };
+  for (std::size_t i = 0; i < n; ++i) {
+    const int ix = std::min(nx - 1, int((c.x[i] - xmin) / cell));
+    const int iy = std::min(ny - 1, int((c.y[i] - ymin) / cell));
+    S(ix + 1, iy + 1) += 1;
+  }
+  for (int iy = 1; iy <= ny; ++iy)
+    for (int ix = 1; ix <= nx; ++ix) S(ix, iy) += S(ix - 1, iy) + S(ix, iy - 1) - S(ix - 1, iy - 1);
+  const int R = std::max(1, int(8.0 / cell));
+  double best = -1;
+  Eigen::Vector2d centre(0, 0);
+  for (int iy = 0; iy < ny; ++iy) {
+    for (int ix = 0; ix < nx; ++ix) {
+      const int x0 = std::max(0, ix - R), x1 = std::min(nx, ix + R + 1);
+      const int y0 = std::max(0, iy - R), y1 = std::min(ny, iy + R + 1);
+      const double s = S(x1, y1) - S(x0, y1) - S(x1, y0) + S(x0, y0);
+      if (s > best) best = s, centre = {xmin + (ix + 0.5) * cell, ymin + (iy + 0.5) * cell};
+    }
+  }
+  // 2. Fine: the nearest point in each 2° azimuth sector lies on the innermost ground ring, a
+  //    circle around the sensor. Fit it (Kåsa), drop outliers (near objects), re-sector, repeat.
+  constexpr int kSectors = 180;
+  constexpr double kSearchRadius = 15.0;  // [m]
+  std::vector<int> nearest(kSectors);
+  std::vector<double> nearest_r(kSectors);
+  std::vector<int> sel;
+  double radius = 0;
+  for (int iter = 0; iter < 8; ++iter) {
+    std::fill(nearest.begin(), nearest.end(), -1);
+    std::fill(nearest_r.begin(), nearest_r.end(), kSearchRadius);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double dx = c.x[i] - centre.x(), dy = c.y[i] - centre.y();
+      const double r = std::hypot(dx, dy);
+      if (r >= kSearchRadius) continue;
+      const int s = std::min(kSectors - 1, int((std::atan2(dy, dx) + kPi) / kTwoPi * kSectors));
+      if (r < nearest_r[s]) nearest_r[s] = r, nearest[s] = int(i);
+    }
+    sel.clear();
+    for (int s : nearest)
+      if (s >= 0) sel.push_back(s);
+    Eigen::Vector2d fitted = centre;
+    for (int trim = 0; trim < 3 && sel.size() >= 10; ++trim) {
+      Eigen::MatrixXd A(sel.size(), 3);
+      Eigen::VectorXd b(sel.size());
+      for (std::size_t k = 0; k < sel.size(); ++k) {
+        const double x = c.x[sel[k]] - centre.x(), y = c.y[sel[k]] - centre.y();
+        A.row(k) << x, y, 1.0;
+        b(k) = x * x + y * y;
+      }
+      const Eigen::Vector3d s = A.colPivHouseholderQr().solve(b);
+      const Eigen::Vector2d cc(s(0) / 2, s(1) / 2);
+      radius = std::sqrt(std::max(0.0, s(2) + cc.squaredNorm()));
+      fitted = centre + cc;
+      std::vector<double> res(sel.size());
+      for (std::size_t k = 0; k < sel.size(); ++k)
+        res[k] = std::fabs(std::hypot(c.x[sel[k]] - fitted.x(), c.y[sel[k]] - fitted.y()) - radius);
+      std::vector<double> tmp(res);
+      std::nth_element(tmp.begin(), tmp.begin() + tmp.size() / 2, tmp.end());
+      const double tol = std::max(0.2, 3 * tmp[tmp.size() / 2]);
+      std::vector<int> keep;
+      for (std::size_t k = 0; k < sel.size(); ++k)
+        if (res[k] < tol) keep.push_back(sel[k]);
+      sel.swap(keep);
+    }
+    const double moved = (fitted - centre).norm();
+    centre = fitted;
+    if (moved < 1e-3) break;
+  }
+  if (sel.size() < 40) {
+    est.note = "no ring of near points around the densest area (" + std::to_string(sel.size()) +
+               " on a circle)";
+    return est;
+  }
+  // 3. Slope: on ground rising along g the ring comes closer on that side, which moves the
+  //    fitted circle by -(R²/h)·g from the sensor (h = sensor height above the ground).
+  Eigen::MatrixXd A(sel.size(), 3);
+  Eigen::VectorXd zb(sel.size());
+  for (std::size_t k = 0; k < sel.size(); ++k) {
+    A.row(k) << 1.0, c.x[sel[k]] - centre.x(), c.y[sel[k]] - centre.y();
+    zb(k) = c.z[sel[k]];
+  }
+  const Eigen::Vector3d plane = A.colPivHouseholderQr().solve(zb);
+  const double h = -plane(0);
+  if (h > 0.3) {
+    Eigen::Vector2d corr = (radius * radius / h) * Eigen::Vector2d(plane(1), plane(2));
+    if (corr.norm() > 1.5) corr *= 1.5 / corr.norm();
+    centre += corr;
+  }
+  est.ok = true;
+  est.origin_m = centre;
+  est.ring_radius_m = radius;
+  est.inliers = int(sel.size());
+  return est;
+}
+
+}  // namespace terramrf

@@ -1,0 +1,56 @@
+#pragma once
+// Exports of the textured terrain mesh: OBJ + MTL + one PNG texture per tile, PLY with per-vertex
+// colour and class (CGAL::Surface_mesh), binary glTF 2.0 (.glb, textures embedded; opens in
+// browser viewers). All files of one export go to a temporary folder first, which then replaces
+// the target folder, so a failing export never replaces a good one.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "terramrf/image.hpp"
+#include "terramrf/meshing/terrain_mesh.hpp"
+
+namespace terramrf::meshing {
+
+/// One tile as an indexed triangle mesh, vertices with data only.
+struct TileMesh {
+  std::string name;                     ///< "tile_<ti>_<tj>" (negative indices as m3 etc.)
+  std::vector<std::array<double, 3>> positions;  ///< world [m]
+  std::vector<std::array<float, 2>> uvs;         ///< OBJ convention (v up), in [0, 1]
+  std::vector<std::array<uint8_t, 3>> colours;   ///< texture colour at the vertex
+  std::vector<uint8_t> classes;                  ///< VertexClass
+  std::vector<std::array<uint32_t, 3>> triangles;  ///< counter-clockwise seen from above
+  const Image* texture = nullptr;
+};
+
+/// Triangulates every tile: a cell whose four corners have data gives two triangles (split along
+/// the diagonal with the smaller height difference), three corners give one. Only vertices used
+/// by a triangle are kept. Tiles without triangles are left out.
+std::vector<TileMesh> extractTileMeshes(const TerrainMesh& mesh);
+
+struct ExportOptions {
+  bool obj = true;
+  bool ply = true;
+  bool gltf = true;
+  std::string basename = "terrain";  ///< terrain.obj / .mtl / .ply / .glb
+};
+
+struct ExportStats {
+  std::size_t tiles = 0, vertices = 0, triangles = 0;
+  std::vector<std::string> files;  ///< relative to the export folder
+};
+
+/// Writes the selected formats into `dir` (created; its previous content is replaced only when
+/// every file was written). Throws std::runtime_error naming the folder and the cause.
+ExportStats exportMesh(const TerrainMesh& mesh, const std::string& dir, const ExportOptions& options);
+
+/// Checks that `dir` can be created and written; throws std::runtime_error with a clear message.
+void checkWritableFolder(const std::string& dir);
+
+// Writers for one format each (used by exportMesh; `dir` must exist).
+void writeObj(const std::vector<TileMesh>& tiles, const std::string& dir, const std::string& base);
+void writePly(const std::vector<TileMesh>& tiles, const std::string& path);
+void writeGlb(const std::vector<TileMesh>& tiles, const std::string& path);
+
+}  // namespace terramrf::meshing

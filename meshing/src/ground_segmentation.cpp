@@ -1,0 +1,183 @@
+#include "terramrf/meshing/ground_segmentation.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "terramrf/errors.hpp"
+#include "terramrf/label_set.hpp"
+
+namespace terramrf::meshing {
+
+GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
+                                 const PointCloud& pts, const GroundSegParams& p,
+                                 const std::string& name) {
+  if (image.channels != 3)
+    throw InputError(name, "camera image has " + std::to_string(image.channels) +
+                               " channel(s); expected RGB for ground segmentation");
+  if (cam.width && cam.height && (cam.width != image.width || cam.height != image.height))
+    throw InputError(name, "image is " + std::to_string(image.width) + "x" +
+                               std::to_string(image.height) + " px but the camera model says " +
+                               std::to_string(cam.width) + "x" + std::to_string(cam.height));
+  const int W = image.width, H = image.height;
+  GroundSegmentation g;
+  g.width = W;
+  g.height = H;
+  std::vector<uint8_t> seed(std::size_t(W) * H, 0);
+  ColourModel colours(p.colour_bins, H, p.colour_band_rows);
+  std::vector<uint32_t> lidar_obj;  // pixels of non-ground points
+  const double lo = -p.sensor_height_m - p.band_m, hi = -p.sensor_height_m + p.band_m;
+  const double obj = hi + p.object_above_m;
+  // Column cells around the sensor: lowest/highest point per cell, and the lowest/highest over
+  // the (2·nb+1)² neighbourhood, for local (slope-independent) object and ditch tests.
+  const double reach = 60.0, cs = p.seed_cell_m;
+  const int nc = int(2 * reach / cs);
+  std::vector<float> zlo(std::size_t(nc) * nc, 1e9f), zhi(std::size_t(nc) * nc, -1e9f);
+  auto cellOf = [&](double x, double y) -> int {
+    const int r = int((x + reach) / cs), c = int((y + reach) / cs);
+    return (x + reach < 0 || y + reach < 0 || r >= nc || c >= nc) ? -1 : r * nc + c;
+  };
+  std::vector<int> cell_of(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const int c = cell_of[i] = cellOf(pts.x[i], pts.y[i]);
+    if (c < 0) continue;
+    zlo[c] = std::min(zlo[c], pts.z[i]);
+    zhi[c] = std::max(zhi[c], pts.z[i]);
+  }
+  const int nb = std::max(1, int(std::lround(p.neighbourhood_m / cs)));
+  auto filter = [&](const std::vector<float>& in, bool take_min) {
+    std::vector<float> tmp(in.size()), out(in.size());
+    auto pick = [&](float a, float b) { return take_min ? std::min(a, b) : std::max(a, b); };
+    for (int r = 0; r < nc; ++r)
+      for (int c = 0; c < nc; ++c) {
+        float m = in[r * nc + c];
+        for (int k = std::max(0, c - nb); k <= std::min(nc - 1, c + nb); ++k) m = pick(m, in[r * nc + k]);
+        tmp[r * nc + c] = m;
+      }
+    for (int r = 0; r < nc; ++r)
+      for (int c = 0; c < nc; ++c) {
+        float m = tmp[r * nc + c];
+        for (int k = std::max(0, r - nb); k <= std::min(nc - 1, r + nb); ++k) m = pick(m, tmp[k * nc + c]);
+        out[r * nc + c] = m;
+      }
+    return out;
+  };
+  const std::vector<float> nlo = filter(zlo, true), nhi = filter(zhi, false);
+  const double below_r2 = p.below_sample_range_m * p.below_sample_range_m;
+  // Eq. 7: t = K R [I | −C] T, here P · T_camera_lidar (CameraModel::projectUnbounded).
+  const Eigen::Matrix3d R = cam.T_camera_lidar.linear();
+  const Eigen::Vector3d tr = cam.T_camera_lidar.translation();
+  const bool plain = cam.distortion == std::array<double, 5>{0, 0, 0, 0, 0};
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const double z = pts.z[i];
+    const double r2 = double(pts.x[i]) * pts.x[i] + double(pts.y[i]) * pts.y[i];
+    const int cell = cell_of[i];
+    // Object: clearly above the lowest point around it. Ditch: clearly below the highest point
+    // around it and below the band. Both give non-ground colour samples.
+    // An object has height within its own cell (a wall, a crown, a car's side), or stands far
+    // above everything around it; flat ground beside a ditch is above the ditch floor but flat.
+    const bool is_obj = cell >= 0 ? (z - nlo[cell] >= p.object_above_m &&
+                                     (zhi[cell] - zlo[cell] >= p.seed_max_step_m ||
+                                      (z - nlo[cell] >= 1.5 && z > hi + 1.0)))
+                                  : z >= obj;
+    const bool below = z < lo - 0.1 && r2 < below_r2 && cell >= 0 && nhi[cell] - z >= p.object_above_m;
+    bool in_band = z >= lo && z <= hi && !is_obj;
+    // Hills: the flat-world band misses ground that rises or falls away from the vehicle; a
+    // point at the bottom of a flat neighbourhood is ground as well.
+    if (!in_band && p.local_seeds && cell >= 0 && !is_obj && z - nlo[cell] < 0.5 * p.band_m &&
+        nhi[cell] - nlo[cell] < p.local_relief_m &&
+        std::abs(z + p.sensor_height_m) <= p.band_m + p.local_max_slope * std::sqrt(r2))
+      in_band = true;
+    if (!in_band && !is_obj && !below) continue;
+    const Eigen::Vector3d pl(pts.x[i], pts.y[i], z);
+    double uf, vf;
+    if (plain) {
+      const Eigen::Vector3d pc = R * pl + tr;
+      if (pc.z() <= 1e-6) continue;
+      const Eigen::Vector3d q = cam.P * pc.homogeneous();
+      uf = q.x() / q.z();
+      vf = q.y() / q.z();
+    } else {
+      const auto uv = cam.projectUnbounded(pl);
+      if (!uv) continue;
+      uf = uv->x();
+      vf = uv->y();
+    }
+    const int u = int(std::floor(uf + 0.5)), v = int(std::floor(vf + 0.5));
+    if (u < 0 || v < 0 || u >= W || v >= H) continue;
+    ++g.projected_points;
+    const std::size_t s = std::size_t(v) * W + u;
+    if (in_band) {
+      const bool flat = cell < 0 || zhi[cell] - zlo[cell] < p.seed_max_step_m;
+      if (!flat) continue;
+      if (!seed[s]) {
+        seed[s] = 1;
+        ++g.seeds;
+      }
+      colours.add(&image.data[s * 3], true, v);
+    } else {
+      colours.add(&image.data[s * 3], false, v);
+      ++g.object_samples;
+      lidar_obj.push_back(uint32_t(s));
+    }
+  }
+  if (g.projected_points == 0)
+    throw InputError(name, "no LiDAR point projects into the camera image (does the camera pose "
+                           "look away from the scan?); expected part of the scan in view");
+  colours.finish();
+  std::vector<uint8_t> observed = colours.classify(image);
+  // Where the LiDAR saw the pixel, its geometry is the observation (eq. 10); colour elsewhere.
+  const int rad = p.lidar_observation_px;
+  auto paint = [&](std::size_t s, uint8_t val) {
+    const int u = int(s % W), v = int(s / W);
+    for (int dv = -rad; dv <= rad; ++dv)
+      for (int du = -rad; du <= rad; ++du) {
+        const int uu = u + du, vv = v + dv;
+        if (uu >= 0 && vv >= 0 && uu < W && vv < H) observed[std::size_t(vv) * W + uu] = val;
+      }
+  };
+  for (std::size_t s = 0; s < seed.size(); ++s)
+    if (seed[s]) paint(s, 1);
+  for (uint32_t s : lidar_obj) paint(s, 0);
+  // Between two ground returns of neighbouring beams in one image column there is ground: fill
+  // the gap (lane markings and other ground texture the colour model calls non-ground).
+  if (p.column_fill_px > 0) {
+    std::vector<int8_t> cls(seed.size(), -1);
+    for (std::size_t s = 0; s < seed.size(); ++s)
+      if (seed[s]) cls[s] = 1;
+    for (uint32_t s : lidar_obj) cls[s] = 0;
+    for (int u = 0; u < W; ++u) {
+      int last_v = -1, last_c = -1;
+      for (int v = 0; v < H; ++v) {
+        const int c = cls[std::size_t(v) * W + u];
+        if (c < 0) continue;
+        if (c == 1 && last_c == 1 && v - last_v <= p.column_fill_px)
+          for (int k = last_v + 1; k < v; ++k) observed[std::size_t(k) * W + u] = 1;
+        last_v = v;
+        last_c = c;
+      }
+    }
+  }
+  PixelMrfResult r = solvePixelMrf(image, seed, observed, {}, p.mrf);
+  g.ground = std::move(r.label);
+  g.evaluated = r.evaluated;
+  g.sweeps = r.sweeps;
+  g.seed = std::move(seed);
+  g.observed = std::move(observed);
+  return g;
+}
+
+GroundConfusion compareGround(const GroundSegmentation& seg, const Image& truth) {
+  GroundConfusion c;
+  if (truth.width != seg.width || truth.height != seg.height || truth.channels != 1) return c;
+  const std::size_t N = std::size_t(seg.width) * seg.height;
+  for (std::size_t s = 0; s < N; ++s) {
+    const LabelId t = truth.data[s];
+    const bool tg = t == labels::kRoad || t == labels::kRough;
+    const bool pg = seg.ground[s] != 0;
+    if (tg) (pg ? c.tp : c.fn)++;
+    else (pg ? c.fp : c.tn)++;
+  }
+  return c;
+}
+
+}  // namespace terramrf::meshing

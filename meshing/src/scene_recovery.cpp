@@ -1,0 +1,161 @@
+#include "terramrf/meshing/scene_recovery.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace terramrf::meshing {
+
+namespace {
+bool isObjectVertex(const Tile& t, int k) {
+  return t.count[k] > 0 && t.object_votes[k] > t.ground_votes[k];
+}
+}  // namespace
+
+SceneRecoveryStats recoverHeights(TerrainMesh& mesh, const CameraView& view, const Image& image,
+                                  const GroundSegmentation& ground, const PointCloud& points,
+                                  const SceneRecoveryParams& p) {
+  SceneRecoveryStats st;
+  const int W = image.width, H = image.height;
+  const std::size_t N = std::size_t(W) * H;
+  if (ground.ground.size() != N) return st;
+  const int span = mesh.tileSpan();
+  const double cell = mesh.params().cell_m, L = span * cell;
+  const Eigen::Vector3d C = view.centre();
+
+  // ---- object seeds: visible object vertices and the frame's non-ground LiDAR pixels --------
+  std::vector<uint8_t> seed(N, 0), allowed(N, 0);
+  for (std::size_t s = 0; s < N; ++s) allowed[s] = ground.ground[s] ? 0 : 1;
+  ColourModel colours(16);
+  struct Candidate {
+    Tile* tile;
+    int k;
+    Eigen::Vector3d p;
+    Eigen::Vector2d uv;
+    double depth;
+  };
+  std::vector<Candidate> cands;
+  for (auto& [key, tp] : mesh.tiles()) {
+    Tile& t = *tp;
+    const double x0 = t.ti * L, y0 = t.tj * L;
+    const double dx = std::max({x0 - C.x(), 0.0, C.x() - (x0 + L)});
+    const double dy = std::max({y0 - C.y(), 0.0, C.y() - (y0 + L)});
+    if (dx * dx + dy * dy > p.max_range_m * p.max_range_m) continue;
+    for (int i = 0; i < t.n; ++i) {
+      for (int j = 0; j < t.n; ++j) {
+        const int k = i * t.n + j;
+        if (!isObjectVertex(t, k)) continue;
+        const Eigen::Vector3d pw(x0 + i * cell, y0 + j * cell, t.z_max[k]);
+        if ((pw.head<2>() - C.head<2>()).norm() > p.max_range_m) continue;
+        double depth = 0;
+        const auto uv = view.project(pw, &depth);
+        if (!uv) continue;
+        const int u = int(uv->x() + 0.5), v = int(uv->y() + 0.5);
+        if (u >= W || v >= H || !view.visible(u, v, depth)) continue;
+        const std::size_t s = std::size_t(v) * W + u;
+        if (!allowed[s]) continue;  // vertex lands on a ground pixel: no object here in this view
+        seed[s] = 1;
+        cands.push_back({&t, k, pw, *uv, depth});
+      }
+    }
+  }
+  const auto& cam = view.camera();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const auto uv = cam.project(Eigen::Vector3d(points.x[i], points.y[i], points.z[i]));
+    if (!uv) continue;
+    const int u = int(uv->x() + 0.5), v = int(uv->y() + 0.5);
+    if (u >= W || v >= H) continue;
+    const std::size_t s = std::size_t(v) * W + u;
+    if (allowed[s]) seed[s] = 1;
+  }
+  std::size_t n_seed = 0;
+  for (std::size_t s = 0; s < N; ++s) {
+    if (seed[s]) {
+      colours.add(&image.data[s * 3], true);
+      ++n_seed;
+    }
+  }
+  if (!n_seed) return st;
+  // Background samples: non-ground pixels far from any LiDAR return (sky is never sensed).
+  {
+    const int r = p.background_clearance_px;
+    for (int v = 0; v < H; v += 2) {
+      for (int u = 0; u < W; u += 2) {
+        const std::size_t s = std::size_t(v) * W + u;
+        if (!allowed[s] || seed[s]) continue;
+        bool near = false;
+        for (int dv = -r; dv <= r && !near; dv += std::max(1, r / 2))
+          for (int du = -r; du <= r && !near; du += std::max(1, r / 2)) {
+            const int uu = std::clamp(u + du, 0, W - 1), vv = std::clamp(v + dv, 0, H - 1);
+            near = std::isfinite(view.lidarDepth(uu, vv));
+          }
+        if (!near) colours.add(&image.data[s * 3], false);
+      }
+    }
+  }
+  colours.finish();
+  const std::vector<uint8_t> observed = colours.classify(image);
+  PixelMrfResult mrf = solvePixelMrf(image, seed, observed, allowed, p.mrf);
+  const std::vector<uint8_t>& obj = mrf.label;
+
+  // ---- follow the vertical above each vertex to the object's top boundary ------------------
+  for (const Candidate& c : cands) {
+    ++st.vertices_tried;
+    const auto up = view.project(c.p + Eigen::Vector3d(0, 0, 1.0));
+    Eigen::Vector2d dir(0, -1);
+    if (up && (*up - c.uv).norm() > 1e-6) dir = (*up - c.uv).normalized();
+    int last = -1, gap = 0;
+    bool left_image = false;
+    for (int t = 0;; ++t) {
+      const Eigen::Vector2d q = c.uv + t * dir;
+      const int u = int(q.x() + 0.5), v = int(q.y() + 0.5);
+      if (u < 0 || v < 0 || u >= W || v >= H) {
+        left_image = v < 0 && gap == 0;
+        break;
+      }
+      const std::size_t s = std::size_t(v) * W + u;
+      // A LiDAR surface clearly behind the vertex: the column has passed onto another object.
+      if (view.lidarDepth(u, v) > c.depth + p.depth_jump_m + 0.05 * c.depth &&
+          std::isfinite(view.lidarDepth(u, v)))
+        break;
+      if (obj[s]) {
+        last = t;
+        gap = 0;
+      } else if (++gap > p.max_gap_px) {
+        break;
+      }
+    }
+    if (last < 0) continue;
+    // Ray through the top edge of the boundary pixel, intersected with the vertical at the
+    // vertex's horizontal position.
+    const Eigen::Vector2d b = c.uv + (last + 0.5) * dir;
+    const Eigen::Vector3d d = view.ray(b.x(), b.y());
+    const Eigen::Vector2d dxy = d.head<2>();
+    if (dxy.squaredNorm() < 1e-12) continue;
+    const double s = (c.p.head<2>() - C.head<2>()).dot(dxy) / dxy.squaredNorm();
+    if (s <= 0) continue;
+    const double z = C.z() + s * d.z();
+    const double range = std::max(1.0, (c.p.head<2>() - C.head<2>()).norm());
+    Tile& t = *c.tile;
+    const int i = c.k / t.n, j = c.k % t.n;
+    const VertexKey key{int64_t(t.ti) * span + i, int64_t(t.tj) * span + j};
+    if (left_image) {
+      ++st.lower_bounds;
+      mesh.forEachCopy(key, [&](Tile& tt, int kk) {
+        if (!(tt.rec_lower[kk] >= z)) tt.rec_lower[kk] = float(z);
+      });
+      continue;
+    }
+    ++st.estimates;
+    if (z <= t.z_max[c.k]) continue;  // the LiDAR already saw the top
+    ++st.raised;
+    const float w = float(1.0 / (range * range * range * range));  // close views are sharper
+    mesh.forEachCopy(key, [&](Tile& tt, int kk) {
+      tt.rec_sum[kk] += w * float(z);
+      tt.rec_weight[kk] += w;
+    });
+  }
+  st.object_mask = obj;
+  return st;
+}
+
+}  // namespace terramrf::meshing

@@ -1,0 +1,87 @@
+#pragma once
+// What the image features (haralick, homogeneity, colour) share: finding the fused cameras of a
+// frame, choosing the camera per cell, and a grey view of an image. Header-only so each feature
+// stays one self-contained plugin library.
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
+
+#include "terramrf/plugin.hpp"
+
+namespace terramrf::fusion {
+
+struct FusedCamera {
+  const CellPixels* pixels = nullptr;
+  const Image* image = nullptr;
+  std::string file;  ///< image file (or frame) for messages
+};
+
+/// The fused cameras a feature reads: `camera` ≥ 0 selects Frame::cameras[camera], −1 takes every
+/// fused camera. Throws InputError naming the frame if none is fused (no camera_fusion stage ran
+/// for it) and naming the image if an image is missing or its size differs from the fusion's.
+inline std::vector<FusedCamera> fusedCameras(const FrameContext& ctx, int camera,
+                                             const std::string& stage) {
+  const Frame& f = *ctx.frame;
+  const std::string frame_file = f.source_path.empty() ? "frame " + f.id : f.source_path;
+  std::vector<FusedCamera> out;
+  for (const CellPixels& cp : ctx.grid->cellPixels()) {
+    if (camera >= 0 && cp.camera != camera) continue;
+    if (cp.camera < 0 || std::size_t(cp.camera) >= f.cameras.size())
+      throw InputError(frame_file, "fused pixels refer to camera " + std::to_string(cp.camera) +
+                                       " but frame " + f.id + " has " +
+                                       std::to_string(f.cameras.size()) + " cameras");
+    const CameraImage& cam = f.cameras[cp.camera];
+    FusedCamera fc;
+    fc.pixels = &cp;
+    fc.file = cam.source_path.empty() ? "frame " + f.id : cam.source_path;
+    if (!cam.image || cam.image->empty())
+      throw InputError(fc.file, stage + " needs the camera image; frame " + f.id + " has none");
+    if (cam.image->width != cp.width || cam.image->height != cp.height)
+      throw InputError(fc.file, "image is " + std::to_string(cam.image->width) + "x" +
+                                    std::to_string(cam.image->height) +
+                                    " px but the fused pixels are for " + std::to_string(cp.width) +
+                                    "x" + std::to_string(cp.height));
+    if (cam.image->channels != 1 && cam.image->channels != 3)
+      throw InputError(fc.file, "image has " + std::to_string(cam.image->channels) +
+                                    " channels; expected 1 (grey) or 3 (RGB)");
+    fc.image = cam.image.get();
+    out.push_back(fc);
+  }
+  if (out.empty())
+    throw InputError(frame_file,
+                     stage + ": no fused pixels for " +
+                         (camera >= 0 ? "camera " + std::to_string(camera) : "any camera") +
+                         " in frame " + f.id + "; run a camera_fusion stage before it");
+  return out;
+}
+
+/// Camera to read cell `cell` from: the one in which it covers the most pixels (first on ties);
+/// −1 if it has no pixels in any.
+inline int bestCamera(const std::vector<FusedCamera>& cams, int cell) {
+  int best = -1;
+  uint32_t most = 0;
+  for (std::size_t k = 0; k < cams.size(); ++k) {
+    const uint32_t n = cams[k].pixels->count(cell);
+    if (n > most) most = n, best = int(k);
+  }
+  return best;
+}
+
+/// Zero-copy cv::Mat view of an Image (RGB order).
+inline cv::Mat matView(const Image& img) {
+  return cv::Mat(img.height, img.width, img.channels == 3 ? CV_8UC3 : CV_8UC1,
+                 const_cast<uint8_t*>(img.data.data()));
+}
+
+/// 8-bit grey: OpenCV's luma Y = 0.299 R + 0.587 G + 0.114 B (rounded); 1-channel images as they
+/// are. `out` is reused between frames.
+inline void toGrey(const Image& img, cv::Mat& out) {
+  const cv::Mat in = matView(img);
+  if (img.channels == 3)
+    cv::cvtColor(in, out, cv::COLOR_RGB2GRAY);
+  else
+    in.copyTo(out);
+}
+
+}  // namespace terramrf::fusion

@@ -1,0 +1,562 @@
+// α-expansion (Boykov, Veksler & Zabih 2001) with Boost's Boykov–Kolmogorov max-flow.
+//
+// The Potts term of EnergyModel, w·δ with δ(equal) = −1 and δ(different) = +1, equals the metric
+// V(a, b) = 2w·[a ≠ b] minus the constant w per pair, so minimising one minimises the other and
+// α-expansion applies with its factor-2 bound (docs/optimisers.md). Every expansion is one min-cut
+// on a graph whose structure (cells, 8-neighbour pairs, terminal links) is built once per grid
+// size; between expansions and frames only capacities change (fixed cells get none). Each label's
+// cut is warm-started from the residual network of its previous cut. A move is kept only if the
+// exact EnergyModel energy drops, so the result never lies above the start.
+#include <algorithm>
+#include <boost/graph/boykov_kolmogorov_max_flow.hpp>
+#include <boost/graph/compressed_sparse_row_graph.hpp>
+#include <boost/property_map/property_map.hpp>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+namespace {
+
+// 32-bit vertex and edge indices halve the size of edge descriptors (reverse and predecessor
+// maps) compared with the default std::size_t.
+using Graph =
+    boost::compressed_sparse_row_graph<boost::directedS, boost::no_property, boost::no_property,
+                                       boost::no_property, uint32_t, uint32_t>;
+using Vertex = boost::graph_traits<Graph>::vertex_descriptor;
+using Edge = boost::graph_traits<Graph>::edge_descriptor;
+
+// The 8 directions in a fixed order; kOpposite[d] points back.
+constexpr int kDr[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
+constexpr int kDc[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
+constexpr int kOpposite[8] = {7, 6, 5, 4, 3, 2, 1, 0};
+inline bool isDiagonal(int d) { return kDr[d] != 0 && kDc[d] != 0; }
+
+/// The flow network: one node per cell plus source and sink, every 8-neighbour pair linked both
+/// ways, every cell linked to both terminals. Its structure depends on the grid size only, so it
+/// is built once and serves every frame: fixed cells are left out by giving their edges no
+/// capacity. Edge ids are CSR positions, so capacities live in flat vectors indexed by id.
+struct FlowNetwork {
+  int rows = -1, cols = -1;
+  int nodes = 0;                         ///< cells
+  std::vector<int> src_edge, sink_edge;  ///< per cell: s→p and p→t
+  std::vector<int> dir_edge;             ///< per cell and direction: edge id p→q, −1 if none
+  std::vector<int> rev_id;               ///< reverse edge id per edge id
+  std::vector<Edge> rev;                 ///< the same as descriptors, for Boost
+  std::vector<int> target;               ///< target node per edge id
+  Graph g;
+
+  Vertex source() const { return Vertex(nodes); }
+  Vertex sink() const { return Vertex(nodes + 1); }
+
+  void build(int R, int C) {
+    if (R == rows && C == cols) return;
+    rows = R;
+    cols = C;
+    nodes = R * C;
+    // Out-edges in CSR (source-sorted) order: per cell p→t, p→s, then its neighbours by
+    // direction; then the source's s→p; then the sink's t→p.
+    std::vector<std::pair<uint32_t, uint32_t>> edges;
+    edges.reserve(std::size_t(nodes) * 12);
+    dir_edge.assign(std::size_t(nodes) * 8, -1);
+    std::vector<int> to_s(nodes), from_t(nodes);
+    sink_edge.resize(nodes);
+    src_edge.resize(nodes);
+    for (int p = 0; p < nodes; ++p) {
+      const int r = p / C, c = p % C;
+      // p→t first: Boost's max-flow looks it up by a linear scan of p's out-edges.
+      sink_edge[p] = static_cast<int>(edges.size());
+      edges.emplace_back(p, nodes + 1);
+      to_s[p] = static_cast<int>(edges.size());
+      edges.emplace_back(p, nodes);
+      for (int d = 0; d < 8; ++d) {
+        const int rr = r + kDr[d], cc = c + kDc[d];
+        if (rr < 0 || rr >= R || cc < 0 || cc >= C) continue;
+        dir_edge[std::size_t(p) * 8 + d] = static_cast<int>(edges.size());
+        edges.emplace_back(p, rr * C + cc);
+      }
+    }
+    for (int p = 0; p < nodes; ++p) {
+      src_edge[p] = static_cast<int>(edges.size());
+      edges.emplace_back(nodes, p);
+    }
+    for (int p = 0; p < nodes; ++p) {
+      from_t[p] = static_cast<int>(edges.size());
+      edges.emplace_back(nodes + 1, p);
+    }
+    g = Graph(boost::edges_are_sorted, edges.begin(), edges.end(), Vertex(nodes + 2));
+    // CSR keeps the given order, so edge id = position in `edges`; pair each edge with its reverse.
+    rev_id.assign(edges.size(), -1);
+    for (int p = 0; p < nodes; ++p) {
+      for (int d = 0; d < 8; ++d) {
+        const int e = dir_edge[std::size_t(p) * 8 + d];
+        if (e >= 0) rev_id[e] = dir_edge[std::size_t(edges[e].second) * 8 + kOpposite[d]];
+      }
+      rev_id[sink_edge[p]] = from_t[p];
+      rev_id[from_t[p]] = sink_edge[p];
+      rev_id[src_edge[p]] = to_s[p];
+      rev_id[to_s[p]] = src_edge[p];
+    }
+    rev.resize(edges.size());
+    target.resize(edges.size());
+    for (std::size_t e = 0; e < edges.size(); ++e) {
+      rev[e] = Edge(Vertex(edges[rev_id[e]].first), uint32_t(rev_id[e]));
+      target[e] = static_cast<int>(edges[e].second);
+    }
+  }
+};
+
+/// The part of the network a frame uses: its non-fixed cells and the pairs between them.
+struct FrameGraph {
+  std::vector<int> cells;                ///< non-fixed cells (= node ids)
+  std::vector<int> pair_p, pair_q;       ///< unordered neighbour pairs, p before q in raster order
+  std::vector<float> pair_w;             ///< their Potts weight w
+  std::vector<int64_t> pair_v;           ///< V = 2w in capacity units (set once the scale is known)
+  std::vector<int> pair_edge, pair_rev;  ///< edge ids p→q and q→p
+
+  void build(const EnergyModel& em, const FlowNetwork& net) {
+    const int R = em.rows, C = em.cols;
+    cells.clear();
+    pair_p.clear();
+    pair_q.clear();
+    pair_w.clear();
+    pair_edge.clear();
+    pair_rev.clear();
+    for (int p = 0; p < R * C; ++p) {
+      if (em.fixed[p]) continue;
+      cells.push_back(p);
+      for (int d = 4; d < 8; ++d) {  // forward directions: each unordered pair once
+        const int e = net.dir_edge[std::size_t(p) * 8 + d];
+        if (e < 0 || em.fixed[net.target[e]]) continue;
+        pair_p.push_back(p);
+        pair_q.push_back(net.target[e]);
+        pair_w.push_back(isDiagonal(d) ? em.beta_diagonal : em.beta);
+        pair_edge.push_back(e);
+        pair_rev.push_back(net.rev_id[e]);
+      }
+    }
+  }
+};
+
+}  // namespace
+
+class AlphaExpansion final : public Stage {
+ public:
+  void declare(ParamDecl& d) override {
+    d.add("max_cycles", max_cycles_,
+          "upper bound on cycles (one expansion per label); stops earlier when a cycle improves "
+          "nothing")
+        .range(1, 1000);
+    d.add("init", init_,
+          "starting labelling: the energy stage's initial labelling, or the per-cell unary argmin")
+        .choices({"initial", "unary_argmin"});
+    d.add("pre_icm", pre_icm_,
+          "run ICM on the starting labelling before the expansions: the first, most expensive "
+          "cuts then only make the moves ICM cannot (2× faster on the noisy benchmark start)");
+    d.add("score_temperature", score_t_,
+          "temperature of the softmax over −(local energy) that gives the score layers")
+        .unit("energy")
+        .range(1e-6, 1e6);
+  }
+  std::vector<std::string> reads() const override { return {artefacts::kEnergy}; }
+  std::vector<std::string> writes() const override { return {artefacts::kLabels}; }
+
+  void process(FrameContext& ctx) override {
+    const EnergyModel& em = ctx.energy;
+    const int K = em.numLabels();
+    OptimiserReport& rep = ctx.optimiser;
+    rep = {};
+    if (K == 0 || em.cells() == 0) {  // nothing to label: every cell unknown
+      ctx.grid->labels().assign(ctx.grid->cells(), labels::kUnknown);
+      return;
+    }
+    const double e_initial = em.energy(em.initial);
+    std::vector<uint8_t>& lab = lab_;
+    lab = em.initial;
+    if (init_ == "unary_argmin") {
+      for (std::size_t i = 0; i < em.cells(); ++i) {
+        if (em.fixed[i]) continue;
+        const float* u = &em.unary[i * K];
+        lab[i] = static_cast<uint8_t>(std::min_element(u, u + K) - u);
+      }
+    }
+    int icm_sweeps = 0;
+    if (pre_icm_) icm_sweeps = icm(em, lab);
+
+    net_.build(em.rows, em.cols);
+    fg_.build(em, net_);
+    const std::size_t n_edges = net_.rev.size();
+    cap_.assign(n_edges, 0);
+    res_.assign(n_edges, 0);
+    // Integer capacities: saturated edges become exactly 0 (no floating-point residues sending the
+    // max-flow after useless paths) and warm starts are exact. 2^36 units for the largest possible
+    // capacity leave room for 2^26 nodes in int64; rounding is ~1e-11 of an energy unit.
+    double range = 0;
+    for (std::size_t i = 0; i < em.cells(); ++i) {
+      if (em.fixed[i]) continue;
+      const float* u = &em.unary[i * K];
+      const auto [lo, hi] = std::minmax_element(u, u + K);
+      range = std::max(range, double(*hi) - *lo);
+    }
+    const double w_max = std::max({0.f, em.beta, em.beta_diagonal});
+    scale_ = std::ldexp(1.0, 36) / (range + 32.0 * w_max + 1e-12);
+    fg_.pair_v.resize(fg_.pair_w.size());
+    for (std::size_t k = 0; k < fg_.pair_w.size(); ++k)
+      fg_.pair_v[k] = toUnits(2.0 * fg_.pair_w[k]);
+    const std::size_t n_vert = std::size_t(net_.nodes) + 2;
+    pred_.resize(n_vert);
+    color_.resize(n_vert);
+    dist_.resize(n_vert);
+    in_move_.assign(em.cells(), 0);
+    warm_.resize(K);
+    for (WarmStart& w : warm_) {
+      // Contents are written by the first (cold) expansion of each label before they are read.
+      w.cold = true;
+      w.model_t.resize(fg_.cells.size());
+      w.res_t.resize(fg_.cells.size());
+      w.model_n.resize(2 * fg_.pair_p.size());
+      w.res_n.resize(2 * fg_.pair_p.size());
+    }
+
+    double e = em.energy(lab);
+    int cycle = 0, expansions = 0, accepted = 0;
+    // An expansion that changed nothing need not be repeated until another one changes the
+    // labelling: `version` counts accepted moves, failed_at[α] remembers when α last failed.
+    int version = 0;
+    std::vector<int> failed_at(K, -1);
+    bool converged = false;
+    while (cycle < max_cycles_ && !converged) {
+      ++cycle;
+      bool improved = false;
+      for (int alpha = 0; alpha < K; ++alpha) {
+        if (failed_at[alpha] == version) continue;
+        ++expansions;
+        bool better = false;
+        if (expand(em, lab, alpha)) {
+          const double de = moveEnergyChange(em, lab, alpha);
+          // Strict decrease beyond round-off, so equal-energy moves cannot cycle forever.
+          if (de < -1e-9 * (1.0 + std::abs(e))) {
+            for (int i : move_) lab[i] = static_cast<uint8_t>(alpha);
+            e += de;
+            better = improved = true;
+            ++accepted;
+            ++version;
+          }
+        }
+        if (!better) failed_at[alpha] = version;
+      }
+      converged = !improved;
+    }
+    // The running energy is a sum of changes; the promise "never above the initial labelling"
+    // is kept on exact totals (an argmin start can end above a good given initial labelling).
+    e = em.energy(lab);
+    if (e > e_initial) {
+      lab = em.initial;
+      e = e_initial;
+    }
+    rep.initial_energy = e_initial;
+    rep.final_energy = e;
+    rep.iterations = cycle;
+    rep.converged = converged;
+    writeOutputs(ctx, lab);
+    ctx.metrics[name() + ".cycles"] = cycle;
+    ctx.metrics[name() + ".expansions"] = expansions;
+    ctx.metrics[name() + ".accepted_expansions"] = accepted;
+    ctx.metrics[name() + ".icm_sweeps"] = icm_sweeps;
+    ctx.metrics[name() + ".energy"] = e;
+    ctx.metrics[name() + ".initial_energy"] = e_initial;
+  }
+
+ private:
+  /// Per label α: the capacities of its last move problem and the residuals its max-flow left.
+  struct WarmStart {
+    bool cold = true;                     ///< no cut yet in this frame: model and residual are 0
+    std::vector<int64_t> model_t, res_t;  ///< per node: cost(x=1) − cost(x=0)
+    std::vector<int64_t> model_n, res_n;  ///< per pair: p→q, q→p
+  };
+
+  /// Energy → integer capacity units, rounded to nearest.
+  int64_t toUnits(double x) const {
+    const double y = x * scale_;
+    return static_cast<int64_t>(y >= 0 ? y + 0.5 : y - 0.5);
+  }
+
+  /// Fills pad_ with `lab` on a grid padded by one cell; the pad and fixed cells hold the
+  /// sentinel K, whose score slot is scratch, so 8-neighbour loops need no tests.
+  void pad(const EnergyModel& em, const std::vector<uint8_t>& lab) {
+    const int R = em.rows, C = em.cols, W = C + 2;
+    pad_.assign(std::size_t(R + 2) * W, static_cast<uint8_t>(em.numLabels()));
+    for (int r = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c) {
+        const int i = r * C + c;
+        if (!em.fixed[i]) pad_[std::size_t(r + 1) * W + c + 1] = lab[i];
+      }
+  }
+
+  /// Local energies E_c(k) − Σ_n w_n of a cell at padded position `p` into s[0..K−1].
+  static void localScores(const EnergyModel& em, const uint8_t* p, std::size_t cell, int W,
+                          float* s) {
+    const int K = em.numLabels();
+    const float we = 2.f * em.beta, wd = 2.f * em.beta_diagonal;
+    const float* u = &em.unary[cell * K];
+    for (int k = 0; k < K; ++k) s[k] = u[k];
+    s[p[-W - 1]] -= wd;
+    s[p[-W]] -= we;
+    s[p[-W + 1]] -= wd;
+    s[p[-1]] -= we;
+    s[p[1]] -= we;
+    s[p[W - 1]] -= wd;
+    s[p[W]] -= we;
+    s[p[W + 1]] -= wd;
+  }
+
+  /// ICM sweeps until nothing changes (or 100 sweeps); returns the number of sweeps. A cell is
+  /// re-examined only when a neighbour changed since its last visit (otherwise it would choose
+  /// the same again), so late sweeps cost next to nothing; the result equals plain ICM's.
+  int icm(const EnergyModel& em, std::vector<uint8_t>& lab) {
+    const int R = em.rows, C = em.cols, K = em.numLabels(), W = C + 2;
+    pad(em, lab);
+    dirty_.assign(pad_.size(), 1);
+    std::vector<float> s(K + 1);
+    const std::ptrdiff_t off[8] = {-W - 1, -W, -W + 1, -1, 1, W - 1, W, W + 1};
+    int sweep = 0;
+    for (bool changed = true; changed && sweep < 100; ++sweep) {
+      changed = false;
+      for (int r = 0; r < R; ++r) {
+        const std::size_t row = std::size_t(r + 1) * W + 1;
+        uint8_t* p = &pad_[row];
+        uint8_t* dirty = &dirty_[row];
+        for (int c = 0; c < C; ++c, ++p, ++dirty) {
+          if (!*dirty || *p == K) continue;  // unchanged surroundings, or fixed
+          *dirty = 0;
+          localScores(em, p, std::size_t(r) * C + c, W, s.data());
+          int best = *p;
+          for (int k = 0; k < K; ++k)
+            if (s[k] < s[best]) best = k;
+          if (best != *p) {
+            *p = static_cast<uint8_t>(best);
+            for (std::ptrdiff_t o : off) dirty[o] = 1;
+            changed = true;
+          }
+        }
+      }
+    }
+    for (int r = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c) {
+        const int i = r * C + c;
+        if (!em.fixed[i]) lab[i] = pad_[std::size_t(r + 1) * W + c + 1];
+      }
+    return sweep;
+  }
+
+  /// Exact energy change if the cells in move_ take α (pairs inside the move counted once).
+  double moveEnergyChange(const EnergyModel& em, const std::vector<uint8_t>& lab, int alpha) {
+    const int R = em.rows, C = em.cols, K = em.numLabels();
+    for (int i : move_) in_move_[i] = 1;
+    double de = 0;
+    for (int i : move_) {
+      const int a = lab[i], r = i / C, c = i % C;
+      de += double(em.unary[std::size_t(i) * K + alpha]) - em.unary[std::size_t(i) * K + a];
+      for (int d = 0; d < 8; ++d) {
+        const int rr = r + kDr[d], cc = c + kDc[d];
+        if (rr < 0 || rr >= R || cc < 0 || cc >= C) continue;
+        const int j = rr * C + cc;
+        if (em.fixed[j] || (in_move_[j] && j < i)) continue;
+        const int b_old = lab[j], b_new = in_move_[j] ? alpha : b_old;
+        const double w = isDiagonal(d) ? em.beta_diagonal : em.beta;
+        de += w * ((alpha == b_new ? -1.0 : 1.0) - (a == b_old ? -1.0 : 1.0));
+      }
+    }
+    for (int i : move_) in_move_[i] = 0;
+    return de;
+  }
+
+  /// Best α-expansion of `lab` by one min-cut: the cells that would take α go to move_. Returns
+  /// false if there are none.
+  ///
+  /// Warm start (Kohli & Torr 2007): the residual network of α's previous cut represents that
+  /// move energy up to a constant, so the new move energy is that residual plus the change of the
+  /// capacities. Max-flow on it only pushes the flow the change made possible; an expansion that
+  /// repeats an almost unchanged problem costs one tree growth instead of a full max-flow.
+  bool expand(const EnergyModel& em, const std::vector<uint8_t>& lab, int alpha) {
+    const int K = em.numLabels();
+    const int N = static_cast<int>(fg_.cells.size());
+    WarmStart& w = warm_[alpha];
+    const bool cold = w.cold;
+    w.cold = false;
+    // Per cell, in capacity units of cost(x_p = 1) − cost(x_p = 0): acc_ = the warm offset
+    // (residual − old model) plus deficits moved from n-links; model_acc_ = the pair part of the
+    // new model, whose unary part goes straight to w.model_t. Fixed cells are never read.
+    acc_.resize(net_.nodes);
+    model_acc_.resize(net_.nodes);
+    for (int n = 0; n < N; ++n) {
+      const int p = fg_.cells[n];
+      const float* u = &em.unary[std::size_t(p) * K];
+      acc_[p] = cold ? 0 : w.res_t[n] - w.model_t[n];
+      model_acc_[p] = 0;
+      w.model_t[n] = toUnits(double(u[alpha]) - u[lab[p]]);
+    }
+    // Pair term with A = V(a,b), B = V(a,α), C = V(α,b), D = V(α,α) = 0 (Kolmogorov & Zabih 2004)
+    // written as A + s·x_p + t·x_q + c01·(1−x_p)·x_q + c10·x_p·(1−x_q) with s + t = D − A,
+    // c10 = C − A − s ≥ 0, c01 = B − A − t ≥ 0 (possible as V is a metric: B + C ≥ A + D), and s
+    // as near −A/2 as allowed, which splits the term symmetrically: two equal labels give two
+    // n-links of V and no t-link, instead of opposing t-links whose flow the max-flow would have
+    // to push through every such pair. For Potts only five cases exist (V in capacity units):
+    //   a = b ≠ α:      s = t = 0,            c01 = c10 = V
+    //   a ≠ b, both ≠ α: s = −⌊V/2⌋, t = −⌈V/2⌉, c01 = ⌈V/2⌉, c10 = ⌊V/2⌋
+    //   a = α ≠ b:      s = 0, t = −V          (p is α either way: q pays V unless it joins)
+    //   b = α ≠ a:      s = −V, t = 0
+    //   a = b = α:      nothing.
+    for (std::size_t k = 0; k < fg_.pair_p.size(); ++k) {
+      const int p = fg_.pair_p[k], q = fg_.pair_q[k];
+      const int a = lab[p], b = lab[q];
+      const int64_t V = fg_.pair_v[k], H = V / 2;
+      int64_t tp = 0, tq = 0, c01 = 0, c10 = 0;
+      if (a == b) {
+        if (a != alpha) c01 = c10 = V;
+      } else if (a == alpha) {
+        tq = -V;
+      } else if (b == alpha) {
+        tp = -V;
+      } else {
+        tp = -H;
+        tq = H - V;
+        c01 = V - H;
+        c10 = H;
+      }
+      model_acc_[p] += tp;
+      model_acc_[q] += tq;
+      int64_t r01 = c01, r10 = c10;
+      if (!cold) {
+        r01 += w.res_n[2 * k] - w.model_n[2 * k];
+        r10 += w.res_n[2 * k + 1] - w.model_n[2 * k + 1];
+      }
+      w.model_n[2 * k] = c01;
+      w.model_n[2 * k + 1] = c10;
+      // r01 + r10 = c01 + c10 ≥ 0, so at most one is negative; move its deficit to the t-links:
+      // (1−x_p)·x_q = x_p·(1−x_q) + x_q − x_p.
+      if (r01 < 0) {
+        r10 += r01;
+        acc_[p] -= r01;
+        acc_[q] += r01;
+        r01 = 0;
+      } else if (r10 < 0) {
+        r01 += r10;
+        acc_[p] += r10;
+        acc_[q] -= r10;
+        r10 = 0;
+      }
+      cap_[fg_.pair_edge[k]] = r01;  // cut when p keeps, q takes α
+      cap_[fg_.pair_rev[k]] = r10;   // cut when p takes α, q keeps
+    }
+    for (int n = 0; n < N; ++n) {
+      const int p = fg_.cells[n];
+      w.model_t[n] += model_acc_[p];
+      const int64_t t = acc_[p] + w.model_t[n];
+      cap_[net_.src_edge[p]] = t > 0 ? t : 0;    // cut when p takes α (sink side)
+      cap_[net_.sink_edge[p]] = t < 0 ? -t : 0;  // cut when p keeps its label (source side)
+    }
+    // Most of the flow runs s → q → p → t between neighbours. Pushing it greedily here, in one
+    // pass without search trees, leaves the max-flow a residual network with less to do; the
+    // cuts of the residual network are those of the original one less the pushed flow. Edges of
+    // fixed cells have no capacity, so they carry nothing.
+    for (int p : fg_.cells) {
+      int64_t& to_sink = cap_[net_.sink_edge[p]];
+      for (int d = 0; d < 8 && to_sink > 0; ++d) {
+        const int e_pq = net_.dir_edge[std::size_t(p) * 8 + d];
+        if (e_pq < 0) continue;
+        const int e_qp = net_.rev_id[e_pq];
+        int64_t& from_src = cap_[net_.src_edge[net_.target[e_pq]]];
+        const int64_t f = std::min({from_src, cap_[e_qp], to_sink});
+        if (f <= 0) continue;
+        from_src -= f;
+        cap_[e_qp] -= f;
+        cap_[e_pq] += f;
+        to_sink -= f;
+      }
+    }
+    auto eidx = get(boost::edge_index, net_.g);
+    auto vidx = get(boost::vertex_index, net_.g);
+    boost::boykov_kolmogorov_max_flow(net_.g, boost::make_iterator_property_map(cap_.begin(), eidx),
+                                      boost::make_iterator_property_map(res_.begin(), eidx),
+                                      boost::make_iterator_property_map(net_.rev.begin(), eidx),
+                                      boost::make_iterator_property_map(pred_.begin(), vidx),
+                                      boost::make_iterator_property_map(color_.begin(), vidx),
+                                      boost::make_iterator_property_map(dist_.begin(), vidx), vidx,
+                                      net_.source(), net_.sink());
+    for (int n = 0; n < N; ++n) {
+      const int p = fg_.cells[n];
+      w.res_t[n] = res_[net_.src_edge[p]] - res_[net_.sink_edge[p]];
+    }
+    for (std::size_t k = 0; k < fg_.pair_p.size(); ++k) {
+      w.res_n[2 * k] = res_[fg_.pair_edge[k]];
+      w.res_n[2 * k + 1] = res_[fg_.pair_rev[k]];
+    }
+    // Nodes left in the source tree are exactly those reachable from s in the residual network:
+    // the source side of a minimum cut keeps its label, the rest takes α.
+    move_.clear();
+    for (int p : fg_.cells)
+      if (color_[p] != boost::black_color && lab[p] != alpha) move_.push_back(p);
+    return !move_.empty();
+  }
+
+  /// Grid labels (fixed → unknown) and score layers: softmax over k of −E_c(k)/T_s given the final
+  /// neighbours, a monotone map of each label's local-energy margin (NaN on fixed cells).
+  void writeOutputs(FrameContext& ctx, const std::vector<uint8_t>& lab) {
+    const EnergyModel& em = ctx.energy;
+    const int R = em.rows, C = em.cols, K = em.numLabels(), W = C + 2;
+    auto& out = ctx.grid->labels();
+    out.assign(ctx.grid->cells(), labels::kUnknown);
+    if (out.size() != em.cells())
+      throw std::logic_error(name() + ": energy model has " + std::to_string(em.cells()) +
+                             " cells, the grid " + std::to_string(out.size()));
+    for (std::size_t i = 0; i < em.cells(); ++i)
+      if (!em.fixed[i]) out[i] = em.active[lab[i]];
+    if (!ctx.labels) return;
+    std::vector<float*> layer(K);
+    for (int k = 0; k < K; ++k)
+      layer[k] = ctx.grid->add(layers::score(ctx.labels->name(em.active[k]))).data();
+    pad(em, lab);
+    std::vector<float> s(K + 1);
+    const float inv_t = static_cast<float>(1.0 / score_t_);
+    for (int r = 0; r < R; ++r) {
+      const uint8_t* p = &pad_[std::size_t(r + 1) * W + 1];
+      for (int c = 0; c < C; ++c, ++p) {
+        if (*p == K) continue;  // fixed: NaN
+        const std::size_t i = std::size_t(r) * C + c;
+        localScores(em, p, i, W, s.data());
+        const float m = *std::min_element(s.begin(), s.begin() + K);
+        float sum = 0;
+        for (int k = 0; k < K; ++k) sum += (s[k] = std::exp(-(s[k] - m) * inv_t));
+        for (int k = 0; k < K; ++k) layer[k][i] = s[k] / sum;
+      }
+    }
+  }
+
+  int max_cycles_ = 10;
+  std::string init_ = "initial";
+  bool pre_icm_ = true;
+  double score_t_ = 1.0;
+
+  FlowNetwork net_;
+  FrameGraph fg_;
+  double scale_ = 1;  ///< capacity units per energy unit
+  std::vector<WarmStart> warm_;
+  std::vector<int64_t> cap_, res_, acc_, model_acc_;
+  std::vector<Edge> pred_;
+  std::vector<boost::default_color_type> color_;
+  std::vector<std::size_t> dist_;
+  std::vector<uint8_t> lab_, pad_, dirty_, in_move_;
+  std::vector<int> move_;
+};
+
+}  // namespace terramrf
+
+TERRAMRF_PLUGIN(
+    terramrf::AlphaExpansion, terramrf::PluginKind::kOptimiser, "alpha_expansion",
+    "α-expansion graph cuts (Boykov–Kolmogorov max-flow); scores = softmax of −local energy")

@@ -1,0 +1,132 @@
+// Output "textured_mesh": the textured terrain mesh of paper 004 built over the whole run
+// (meshing/mesh_builder.hpp) and exported at the end as OBJ+MTL+PNG, PLY and glTF (.glb), with a
+// report (counts, frames without images, cameras that saw no points, ground segmentation vs pixel
+// truth when the source has it).
+#include <filesystem>
+#include <iostream>
+#include <string>
+
+#include "terramrf/adapters/opencv_image.hpp"
+#include "terramrf/atomic_file.hpp"
+#include "terramrf/meshing/mesh_builder.hpp"
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace meshing;
+
+class TexturedMeshOutput : public Output {
+ public:
+  void declare(ParamDecl& d) override {
+    d.add("subdir", subdir_, "folder of the export, relative to the run's output folder");
+    d.add("formats", formats_, "any of obj (with .mtl and PNG textures), ply, gltf (.glb)");
+    d.add("tile_vertices", p_.mesh.tile_vertices, "vertices per tile side (paper: 151)").unit("1").range(2, 2001);
+    d.add("cell_m", p_.mesh.cell_m, "vertex spacing (paper: 0.125)").unit("m").range(0.01, 10);
+    d.add("texels_per_cell", p_.mesh.texels_per_cell, "texture resolution per cell side").unit("1").range(1, 8);
+    d.add("max_range_m", p_.max_range_m, "points farther from the sensor are not registered").unit("m").range(1, 500);
+    d.add("segment", p_.segment, "segment the ground in the images (§3.2)");
+    d.add("recover", p_.recover, "recover object heights beyond the LiDAR's reach (§3.3)");
+    d.add("classify", p_.classify, "split objects into buildings and trees by masking (§3.4)");
+    d.add("sensor_height_m", p_.ground.sensor_height_m, "h1: LiDAR above the ground").unit("m").range(0, 10);
+    d.add("band_m", p_.ground.band_m, "Δ: half width of the rough ground band").unit("m").range(0.01, 2);
+    d.add("local_seeds", p_.ground.local_seeds, "also seed flat ground outside the band (hills)");
+    d.add("mode", mode_, "ground MRF solver: flood_fill (paper's fast one) or gibbs (whole image)")
+        .choices({"flood_fill", "gibbs"});
+    d.add("alpha", p_.ground.mrf.alpha, "eq. 9-10 weight").unit("1").range(0, 100);
+    d.add("beta", p_.ground.mrf.beta, "eq. 11 weight").unit("1").range(0, 100);
+    d.add("gamma", p_.ground.mrf.gamma, "eq. 12 weight").unit("1").range(0, 100);
+    d.add("colour_scale", p_.ground.mrf.colour_scale, "RGB distance scale of eq. 12").unit("grey levels").range(0.1, 500);
+    d.add("max_sweeps", p_.ground.mrf.max_sweeps, "gibbs mode: sweeps at most").unit("1").range(1, 1000);
+    d.add("mask_size", p_.mask.size, "s of eq. 13: masks are (2s+1)^2 vertices").unit("1").range(1, 20);
+    d.add("mask_orientations", p_.mask.orientations, "line directions of the masks (paper: 4)").unit("1").range(1, 32);
+    d.add("mask_threshold", p_.mask.threshold, "U above this = building (normalised: 0..1)").unit("1").range(-1e3, 1e3);
+    d.add("mask_normalise", p_.mask.normalise, "divide U by the mean elevation on the line");
+    d.add("write_overlays", write_overlays_, "write <frame>_<camera>_segmentation.png per image");
+  }
+
+  void configure(const PluginContext& ctx) override {
+    if (subdir_.empty() || fs::path(subdir_).is_absolute())
+      throw ParamError("subdir", "'" + subdir_ + "' must be a non-empty folder relative to the run's output folder");
+    if (formats_.empty()) throw ParamError("formats", "is empty; expected any of obj, ply, gltf");
+    ex_ = ExportOptions{false, false, false};
+    for (const auto& f : formats_) {
+      if (f == "obj") ex_.obj = true;
+      else if (f == "ply") ex_.ply = true;
+      else if (f == "gltf" || f == "glb") ex_.gltf = true;
+      else throw ParamError("formats", "unknown format '" + f + "'; expected obj, ply or gltf");
+    }
+    p_.ground.mrf.mode = parseMrfMode(mode_);
+    output_dir_ = ctx.output_dir;
+  }
+
+
+  void begin(const RunInfo& info) override {
+    if (!info.output_dir.empty()) output_dir_ = info.output_dir;
+    // Fail before any frame is processed when the export could never be written.
+    checkWritableFolder((fs::path(output_dir_) / subdir_).parent_path().string());
+    builder_ = std::make_unique<MeshBuilder>(p_);
+  }
+
+  void write(const FrameContext& ctx) override {
+    if (!ctx.frame) throw std::invalid_argument("textured_mesh: frame context without a frame");
+    if (!builder_) builder_ = std::make_unique<MeshBuilder>(p_);
+    const FrameReport r = builder_->addFrame(*ctx.frame);
+    for (const auto& n : r.notes) std::cerr << "textured_mesh: frame " << r.id << ": " << n << "\n";
+    if (write_overlays_ && !r.last_segmentation.ground.empty()) {
+      for (const auto& cam : ctx.frame->cameras) {
+        if (!cam.image || cam.image->width != r.last_segmentation.width) continue;
+        const Image o = overlaySegmentation(*cam.image, r.last_segmentation.ground, r.last_object_mask);
+        writeImageAtomic((fs::path(output_dir_) / subdir_ / "overlays" /
+                          (r.id + "_" + (cam.model.name.empty() ? "camera" : cam.model.name) + ".png")).string(), o);
+      }
+    }
+  }
+
+  void end(const RunSummary&) override {
+    if (!builder_) return;
+    const MaskStats ms = builder_->finish();
+    const std::string dir = (fs::path(output_dir_) / subdir_).string();
+    ExportStats es;
+    // Overlays (if any) live in the export folder; keep them across the folder swap.
+    const fs::path overlays = fs::path(dir) / "overlays", keep = fs::path(dir + ".overlays");
+    std::error_code ec;
+    if (fs::exists(overlays)) fs::rename(overlays, keep, ec);
+    try {
+      es = exportMesh(builder_->mesh(), dir, ex_);
+    } catch (...) {
+      if (fs::exists(keep)) fs::rename(keep, overlays, ec);
+      throw;
+    }
+    if (fs::exists(keep)) fs::rename(keep, overlays, ec);
+    const std::string report = builder_->report(&ms, &es);
+    writeFileAtomic((fs::path(dir) / "report.md").string(), report);
+    std::cerr << "textured_mesh: " << es.tiles << " tile(s), " << es.vertices << " vertices, "
+              << es.triangles << " triangles -> " << dir << "\n";
+    const auto& s = builder_->summary();
+    if (!s.frames_without_image.empty())
+      std::cerr << "textured_mesh: " << s.frames_without_image.size()
+                << " frame(s) without a usable camera image: mesh untextured there (see report.md)\n";
+    if (s.truth_frames)
+      std::fprintf(stderr, "textured_mesh: image ground segmentation: %.2f %% of ground pixels found, %.2f %% errors\n",
+                   100 * s.confusion.groundFound(), 100 * s.confusion.errorRate());
+  }
+
+ private:
+  std::string subdir_ = "mesh";
+  std::vector<std::string> formats_{"obj", "ply", "gltf"};
+  std::string mode_ = "flood_fill";
+  bool write_overlays_ = false;
+  MeshBuilderParams p_;
+  ExportOptions ex_;
+  std::string output_dir_ = ".";
+  std::unique_ptr<MeshBuilder> builder_;
+};
+
+}  // namespace
+}  // namespace terramrf
+
+TERRAMRF_PLUGIN(terramrf::TexturedMeshOutput, terramrf::PluginKind::kOutput, "textured_mesh",
+                "textured terrain mesh of paper 004 (tiles, image ground segmentation, scene "
+                "recovery, building/tree masking) exported as OBJ/PLY/glTF")

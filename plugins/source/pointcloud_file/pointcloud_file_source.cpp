@@ -1,0 +1,255 @@
+// Source plugin "pointcloud_file": PCD and PLY clouds through PCL, one file or a folder of them.
+// Optional per-point fields "intensity", "ring" and "label" are used when present.
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/conversions.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+#include <pcl/point_types.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "terramrf/io/label_map.hpp"
+#include "terramrf/io/ring_recovery.hpp"
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+namespace {
+namespace fs = std::filesystem;
+
+std::string lowerExt(const fs::path& p) {
+  std::string e = p.extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
+  return e;
+}
+
+/// Reads field `f` of point `i` as double, whatever its stored type.
+double fieldValue(const pcl::PCLPointCloud2& c, const pcl::PCLPointField& f, std::size_t i) {
+  const std::size_t row = i / c.width, col = i % c.width;
+  const uint8_t* p = c.data.data() + row * c.row_step + col * c.point_step + f.offset;
+  auto get = [p](auto tag) {
+    decltype(tag) v;
+    std::memcpy(&v, p, sizeof v);
+    return double(v);
+  };
+  switch (f.datatype) {
+    case pcl::PCLPointField::INT8:
+      return get(int8_t{});
+    case pcl::PCLPointField::UINT8:
+      return get(uint8_t{});
+    case pcl::PCLPointField::INT16:
+      return get(int16_t{});
+    case pcl::PCLPointField::UINT16:
+      return get(uint16_t{});
+    case pcl::PCLPointField::INT32:
+      return get(int32_t{});
+    case pcl::PCLPointField::UINT32:
+      return get(uint32_t{});
+    case pcl::PCLPointField::FLOAT32:
+      return get(float{});
+    case pcl::PCLPointField::FLOAT64:
+      return get(double{});
+    default:
+      return std::nan("");
+  }
+}
+
+const pcl::PCLPointField* findField(const pcl::PCLPointCloud2& c, const std::string& name) {
+  for (const auto& f : c.fields)
+    if (f.name == name) return &f;
+  return nullptr;
+}
+
+class PointCloudFileSource : public Source {
+ public:
+  void declare(ParamDecl& d) override {
+    d.add("path", path_, "a .pcd or .ply file, or a folder of them (frames sorted by name)")
+        .required()
+        .existingPath();
+    d.add("label_map", label_map_,
+          "label-map YAML for a per-point 'label' field (empty: the field holds project class ids)")
+        .existingPath();
+    d.add("use_labels", use_labels_, "read a per-point 'label' field when the file has one");
+    d.add("drop_no_return", drop_no_return_, "drop points exactly at (0, 0, 0) (counted)");
+    d.add("ring_method", ring_method_,
+          "when the file has no 'ring' field: none (leave rings empty), auto (scan order, else "
+          "elevation binning) or elevation")
+        .choices({"none", "auto", "elevation"});
+    d.add("rings", rings_, "lasers of the sensor, for ring recovery").unit("1").range(1, 1024);
+    d.add("ring_z_offset_m", ring_z_offset_m_, "laser origin above the cloud origin")
+        .unit("m")
+        .range(-5, 5);
+  }
+
+  void configure(const PluginContext& ctx) override {
+    files_.clear();
+    const fs::path p(path_);
+    auto usable = [](const fs::path& f) {
+      const std::string e = lowerExt(f);
+      return e == ".pcd" || e == ".ply";
+    };
+    if (fs::is_directory(p)) {
+      for (const auto& e : fs::directory_iterator(p))
+        if (e.is_regular_file() && usable(e.path())) files_.push_back(e.path().string());
+      std::sort(files_.begin(), files_.end());
+      if (files_.empty()) throw ParamError("path", "no .pcd or .ply files in '" + path_ + "'");
+    } else {
+      if (!usable(p)) throw ParamError("path", "'" + path_ + "' is not a .pcd or .ply file");
+      files_.push_back(p.string());
+    }
+    labels_ = ctx.labels ? *ctx.labels : LabelSet::defaults();
+    map_.reset();
+    if (use_labels_ && !label_map_.empty()) {
+      try {
+        map_ = std::make_unique<LabelMap>(LabelMap::load(label_map_, labels_));
+      } catch (const InputError& e) {
+        throw ParamError("label_map", e.what());
+      }
+    }
+    ring_options_.rings = rings_;
+    ring_options_.use_scan_order = ring_method_ == "auto";
+    ring_options_.z_offset_m = ring_z_offset_m_;
+  }
+
+  std::size_t size() const override { return files_.size(); }
+  std::string frameId(std::size_t i) const override {
+    return fs::path(files_.at(i)).stem().string();
+  }
+
+  Frame read(std::size_t i) override {
+    if (i >= size())
+      throw std::out_of_range("pointcloud_file: frame " + std::to_string(i) + " of " +
+                              std::to_string(size()));
+    const std::string& file = files_[i];
+    pcl::PCLPointCloud2 c2;
+    int rc = -1;
+    std::string why;
+    const bool ply = lowerExt(file) == ".ply";
+    try {
+      if (ply) {
+        rc = pcl::io::loadPLYFile(file, c2);
+      } else {
+        // PCL 1.13 crashes reading the body of a header without fields: check the header first.
+        pcl::PCDReader reader;
+        Eigen::Vector4f origin;
+        Eigen::Quaternionf orientation;
+        int version = 0, data_type = 0;
+        unsigned int data_index = 0;
+        rc = reader.readHeader(file, c2, origin, orientation, version, data_type, data_index);
+        if (rc >= 0 && !(findField(c2, "x") && findField(c2, "y") && findField(c2, "z"))) {
+          rc = -1;
+          why = "the header lists no x, y, z fields";
+        } else if (rc >= 0 && std::size_t(c2.width) * c2.height > 0) {
+          rc = reader.read(file, c2);
+        }
+      }
+    } catch (const std::exception& e) {
+      why = e.what();
+    }
+    if (rc < 0) {
+      throw InputError(file, "PCL cannot read it as " + std::string(ply ? "PLY" : "PCD") +
+                                 (why.empty() ? "" : " (" + why + ")") +
+                                 "; expected a point cloud with x, y, z fields");
+    }
+    if (!findField(c2, "x") || !findField(c2, "y") || !findField(c2, "z"))
+      throw InputError(file, "has no x, y, z fields");
+    const std::size_t n = std::size_t(c2.width) * c2.height;
+    if (c2.data.size() < (c2.height ? std::size_t(c2.height - 1) * c2.row_step : 0) +
+                             std::size_t(c2.width) * c2.point_step)
+      throw InputError(file, "point data shorter than its header says");
+
+    const auto* f_int = findField(c2, "intensity");
+    const auto* f_ring = findField(c2, "ring");
+    const auto* f_label = use_labels_ ? findField(c2, "label") : nullptr;
+    pcl::PointCloud<pcl::PointXYZI> xyzi;
+    pcl::PointCloud<pcl::PointXYZ> xyz;
+    if (f_int)
+      pcl::fromPCLPointCloud2(c2, xyzi);
+    else
+      pcl::fromPCLPointCloud2(c2, xyz);
+
+    Frame f;
+    f.id = frameId(i);
+    f.source_path = file;
+    f.points.reserve(n);
+    if (f_ring) f.points.ring.clear();
+    std::size_t nonfinite = 0, origin = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const float x = f_int ? xyzi[k].x : xyz[k].x, y = f_int ? xyzi[k].y : xyz[k].y,
+                  z = f_int ? xyzi[k].z : xyz[k].z;
+      const float in = f_int ? xyzi[k].intensity : 0.f;
+      if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(in)) {
+        ++nonfinite;
+        continue;
+      }
+      if (drop_no_return_ && x == 0.f && y == 0.f && z == 0.f) {
+        ++origin;
+        continue;
+      }
+      f.points.x.push_back(x);
+      f.points.y.push_back(y);
+      f.points.z.push_back(z);
+      f.points.intensity.push_back(in);
+      if (f_ring) {
+        const double r = fieldValue(c2, *f_ring, k);
+        f.points.ring.push_back(r >= 0 && r < kUnknownRing ? uint16_t(r) : kUnknownRing);
+      }
+      if (f_label) {
+        const double l = fieldValue(c2, *f_label, k);
+        if (!(l >= 0 && l <= 4294967295.0))
+          throw InputError(file, "point " + std::to_string(k) + " has label " + std::to_string(l) +
+                                     "; expected a non-negative integer id");
+        f.truth.raw.push_back(uint32_t(l));
+      }
+    }
+    f.dropped_invalid_points = nonfinite + origin;
+    if (f_label) {
+      if (map_) {
+        map_->mapAll(f.truth.raw, f.truth.label, file);
+      } else {
+        f.truth.label.resize(f.truth.raw.size());
+        for (std::size_t k = 0; k < f.truth.raw.size(); ++k) {
+          if (f.truth.raw[k] >= labels_.size())
+            throw InputError(file, "label " + std::to_string(f.truth.raw[k]) +
+                                       " is not a project class id (0.." +
+                                       std::to_string(labels_.size() - 1) +
+                                       "); give a label_map for dataset ids");
+          f.truth.label[k] = LabelId(f.truth.raw[k]);
+        }
+      }
+    }
+    if (!f_ring) {
+      f.points.ring.clear();
+      if (ring_method_ != "none") recoverRings(f.points, ring_options_);
+    }
+    if (c2.header.stamp) f.timestamp_s = double(c2.header.stamp) * 1e-6;  // PCL stamps are [us]
+    return f;
+  }
+
+ private:
+  std::string path_;
+  std::string label_map_;
+  bool use_labels_ = true;
+  bool drop_no_return_ = true;
+  std::string ring_method_ = "none";
+  int rings_ = 64;
+  double ring_z_offset_m_ = 0.0;
+
+  std::vector<std::string> files_;
+  LabelSet labels_;
+  std::unique_ptr<LabelMap> map_;
+  RingRecoveryOptions ring_options_;
+};
+
+}  // namespace
+}  // namespace terramrf
+
+TERRAMRF_PLUGIN(terramrf::PointCloudFileSource, terramrf::PluginKind::kSource, "pointcloud_file",
+                "PCD / PLY point clouds through PCL (a file or a folder); optional intensity, ring "
+                "and label fields")

@@ -1,0 +1,163 @@
+// Source plugin "rellis3d": RELLIS-3D off-road frames (Ouster OS1-64 scan + labels, camera image
+// + pixel labels, intrinsics, LiDAR-camera extrinsics).
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "terramrf/adapters/opencv_image.hpp"
+#include "terramrf/io/kitti.hpp"
+#include "terramrf/io/label_map.hpp"
+#include "terramrf/io/rellis.hpp"
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+namespace {
+
+std::string shippedLabelMap(const std::string& file) {
+  std::string dirs;
+  if (const char* env = std::getenv("TERRAMRF_CONFIG_DIR"))
+    dirs = std::string(env) + "/label_maps:";
+  dirs += TERRAMRF_LABEL_MAP_DIRS;
+  std::stringstream ss(dirs);
+  std::string d;
+  while (std::getline(ss, d, ':'))
+    if (!d.empty() && std::filesystem::is_regular_file(d + "/" + file)) return d + "/" + file;
+  throw ParamError("label_map", "no label_map given and the shipped " + file +
+                                    " was not found (searched " + dirs + ")");
+}
+
+/// "frame000104-1581624663_149.jpg" -> 1581624663.149 [s]; -1 if the name carries no stamp.
+double stampFromImageName(const std::string& path) {
+  const std::string stem = std::filesystem::path(path).stem().string();
+  const auto dash = stem.find('-');
+  if (dash == std::string::npos) return -1;
+  std::string s = stem.substr(dash + 1);
+  const auto us = s.find('_');
+  if (us == std::string::npos) return -1;
+  try {
+    return std::stod(s.substr(0, us)) + std::stod("0." + s.substr(us + 1));
+  } catch (const std::exception&) {
+    return -1;
+  }
+}
+
+class Rellis3dSource : public Source {
+ public:
+  void declare(ParamDecl& d) override {
+    d.add(
+         "path", path_,
+         "folder with NNNNNN.bin/.label, frameNNNNNN-*.jpg/.png, camera_info.txt, "
+         "transforms.yaml, or a sequence folder of the full release (os1_cloud_node_kitti_bin/...)")
+        .required()
+        .existingPath();
+    d.add("label_map", label_map_,
+          "label-map YAML for scan and pixel labels (empty: configs/label_maps/rellis3d.yaml)")
+        .existingPath();
+    d.add("use_labels", use_labels_, "read <id>.label when it exists");
+    d.add("use_images", use_images_,
+          "read the camera image with camera_info.txt and transforms.yaml (missing files are "
+          "errors)");
+    d.add("use_image_labels", use_image_labels_,
+          "with use_images: map the pixel label image (when it exists) into the camera's truth");
+    d.add("drop_no_return", drop_no_return_,
+          "drop points exactly at (0, 0, 0): Ouster no-returns (~52k of 131k in 000104), counted");
+    d.add("rings", rings_,
+          "rings of the organised scan, stored column by column: ring = index % rings")
+        .unit("1")
+        .range(1, 1024);
+  }
+
+  void configure(const PluginContext& ctx) override {
+    layout_ = resolveRellisLayout(path_);
+    const LabelSet defaults = LabelSet::defaults();
+    const LabelSet& labels = ctx.labels ? *ctx.labels : defaults;
+    map_.reset();
+    if (use_labels_ || (use_images_ && use_image_labels_)) {
+      const std::string file = label_map_.empty() ? shippedLabelMap("rellis3d.yaml") : label_map_;
+      try {
+        map_ = std::make_unique<LabelMap>(LabelMap::load(file, labels));
+      } catch (const InputError& e) {
+        throw ParamError("label_map", e.what());
+      }
+    }
+  }
+
+  std::size_t size() const override { return layout_.frames.size(); }
+  std::string frameId(std::size_t i) const override { return layout_.frames.at(i).id; }
+
+  Frame read(std::size_t i) override {
+    if (i >= size())
+      throw std::out_of_range("rellis3d: frame " + std::to_string(i) + " of " +
+                              std::to_string(size()));
+    const RellisFrameFiles& files = layout_.frames[i];
+    Frame f;
+    f.id = files.id;
+    f.source_path = files.scan;
+    const ScanReadInfo info = readKittiScan(files.scan, f.points, drop_no_return_);
+    f.dropped_invalid_points = info.droppedTotal();
+    if (info.raw_points % rings_ != 0)
+      throw InputError(files.scan, std::to_string(info.raw_points) +
+                                       " points is not a whole number of columns of " +
+                                       std::to_string(rings_) + " rings (organised Ouster scan)");
+    organisedRings(f.points, info, rings_);
+    if (use_labels_ && !files.label.empty())
+      readKittiLabels(files.label, files.scan, info, map_.get(), f.truth);
+    f.timestamp_s = 0.1 * std::atof(files.id.c_str());  // Ouster at 10 Hz, unless the image says
+    if (!files.image.empty()) {
+      const double stamp = stampFromImageName(files.image);
+      if (stamp >= 0) f.timestamp_s = stamp;
+    }
+    if (use_images_) {
+      if (files.image.empty())
+        throw InputError(
+            (std::filesystem::path(layout_.root) / ("frame" + files.id + "-*.jpg")).string(),
+            "camera image missing (use_images is on)");
+      const std::string info_file =
+          layout_.camera_info.empty() ? layout_.root + "/camera_info.txt" : layout_.camera_info;
+      const std::string tf_file =
+          layout_.transforms.empty() ? layout_.root + "/transforms.yaml" : layout_.transforms;
+      CameraImage cam;
+      auto image = std::make_shared<Image>(readImage(files.image));
+      cam.model = rellisCamera(info_file, tf_file, image->width, image->height);
+      cam.source_path = files.image;
+      if (use_image_labels_ && !files.image_label.empty()) {
+        const Image raw = readImage(files.image_label);
+        if (raw.channels != 1 || raw.width != image->width || raw.height != image->height)
+          throw InputError(files.image_label,
+                           "expected a 1-channel label image of " + std::to_string(image->width) +
+                               "x" + std::to_string(image->height) + " px, got " +
+                               std::to_string(raw.channels) + " channels " +
+                               std::to_string(raw.width) + "x" + std::to_string(raw.height));
+        auto truth = std::make_shared<Image>(raw.width, raw.height, 1);
+        map_->mapAll(raw.data.data(), raw.data.size(), truth->data.data(), files.image_label);
+        cam.truth = std::move(truth);
+      }
+      cam.image = std::move(image);
+      f.cameras.push_back(std::move(cam));
+    }
+    return f;
+  }
+
+ private:
+  std::string path_;
+  std::string label_map_;
+  bool use_labels_ = true;
+  bool use_images_ = false;
+  bool use_image_labels_ = true;
+  bool drop_no_return_ = true;
+  int rings_ = 64;
+
+  RellisLayout layout_;
+  std::unique_ptr<LabelMap> map_;
+};
+
+}  // namespace
+}  // namespace terramrf
+
+TERRAMRF_PLUGIN(terramrf::Rellis3dSource, terramrf::PluginKind::kSource, "rellis3d",
+                "RELLIS-3D frames: organised Ouster scan + labels, camera image + pixel labels, "
+                "calibration")

@@ -1,0 +1,340 @@
+#include "terramrf/io/kitti.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <limits>
+
+#include "io_test_util.hpp"
+#include "terramrf/errors.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+const char* kSeq = "semantickitti_seq00_000000-000005/sequences/00";
+std::string seqFile(const std::string& rel) {
+  return test::dataPath(std::string(kSeq) + "/" + rel);
+}
+
+LabelMap skMap() {
+  return LabelMap::load(test::sourceDir() + "/configs/label_maps/semantickitti.yaml",
+                        LabelSet::defaults());
+}
+
+TEST(KittiScan, Seq00CountsAndLabelHistogram) {
+  const std::size_t counts[] = {124668, 124605, 124478, 124167, 123969, 123924};
+  const LabelMap map = skMap();
+  std::map<uint32_t, std::size_t> hist;
+  for (int i = 0; i < 6; ++i) {
+    PointCloud c;
+    const std::string bin = seqFile("velodyne/00000" + std::to_string(i) + ".bin");
+    const ScanReadInfo info = readKittiScan(bin, c);
+    EXPECT_EQ(info.raw_points, counts[i]);
+    EXPECT_EQ(c.size(), counts[i]);
+    EXPECT_EQ(info.droppedTotal(), 0u);
+    EXPECT_FALSE(c.hasRing());
+    if (i < 3) {
+      PointLabels t;
+      readKittiLabels(seqFile("labels/00000" + std::to_string(i) + ".label"), bin, info, &map, t);
+      ASSERT_EQ(t.raw.size(), counts[i]);
+      ASSERT_EQ(t.label.size(), counts[i]);
+      for (const auto& [k, v] : test::histogram(t.raw)) hist[k] += v;
+    }
+  }
+  // PROVENANCE.md of the folder (python/numpy histogram of frames 0-2).
+  const std::map<uint32_t, std::size_t> expected{
+      {0, 6448},   {1, 27},    {10, 13346}, {40, 99691}, {44, 11716}, {48, 77924},
+      {50, 57571}, {51, 1158}, {52, 4240},  {60, 2583},  {70, 81226}, {71, 3685},
+      {72, 8314},  {80, 1782}, {81, 295},   {99, 3512},  {255, 233}};
+  EXPECT_EQ(hist, expected);
+  // Mapped shares: road 51.3 %, rough 2.2 %, obstacle 44.7 %, unknown 1.7 %.
+  std::size_t total = 0, road = 0;
+  for (const auto& [k, v] : hist) {
+    total += v;
+    if (map.map(k) == labels::kRoad) road += v;
+  }
+  EXPECT_NEAR(100.0 * road / total, 51.3, 0.05);
+}
+
+TEST(KittiScan, FirstPointOfSeq00) {
+  PointCloud c;
+  readKittiScan(seqFile("velodyne/000000.bin"), c);
+  // Known answer from numpy: first point, azimuth ~0.02° (the sweep starts facing forward).
+  EXPECT_NEAR(std::atan2(c.y[0], c.x[0]) * 180 / M_PI, 0.0249, 1e-3);
+  EXPECT_GE(c.intensity[0], 0.f);
+  EXPECT_LE(c.intensity[0], 1.f);
+}
+
+TEST(KittiScan, Open3dMlConvertedAndMmdetFixture) {
+  const LabelMap map = skMap();
+  std::map<uint32_t, std::size_t> hist;
+  for (const auto& [id, n] :
+       {std::pair<std::string, std::size_t>{"000700", 85962}, {"000750", 86139}}) {
+    const std::string base = test::dataPath("semantickitti_o3dml_demo/converted_semantickitti");
+    PointCloud c;
+    const auto info = readKittiScan(base + "/velodyne/" + id + ".bin", c);
+    EXPECT_EQ(c.size(), n);
+    PointLabels t;
+    readKittiLabels(base + "/labels/" + id + ".label", base + "/velodyne/" + id + ".bin", info,
+                    &map, t);
+    for (const auto& [k, v] : test::histogram(t.raw)) hist[k] += v;
+    for (float in : c.intensity) ASSERT_EQ(in, 0.f);  // the .npy source has no intensity
+  }
+  const std::map<uint32_t, std::size_t> expected{
+      {0, 3693},   {10, 1970}, {11, 55},    {20, 46},  {30, 53},    {40, 28125}, {48, 17185},
+      {50, 25374}, {51, 2516}, {70, 61674}, {71, 177}, {72, 30585}, {80, 575},   {81, 73}};
+  EXPECT_EQ(hist, expected);
+
+  const std::string fx = test::dataPath("semantickitti_mmdet3d_fixture/sequences/00");
+  PointCloud c;
+  const auto info = readKittiScan(fx + "/velodyne/000000.bin", c);
+  EXPECT_EQ(c.size(), 50u);
+  PointLabels t;
+  readKittiLabels(fx + "/labels/000000.label", fx + "/velodyne/000000.bin", info, &map, t);
+  EXPECT_EQ(test::histogram(t.raw), (std::map<uint32_t, std::size_t>{
+                                        {0, 2}, {50, 25}, {52, 1}, {70, 17}, {71, 3}, {80, 2}}));
+}
+
+TEST(KittiScan, SizeNotMultipleOf16NamesFileAndSize) {
+  test::TempDir dir;
+  const std::string p = dir.str() + "/bad.bin";
+  const std::vector<float> v(9, 1.f);  // 36 bytes
+  test::writeScan(p, v);
+  PointCloud c;
+  try {
+    readKittiScan(p, c);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), p);
+    EXPECT_NE(std::string(e.what()).find("36 bytes"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(readKittiScan(dir.str() + "/missing.bin", c), InputError);
+}
+
+TEST(KittiScan, EmptyFileIsAnEmptyScan) {
+  test::TempDir dir;
+  const std::string p = dir.str() + "/empty.bin";
+  test::writeScan(p, {});
+  PointCloud c;
+  c.push_back(1, 2, 3, 4);
+  const ScanReadInfo info = readKittiScan(p, c);
+  EXPECT_EQ(info.raw_points, 0u);
+  EXPECT_TRUE(c.empty());
+  const std::string l = dir.str() + "/empty.label";
+  test::writeLabels(l, {});
+  PointLabels t;
+  const LabelMap map = skMap();
+  readKittiLabels(l, p, info, &map, t);
+  EXPECT_TRUE(t.empty());
+}
+
+TEST(KittiScan, NonFiniteAndNoReturnPointsAreDroppedWithTheirLabels) {
+  test::TempDir dir;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  const std::vector<float> pts{1,   2,   3, 0.5f,   // kept
+                               nan, 0,   0, 0,      // non-finite
+                               0,   0,   0, 0.1f,   // no return
+                               4,   inf, 1, 0,      // non-finite
+                               5,   6,   7, 0.25f,  // kept
+                               0,   0,   0, 0};     // no return
+  const std::string bin = dir.str() + "/s.bin", lab = dir.str() + "/s.label";
+  test::writeScan(bin, pts);
+  test::writeLabels(lab, {40, 1, 0, 1, (7u << 16) | 70u, 0});
+  PointCloud c;
+  const ScanReadInfo info = readKittiScan(bin, c);
+  EXPECT_EQ(info.raw_points, 6u);
+  EXPECT_EQ(info.dropped_nonfinite, 2u);
+  EXPECT_EQ(info.dropped_no_return, 2u);
+  EXPECT_EQ(info.dropped, (std::vector<uint32_t>{1, 2, 3, 5}));
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(c.x[1], 5.f);
+  EXPECT_EQ(c.intensity[1], 0.25f);
+  const LabelMap map = skMap();
+  PointLabels t;
+  readKittiLabels(lab, bin, info, &map, t);
+  EXPECT_EQ(t.raw, (std::vector<uint32_t>{40, 70}));  // instance bits stripped
+  EXPECT_EQ(t.label, (std::vector<LabelId>{labels::kRoad, labels::kObstacle}));
+
+  // Keeping no-return points is a choice.
+  const ScanReadInfo keep = readKittiScan(bin, c, /*drop_no_return=*/false);
+  EXPECT_EQ(c.size(), 4u);
+  EXPECT_EQ(keep.dropped_no_return, 0u);
+}
+
+TEST(KittiScan, LabelCountMismatchNamesBothFilesAndCounts) {
+  test::TempDir dir;
+  const std::string bin = dir.str() + "/s.bin", lab = dir.str() + "/s.label";
+  test::writeScan(bin, std::vector<float>(4 * 5, 1.f));
+  test::writeLabels(lab, {40, 40, 40});
+  PointCloud c;
+  const ScanReadInfo info = readKittiScan(bin, c);
+  PointLabels t;
+  try {
+    readKittiLabels(lab, bin, info, nullptr, t);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find(lab), std::string::npos) << w;
+    EXPECT_NE(w.find(bin), std::string::npos) << w;
+    EXPECT_NE(w.find("3 labels"), std::string::npos) << w;
+    EXPECT_NE(w.find("5 points"), std::string::npos) << w;
+  }
+  // An odd byte count is reported as such.
+  test::writeBytes(lab, "abcdefg", 7);
+  EXPECT_THROW(readKittiLabels(lab, bin, info, nullptr, t), InputError);
+}
+
+TEST(KittiScan, UnmappedLabelNamesMapIdAndLabelFile) {
+  test::TempDir dir;
+  const std::string bin = dir.str() + "/s.bin", lab = dir.str() + "/s.label";
+  test::writeScan(bin, std::vector<float>(4 * 2, 1.f));
+  test::writeLabels(lab, {40, 123});
+  PointCloud c;
+  const ScanReadInfo info = readKittiScan(bin, c);
+  const LabelMap map = skMap();
+  PointLabels t;
+  try {
+    readKittiLabels(lab, bin, info, &map, t);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("semantickitti.yaml"), std::string::npos) << w;
+    EXPECT_NE(w.find("123"), std::string::npos) << w;
+    EXPECT_NE(w.find(lab), std::string::npos) << w;
+  }
+}
+
+TEST(KittiCalib, OdometryVariant) {
+  const KittiCalib c = readKittiCalib(seqFile("calib.txt"));
+  EXPECT_FALSE(c.object_format);
+  EXPECT_NEAR(c.P[2](0, 0), 718.856, 1e-9);
+  EXPECT_NEAR(c.P[2](0, 3), 45.38225, 1e-9);
+  EXPECT_NEAR(c.T_cam_velo.translation().z(), -0.2921968648686, 1e-12);
+  EXPECT_NEAR(c.T_cam_velo.linear()(0, 1), -0.9999672484946, 1e-12);
+  // A forward LiDAR point is in front of camera 0.
+  EXPECT_GT((c.T_cam_velo * Eigen::Vector3d(10, 0, 0)).z(), 9.0);
+}
+
+TEST(KittiCalib, ObjectVariantProjectsIntoTheImage) {
+  const std::string base = test::dataPath("kitti_object_fusion/training");
+  const std::pair<int, int> sizes[] = {{1224, 370}, {1242, 375}};
+  const std::size_t expected_in_image[] = {20285, 18630};  // numpy, P2·R0_rect·Tr_velo_to_cam
+  const std::size_t expected_points[] = {115384, 120268};
+  for (int i = 0; i < 2; ++i) {
+    const KittiCalib c = readKittiCalib(base + "/calib/00000" + std::to_string(i) + ".txt");
+    EXPECT_TRUE(c.object_format);
+    const CameraModel cam = kittiCamera(c, 2, sizes[i].first, sizes[i].second);
+    EXPECT_EQ(cam.name, "image_2");
+    PointCloud pc;
+    readKittiScan(base + "/velodyne/00000" + std::to_string(i) + ".bin", pc);
+    EXPECT_EQ(pc.size(), expected_points[i]);
+    std::size_t in = 0;
+    for (std::size_t k = 0; k < pc.size(); ++k)
+      in += cam.project(Eigen::Vector3d(pc.x[k], pc.y[k], pc.z[k])).has_value();
+    EXPECT_NEAR(double(in), double(expected_in_image[i]), 3.0);
+  }
+}
+
+TEST(KittiCalib, RejectsBrokenFiles) {
+  test::TempDir dir;
+  const std::string p = dir.str() + "/calib.txt";
+  std::ofstream(p) << "P0: 1 2 3\n";
+  EXPECT_THROW(readKittiCalib(p), InputError);
+  std::ofstream(p) << "P0: 1 0 0 0 0 1 0 0 0 0 1 0\nP1: 1 0 0 0 0 1 0 0 0 0 1 0\n"
+                      "P2: 1 0 0 0 0 1 0 0 0 0 1 0\nP3: 1 0 0 0 0 1 0 0 0 0 1 0\n";
+  try {
+    readKittiCalib(p);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("Tr"), std::string::npos);
+  }
+  EXPECT_THROW(readKittiCalib(dir.str() + "/nope.txt"), InputError);
+}
+
+TEST(KittiPoses, LidarPoseMovesForward) {
+  const auto poses = readKittiPoses(seqFile("poses.txt"));
+  ASSERT_EQ(poses.size(), 4541u);
+  const KittiCalib c = readKittiCalib(seqFile("calib.txt"));
+  const Eigen::Isometry3d p1 = kittiLidarPose(poses[1], c.T_cam_velo);
+  const Eigen::Isometry3d p5 = kittiLidarPose(poses[5], c.T_cam_velo);
+  // numpy: inv(Tr)·P·Tr translations (LiDAR x forward).
+  EXPECT_NEAR(p1.translation().x(), 0.8588, 1e-3);
+  EXPECT_NEAR(p1.translation().y(), 0.0465, 1e-3);
+  EXPECT_NEAR(p5.translation().x(), 4.2917, 1e-3);
+  EXPECT_NEAR(p5.translation().z(), 0.1111, 1e-3);
+  EXPECT_TRUE(kittiLidarPose(poses[0], c.T_cam_velo).isApprox(Eigen::Isometry3d::Identity(), 1e-6));
+
+  test::TempDir dir;
+  const std::string bad = dir.str() + "/poses.txt";
+  std::ofstream(bad) << "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1\n";
+  try {
+    readKittiPoses(bad);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("line 2"), std::string::npos) << e.what();
+  }
+}
+
+TEST(KittiLayout, ResolvesEveryKittiFolderOfTheData) {
+  const std::string seq = test::dataPath(kSeq);
+  const KittiLayout a = resolveKittiLayout(seq, "");
+  EXPECT_EQ(a.kind, KittiLayout::Kind::kSequence);
+  EXPECT_EQ(a.stems.size(), 6u);
+  EXPECT_FALSE(a.poses_file.empty());
+  const KittiLayout b =
+      resolveKittiLayout(test::dataPath("semantickitti_seq00_000000-000005"), "00");
+  EXPECT_EQ(b.root, a.root);
+  EXPECT_EQ(
+      resolveKittiLayout(test::dataPath("semantickitti_seq00_000000-000005"), "").stems.size(), 6u);
+  EXPECT_EQ(
+      resolveKittiLayout(test::dataPath("semantickitti_seq00_000000-000005"), "0").stems.size(),
+      6u);
+  EXPECT_THROW(resolveKittiLayout(test::dataPath("semantickitti_seq00_000000-000005"), "07"),
+               ParamError);
+  const KittiLayout o = resolveKittiLayout(test::dataPath("kitti_object_fusion/training"), "");
+  EXPECT_EQ(o.kind, KittiLayout::Kind::kObject);
+  EXPECT_EQ(o.stems, (std::vector<std::string>{"000000", "000001"}));
+  EXPECT_EQ(std::filesystem::path(o.calibPath(1)).filename(), "000001.txt");
+  EXPECT_EQ(resolveKittiLayout(test::dataPath("kitti_object_fusion"), "").root, o.root);
+  const KittiLayout d =
+      resolveKittiLayout(test::dataPath("semantickitti_o3dml_demo/converted_semantickitti"), "");
+  EXPECT_EQ(d.stems, (std::vector<std::string>{"000700", "000750"}));
+  EXPECT_TRUE(d.poses_file.empty());
+  EXPECT_THROW(resolveKittiLayout(test::dataPath("rellis3d_example_000104"), ""), ParamError);
+}
+
+TEST(KittiScan, ReadTimeOfAFullScanWithLabels) {
+  const std::string bin = seqFile("velodyne/000000.bin"), lab = seqFile("labels/000000.label");
+  const LabelMap map = skMap();
+  PointCloud c;
+  PointLabels t;
+  auto cpu_ms = [] {  // thread CPU time: other jobs on the machine do not count
+    timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+  };
+  double best_ms = 1e9, best_wall_ms = 1e9;
+  for (int rep = 0; rep < 10; ++rep) {
+    const auto w0 = std::chrono::steady_clock::now();
+    const double t0 = cpu_ms();
+    const ScanReadInfo info = readKittiScan(bin, c);
+    readKittiLabels(lab, bin, info, &map, t);
+    best_ms = std::min(best_ms, cpu_ms() - t0);
+    best_wall_ms = std::min(
+        best_wall_ms,
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - w0).count());
+  }
+  std::printf("read 124668-point .bin + .label: %.2f ms CPU, %.2f ms wall (best of 10)\n", best_ms,
+              best_wall_ms);
+  EXPECT_EQ(t.label.size(), 124668u);
+  // Target ~1-2 ms; the bound only catches gross regressions.
+  EXPECT_LT(best_ms, 20.0);
+}
+
+}  // namespace
+}  // namespace terramrf

@@ -1,0 +1,149 @@
+#include "terramrf/io/rellis.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "io_test_util.hpp"
+#include "terramrf/adapters/opencv_image.hpp"
+#include "terramrf/errors.hpp"
+#include "terramrf/io/ring_recovery.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+const char* kDir = "rellis3d_example_000104";
+
+TEST(Rellis, LayoutOfTheExampleFolder) {
+  const RellisLayout L = resolveRellisLayout(test::dataPath(kDir));
+  ASSERT_EQ(L.frames.size(), 1u);  // vel000104.bin is the Velodyne scan, not a frame
+  const RellisFrameFiles& f = L.frames[0];
+  EXPECT_EQ(f.id, "000104");
+  EXPECT_NE(f.label.find("000104.label"), std::string::npos);
+  EXPECT_NE(f.image.find("frame000104-1581624663_149.jpg"), std::string::npos);
+  EXPECT_NE(f.image_label.find("frame000104-1581624663_149.png"), std::string::npos);
+  EXPECT_FALSE(L.camera_info.empty());
+  EXPECT_FALSE(L.transforms.empty());
+  test::TempDir empty;
+  EXPECT_THROW(resolveRellisLayout(empty.str()), ParamError);
+}
+
+TEST(Rellis, ScanLabelsAndOrganisedRings) {
+  const RellisLayout L = resolveRellisLayout(test::dataPath(kDir));
+  const auto& files = L.frames[0];
+  PointCloud c;
+  const ScanReadInfo info = readKittiScan(files.scan, c);
+  EXPECT_EQ(info.raw_points, 131072u);
+  EXPECT_EQ(info.dropped_no_return, 53364u);
+  EXPECT_EQ(info.dropped_nonfinite, 0u);
+  EXPECT_EQ(c.size(), 131072u - 53364u);
+  organisedRings(c, info, 64);
+  ASSERT_TRUE(c.hasRing());
+  // ring = index % 64: elevation is constant within a ring (organised Ouster layout) and falls
+  // from ring 0 (top, ~+17°) to ring 63.
+  std::vector<double> lo(64, 1e9), hi(64, -1e9);
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const double el = std::atan2(c.z[i], std::hypot(c.x[i], c.y[i])) * 180 / M_PI;
+    lo[c.ring[i]] = std::min(lo[c.ring[i]], el);
+    hi[c.ring[i]] = std::max(hi[c.ring[i]], el);
+  }
+  for (int k = 0; k < 64; ++k) {
+    EXPECT_LT(hi[k] - lo[k], 0.01) << "ring " << k;
+    if (k) EXPECT_LT(hi[k], lo[k - 1]) << "ring " << k;
+  }
+  EXPECT_NEAR(lo[0], 17.0, 0.1);
+
+  const LabelMap map =
+      LabelMap::load(test::sourceDir() + "/configs/label_maps/rellis3d.yaml", LabelSet::defaults());
+  PointLabels t;
+  readKittiLabels(files.label, files.scan, info, &map, t);
+  // PROVENANCE.md histogram; all 53364 no-return points are void (0).
+  EXPECT_EQ(test::histogram(t.raw), (std::map<uint32_t, std::size_t>{{0, 68284 - 53364},
+                                                                     {3, 18040},
+                                                                     {4, 17872},
+                                                                     {17, 1310},
+                                                                     {18, 595},
+                                                                     {19, 3360},
+                                                                     {23, 20242},
+                                                                     {31, 1269},
+                                                                     {33, 100}}));
+  const auto mapped = test::histogram(t.label);
+  EXPECT_EQ(mapped.at(labels::kRoad), 20242u);
+  EXPECT_EQ(mapped.at(labels::kRough), 18040u + 1269u + 100u);
+  EXPECT_EQ(mapped.at(labels::kObstacle), 17872u + 1310u + 595u + 3360u);
+}
+
+TEST(Rellis, ExtrinsicDirectionPutsLabelledPointsOnMatchingPixels) {
+  const RellisLayout L = resolveRellisLayout(test::dataPath(kDir));
+  const auto& files = L.frames[0];
+  const Image img = readImage(files.image);
+  EXPECT_EQ(img.width, 1920);
+  EXPECT_EQ(img.height, 1200);
+  const CameraModel cam = rellisCamera(L.camera_info, L.transforms, img.width, img.height);
+  EXPECT_NEAR(cam.P(0, 0), 2813.643275, 1e-6);
+  EXPECT_NEAR(cam.P(1, 2), 624.049972, 1e-6);
+  const Image pix = readImage(files.image_label);
+  ASSERT_EQ(pix.channels, 1);
+  PointCloud c;
+  const ScanReadInfo info = readKittiScan(files.scan, c);
+  PointLabels t;
+  readKittiLabels(files.label, files.scan, info, nullptr, t);
+  std::size_t in = 0, both = 0, same = 0;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const auto uv = cam.project(Eigen::Vector3d(c.x[i], c.y[i], c.z[i]));
+    if (!uv) continue;
+    ++in;
+    const uint8_t p = *pix.at(int(uv->x()), int(uv->y()));
+    if (t.raw[i] == 0 || p == 0) continue;
+    ++both;
+    same += p == t.raw[i];
+  }
+  std::printf("RELLIS 000104: %zu points in the image, %zu labelled, %.3f same RELLIS id\n", in,
+              both, double(same) / both);
+  EXPECT_NEAR(double(in), 7428, 10);  // numpy with the inverted transform
+  EXPECT_GT(double(same) / both, 0.7);
+}
+
+TEST(Rellis, VelodyneScanBinsIntoTheVlp32cLaserAngles) {
+  // vel000104.bin, the simultaneous Velodyne VLP-32C scan: firing (column) order, so rings come
+  // from elevation binning, whose centres must be the sensor's nominal laser angles.
+  PointCloud c;
+  const ScanReadInfo info =
+      readKittiScan(test::dataPath("rellis3d_example_000104/vel000104.bin"), c);
+  EXPECT_EQ(info.raw_points, 37334u);
+  EXPECT_EQ(info.droppedTotal(), 0u);
+  RingRecoveryOptions o;
+  o.rings = 32;
+  const RingRecoveryStats st = recoverRings(c, o);
+  EXPECT_EQ(st.method, RingMethod::kElevation);
+  ASSERT_EQ(st.rings_found, 32);
+  const double vlp32c[] = {15,    10.33, 7,     4.67,  3.33,  2.33,   1.67,   1.33,
+                           1,     0.67,  0.33,  0,     -0.33, -0.67,  -1,     -1.33,
+                           -1.67, -2,    -2.33, -2.67, -3,    -3.33,  -3.67,  -4,
+                           -4.67, -5.33, -6.15, -7.25, -8.84, -11.31, -15.64, -25};
+  for (int k = 0; k < 32; ++k)
+    EXPECT_NEAR(st.ring_median_elevation_deg[k], vlp32c[k], 0.1) << "ring " << k;
+}
+
+TEST(Rellis, CalibrationErrorsNameTheFile) {
+  test::TempDir dir;
+  const std::string ci = dir.str() + "/camera_info.txt", tf = dir.str() + "/transforms.yaml";
+  std::ofstream(ci) << "1 2\n";
+  EXPECT_THROW(readRellisIntrinsics(ci), InputError);
+  EXPECT_THROW(readRellisIntrinsics(dir.str() + "/none.txt"), InputError);
+  std::ofstream(tf) << "other: {}\n";
+  try {
+    readRellisCameraFromLidar(tf);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), tf);
+  }
+  std::ofstream(tf) << "os1_cloud_node-pylon_camera_node: {q: {w: 2, x: 0, y: 0, z: 0}, "
+                       "t: {x: 0, y: 0, z: 0}}\n";
+  EXPECT_THROW(readRellisCameraFromLidar(tf), InputError);
+}
+
+}  // namespace
+}  // namespace terramrf

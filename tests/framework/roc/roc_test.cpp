@@ -1,0 +1,232 @@
+// ROC accumulation and AUC on hand-made scores with known answers, the cell-truth rule against
+// the Evaluator, and the local-energy fallback.
+#include "terramrf/roc.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "terramrf/evaluation.hpp"
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+namespace {
+
+TEST(RocAuc, PerfectSeparationIsOne) {
+  EXPECT_DOUBLE_EQ(rocAuc({0.9f, 0.8f, 0.3f, 0.1f}, {true, true, false, false}), 1.0);
+}
+
+TEST(RocAuc, ReversedIsZero) {
+  EXPECT_DOUBLE_EQ(rocAuc({0.9f, 0.8f, 0.3f, 0.1f}, {false, false, true, true}), 0.0);
+}
+
+TEST(RocAuc, AllTiedIsHalf) {
+  EXPECT_DOUBLE_EQ(rocAuc({0.5f, 0.5f, 0.5f, 0.5f}, {true, false, true, false}), 0.5);
+}
+
+TEST(RocAuc, TiesEarnHalfCredit) {
+  // Positives {0.9, 0.5}, negatives {0.5, 0.1}: 3 of 4 pairs ordered, 1 tied → 3.5 / 4.
+  EXPECT_DOUBLE_EQ(rocAuc({0.9f, 0.5f, 0.5f, 0.1f}, {true, true, false, false}), 0.875);
+}
+
+TEST(RocAuc, UndefinedWithoutNegatives) {
+  EXPECT_TRUE(std::isnan(rocAuc({0.1f, 0.2f}, {true, true})));
+}
+
+TEST(RocCurve, PointsOfAPerfectSeparation) {
+  RocAccumulator acc(LabelSet::defaults());
+  acc.add(labels::kRoad, 0.9f, true, true);
+  acc.add(labels::kRoad, 0.8f, true, true);
+  acc.add(labels::kRoad, 0.3f, false, false);
+  acc.add(labels::kRoad, 0.1f, false, true);
+  const RocCurve c = acc.curve(labels::kRoad);
+  EXPECT_EQ(c.class_name, "road");
+  EXPECT_EQ(c.positives, 2u);
+  EXPECT_EQ(c.negatives, 2u);
+  EXPECT_DOUBLE_EQ(c.auc, 1.0);
+  ASSERT_EQ(c.points.size(), 5u);
+  const double fpr[] = {0, 0, 0, 0.5, 1}, tpr[] = {0, 0.5, 1, 1, 1};
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_DOUBLE_EQ(c.points[i].fpr, fpr[i]) << i;
+    EXPECT_DOUBLE_EQ(c.points[i].tpr, tpr[i]) << i;
+  }
+  EXPECT_TRUE(std::isinf(c.points[0].threshold));
+  // The hard labelling called both positives and one negative road.
+  EXPECT_DOUBLE_EQ(c.operating_tpr, 1.0);
+  EXPECT_DOUBLE_EQ(c.operating_fpr, 0.5);
+}
+
+TEST(RocCurve, TiedScoresAreOneDiagonalStep) {
+  RocAccumulator acc(LabelSet::defaults());
+  for (int i = 0; i < 3; ++i) acc.add(labels::kRough, 0.5f, true, false);
+  for (int i = 0; i < 3; ++i) acc.add(labels::kRough, 0.5f, false, false);
+  const RocCurve c = acc.curve(labels::kRough);
+  ASSERT_EQ(c.points.size(), 2u);  // (0,0) → (1,1) in one step
+  EXPECT_DOUBLE_EQ(c.points[1].fpr, 1.0);
+  EXPECT_DOUBLE_EQ(c.points[1].tpr, 1.0);
+  EXPECT_DOUBLE_EQ(c.auc, 0.5);
+}
+
+TEST(RocCurve, ThinningKeepsEndsAndAuc) {
+  RocAccumulator acc(LabelSet::defaults());
+  std::mt19937 rng(3);
+  std::normal_distribution<float> n(0, 1);
+  for (int i = 0; i < 2000; ++i)
+    acc.add(labels::kObstacle, n(rng) + (i % 2 ? 1.f : 0.f), i % 2, false);
+  const RocCurve full = acc.curve(labels::kObstacle);
+  const RocCurve thin = acc.curve(labels::kObstacle, 50);
+  EXPECT_LE(thin.points.size(), 50u);
+  EXPECT_DOUBLE_EQ(thin.auc, full.auc);
+  EXPECT_DOUBLE_EQ(thin.points.front().tpr, 0.0);
+  EXPECT_DOUBLE_EQ(thin.points.back().tpr, 1.0);
+  EXPECT_DOUBLE_EQ(thin.points.back().fpr, 1.0);
+  EXPECT_GT(full.auc, 0.7);  // d' = 1 → AUC ≈ 0.76
+  EXPECT_LT(full.auc, 0.82);
+}
+
+// A 2×2 grid (cells 1 m, grid 2 m, centred at 0): cell of (x, y) = row by x, column by y.
+struct Scene {
+  Frame frame;
+  TerrainGrid grid;
+  Scene() {
+    GridGeometry g;
+    g.size_m = 2;
+    g.cell_m = 1;
+    grid.reset(g);
+  }
+  void point(float x, float y, LabelId truth) {
+    frame.points.push_back(x, y, 0, 0);
+    frame.truth.label.push_back(truth);
+  }
+  void bin() {
+    grid.binPoints(frame.points);
+    grid.labels().assign(grid.cells(), labels::kUnknown);
+  }
+};
+
+TEST(RocAccumulator, CellTruthFollowsPaper001AndScoresComeFromLayers) {
+  Scene s;
+  // cell 0 (x<0, y<0): road, road, obstacle → truth obstacle (one obstacle point suffices)
+  s.point(-0.5f, -0.5f, labels::kRoad);
+  s.point(-0.6f, -0.5f, labels::kRoad);
+  s.point(-0.7f, -0.5f, labels::kObstacle);
+  // cell 1 (x<0, y>0): road ×2, rough → road
+  s.point(-0.5f, 0.5f, labels::kRoad);
+  s.point(-0.5f, 0.6f, labels::kRoad);
+  s.point(-0.5f, 0.7f, labels::kRough);
+  // cell 2 (x>0, y<0): unknown only → not scored
+  s.point(0.5f, -0.5f, labels::kUnknown);
+  // cell 3 (x>0, y>0): road, rough tie → predicted class (rough) wins the tie
+  s.point(0.5f, 0.5f, labels::kRoad);
+  s.point(0.5f, 0.6f, labels::kRough);
+  s.bin();
+  s.grid.labels() = {labels::kObstacle, labels::kRoad, labels::kRoad, labels::kRough};
+  Layer& road = s.grid.add(layers::score("road"));
+  road = {0.1f, 0.9f, 0.5f, 0.4f};
+  Layer& obst = s.grid.add(layers::score("obstacle"));
+  obst = {0.8f, 0.2f, 0.5f, kNoData};  // cell 3 unscored for obstacle
+
+  RocAccumulator acc(LabelSet::defaults());
+  const RocFrameStats st = acc.addFrame(s.grid, s.frame, nullptr);
+  EXPECT_EQ(st.source, ScoreSource::kScoreLayers);
+  EXPECT_EQ(st.cells_scored, 3u);
+  EXPECT_EQ(st.cells_without_score, 0u);
+  EXPECT_EQ(acc.samples(labels::kRoad), 3u);
+  EXPECT_EQ(acc.samples(labels::kObstacle), 2u);
+  EXPECT_EQ(acc.samples(labels::kRough), 0u);
+  const RocCurve r = acc.curve(labels::kRoad);
+  EXPECT_EQ(r.positives, 1u);  // cell 1
+  EXPECT_EQ(r.negatives, 2u);  // cells 0 (obstacle) and 3 (rough by the tie rule)
+  EXPECT_DOUBLE_EQ(r.auc, 1.0);
+  const RocCurve o = acc.curve(labels::kObstacle);
+  EXPECT_EQ(o.positives, 1u);
+  EXPECT_DOUBLE_EQ(o.auc, 1.0);
+  EXPECT_EQ(acc.curves().size(), 2u);
+}
+
+TEST(RocAccumulator, FrameWithoutTruthAddsNothingAndBadSizesThrow) {
+  Scene s;
+  s.point(0.5f, 0.5f, labels::kRoad);
+  s.bin();
+  RocAccumulator acc(LabelSet::defaults());
+  Frame no_truth = s.frame;
+  no_truth.truth = {};
+  EXPECT_EQ(acc.addFrame(s.grid, no_truth, nullptr).cells_scored, 0u);
+  Frame bad = s.frame;
+  bad.truth.label.push_back(labels::kRoad);
+  EXPECT_THROW(acc.addFrame(s.grid, bad, nullptr), InputError);
+  EXPECT_EQ(acc.cells_scored, 0u);
+}
+
+TEST(CellTruth, MatchesTheEvaluatorOnRandomFrames) {
+  // The ROC cell truth must be the evaluation's: compare the confusion matrices they imply.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> xy(-0.99f, 0.99f);
+  std::uniform_int_distribution<int> cls(0, 3), few(0, 6);
+  const LabelSet ls = LabelSet::defaults();
+  for (int trial = 0; trial < 50; ++trial) {
+    Scene s;
+    for (int cell = 0; cell < 4; ++cell) {
+      const float x = cell < 2 ? -0.5f : 0.5f, y = cell % 2 ? 0.5f : -0.5f;
+      for (int k = few(rng); k > 0; --k) s.point(x + 0.01f * k, y, static_cast<LabelId>(cls(rng)));
+    }
+    if (s.frame.points.empty()) continue;
+    s.bin();
+    for (auto& l : s.grid.labels()) l = static_cast<LabelId>(cls(rng));
+    Evaluator ev(ls);
+    ev.addFrame(s.grid, s.frame);
+    ConfusionMatrix mine(ls.size());
+    std::vector<uint64_t> per(ls.size());
+    for (int c = 0; c < 4; ++c) {
+      std::fill(per.begin(), per.end(), 0);
+      for (const uint32_t* p = s.grid.pointsBegin(c); p != s.grid.pointsEnd(c); ++p)
+        ++per[s.frame.truth.label[*p]];
+      const LabelId t = cellTruth(per, ls.obstacle(), s.grid.labels()[c]);
+      if (t != labels::kUnknown) mine.add(t, s.grid.labels()[c]);
+    }
+    ASSERT_TRUE(mine == ev.total().cell_wise) << "trial " << trial;
+  }
+}
+
+TEST(LocalEnergyScores, MarginIsPositiveForTheBestLabel) {
+  EnergyModel em;
+  em.resize(1, 3, 2);
+  em.active = {labels::kRoad, labels::kObstacle};
+  em.beta = em.beta_diagonal = 0.5f;
+  // cell 0 prefers road strongly, cell 1 mildly obstacle, cell 2 fixed.
+  em.unary = {0.f, 4.f, 1.f, 0.f, 0.f, 0.f};
+  em.fixed = {0, 0, 1};
+  const std::vector<LabelId> labels = {labels::kRoad, labels::kObstacle, labels::kUnknown};
+  const auto s = localEnergyScores(em, labels, 4);
+  ASSERT_EQ(s.size(), 4u);
+  EXPECT_TRUE(s[labels::kUnknown].empty());
+  EXPECT_TRUE(s[labels::kRough].empty());
+  // Cell 0: E(road) = 0 + 0.5 (neighbour obstacle differs) = 0.5; E(obst) = 4 − 0.5 = 3.5.
+  EXPECT_FLOAT_EQ(s[labels::kRoad][0], 3.0f);
+  EXPECT_FLOAT_EQ(s[labels::kObstacle][0], -3.0f);
+  // Cell 1: E(road) = 1 − 0.5 = 0.5; E(obst) = 0 + 0.5 = 0.5: a tie.
+  EXPECT_FLOAT_EQ(s[labels::kRoad][1], 0.0f);
+  EXPECT_TRUE(std::isnan(s[labels::kRoad][2]));
+}
+
+TEST(RocWriters, CsvSvgJson) {
+  RocAccumulator acc(LabelSet::defaults());
+  acc.add(labels::kRoad, 0.9f, true, true);
+  acc.add(labels::kRoad, 0.1f, false, false);
+  const auto curves = acc.curves();
+  const std::string csv = rocCsv(curves, "run1");
+  EXPECT_EQ(csv.rfind("run,class,threshold,fpr,tpr,tp,fp,positives,negatives\n", 0), 0u);
+  EXPECT_NE(csv.find("run1,road,inf,0,0,0,0,1,1"), std::string::npos) << csv;
+  const std::string svg = rocSvg(curves, LabelSet::defaults(), "a <title>");
+  EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+  EXPECT_NE(svg.find("<polyline"), std::string::npos);
+  EXPECT_NE(svg.find("a &lt;title&gt;"), std::string::npos);
+  EXPECT_NE(svg.find("AUC 1.000"), std::string::npos);
+  EXPECT_NE(svg.find("</svg>"), std::string::npos);
+  const std::string js = rocSummaryJson(curves);
+  EXPECT_NE(js.find("\"auc\": 1"), std::string::npos) << js;
+}
+
+}  // namespace
+}  // namespace terramrf

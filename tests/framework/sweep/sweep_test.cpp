@@ -1,0 +1,442 @@
+// compare/train as a library: split validation (overlap rejected with the file and the item),
+// file:line:col diagnostics for bad sweep keys, a tiny simulator sweep end to end, and training
+// a model that potts_gaussian loads, with provenance.
+#include "terramrf/sweep.hpp"
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "terramrf/atomic_file.hpp"
+#include "terramrf/param_values.hpp"
+#include "terramrf/registry.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+namespace fs = std::filesystem;
+
+std::string put(const test::TempDir& dir, const std::string& name, const std::string& text) {
+  const std::string p = dir.str() + "/" + name;
+  std::ofstream(p) << text;
+  return p;
+}
+
+// Small, fast simulator scans (no camera, coarse azimuth).
+const char* kSim = "enable_camera: false, azimuth_step_deg: 0.4";
+
+std::string tinySweep(const std::string& optimisers) {
+  return std::string(R"(version: 1
+name: tiny
+grid: {size_m: 30, cell_m: 0.5}
+datasets:
+  sim_train: {type: simulator, params: {seed: 7, frames: 2, )") +
+         kSim + R"(}}
+  sim_test:  {type: simulator, params: {seed: 1, frames: 1, )" +
+         kSim + R"(}}
+split:
+  train: [{dataset: sim_train, frames: [0, 1]}]
+  test: [sim_test]
+common_stages:
+  - {name: pre, type: eigen_preclass}
+feature_sets:
+  L0:
+    stages: [{name: hdiff, type: height_difference}]
+    features: [height_diff, normal_eigenvalue]
+    min_sigma: [0.02, 0.0001]
+  L:
+    extends: L0
+    stages: [{name: rough, type: roughness}]
+    features: [roughness]
+    min_sigma: [0.005]
+optimisers:
+)" + optimisers +
+         R"(
+energy: {type: potts_gaussian, params: {alpha: 1.0, beta: 0.8, preclass_layer: preclass}}
+)";
+}
+
+ConfigError expectConfigError(const std::string& sweep) {
+  try {
+    planSweep(sweep, {test::pluginDir()});
+  } catch (const ConfigError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "expected a ConfigError for " << sweep;
+  return ConfigError({});
+}
+
+// ---- split ----------------------------------------------------------------------------------
+
+TEST(SweepSplit, OverlappingFramesOfTheSameSimulatorWorldAreRejected) {
+  test::TempDir dir;
+  const std::string sweep = put(dir, "overlap.yaml",
+                                std::string(R"(version: 1
+datasets:
+  sim_a: {type: simulator, params: {seed: 7, frames: 4, )") +
+                                    kSim + R"(}}
+  sim_b: {type: simulator, params: {seed: 7, frames: 6, )" +
+                                    kSim + R"(}}
+split:
+  train: [{dataset: sim_a, frames: [0, 3]}]
+  test:
+    - {dataset: sim_b, frames: [2, 5]}
+feature_sets:
+  L: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
+optimisers: {icm: {type: icm}}
+)");
+  const ConfigError e = expectConfigError(sweep);
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  const Diagnostic& d = e.diagnostics()[0];
+  EXPECT_EQ(d.file, sweep);
+  EXPECT_EQ(d.line, 8);  // the test item
+  EXPECT_EQ(d.column, 7);
+  EXPECT_NE(d.message.find("test item 'sim_b'"), std::string::npos) << d.message;
+  EXPECT_NE(d.message.find("overlaps train item 'sim_a'"), std::string::npos) << d.message;
+  EXPECT_NE(d.message.find("frames 2-3 in both"), std::string::npos) << d.message;
+  EXPECT_NE(std::string(e.what()).find(sweep + ":8:7:"), std::string::npos) << e.what();
+}
+
+TEST(SweepSplit, TheSameSeedWithOtherNoiseIsTheSameWorld) {
+  test::TempDir dir;
+  const std::string sweep = put(dir, "seed.yaml",
+                                std::string(R"(version: 1
+datasets:
+  a: {type: simulator, params: {seed: 7, frames: 2, rough_noise_m: 0.05, )") +
+                                    kSim + R"(}}
+  b: {type: simulator, params: {seed: 7, frames: 2, rough_noise_m: 0.2, )" +
+                                    kSim + R"(}}
+split: {train: [a], test: [b]}
+feature_sets:
+  L: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
+optimisers: [icm]
+)");
+  const ConfigError e = expectConfigError(sweep);
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  EXPECT_NE(e.diagnostics()[0].message.find("(simulator seed 7), all frames in both"),
+            std::string::npos)
+      << e.what();
+}
+
+TEST(SweepSplit, DisjointRangesAndOtherSeedsAreAccepted) {
+  test::TempDir dir;
+  const std::string sweep = put(dir, "ok.yaml",
+                                std::string(R"(version: 1
+datasets:
+  sim: {type: simulator, params: {seed: 7, frames: 4, )") +
+                                    kSim + R"(}}
+  other: {type: simulator, params: {seed: 8, frames: 2, )" +
+                                    kSim + R"(}}
+split:
+  train: [{dataset: sim, frames: [0, 1]}, other]
+  test: [{dataset: sim, frames: [2, 3]}]
+feature_sets:
+  L: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
+optimisers: {icm: {type: icm}, later: {type: not_built_yet}}
+)");
+  const SweepPlan plan = planSweep(sweep, {test::pluginDir()});
+  ASSERT_EQ(plan.runs.size(), 1u);
+  EXPECT_EQ(plan.runs[0], "sim × L × icm");
+  ASSERT_EQ(plan.skipped.size(), 1u);
+  EXPECT_NE(plan.skipped[0].second.find("'not_built_yet' is not installed"), std::string::npos);
+}
+
+TEST(SweepSplit, SameDataFolderOverlapsAndNestedFoldersToo) {
+  test::TempDir dir;
+  const std::string root = test::dataPath("semantickitti_seq00_000000-000005");
+  const std::string sweep = put(dir, "real.yaml",
+                                R"(version: 1
+datasets:
+  seq00: {type: semantickitti, params: {path: )" +
+                                    root + R"(}}
+  seq00_inner: {type: semantickitti, params: {path: )" +
+                                    root + R"(/sequences/00}}
+split:
+  train: [{dataset: seq00, frames: [0, 1]}]
+  test: [{dataset: seq00, frames: [1, 2]}, seq00_inner]
+feature_sets:
+  L: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
+optimisers: [icm]
+)");
+  const ConfigError e = expectConfigError(sweep);
+  ASSERT_EQ(e.diagnostics().size(), 2u) << e.what();
+  EXPECT_EQ(e.diagnostics()[0].line, 7);
+  EXPECT_NE(e.diagnostics()[0].message.find("frame 1 in both"), std::string::npos) << e.what();
+  EXPECT_NE(e.diagnostics()[1].message.find("contains the other"), std::string::npos) << e.what();
+}
+
+// ---- diagnostics ----------------------------------------------------------------------------
+
+TEST(SweepDiagnostics, BadKeysAndParametersHaveFileLineColumn) {
+  test::TempDir dir;
+  const std::string sweep = put(dir, "bad.yaml",
+                                std::string(R"(version: 1
+datasets:
+  sim: {type: simulator, params: {seed: 7, frames: 2, )") +
+                                    kSim + R"(}}
+split:
+  train: [{dataset: sim, frames: [0, 0]}]
+  test: [{dataset: sim, frams: [1, 1]}]
+feature_set:
+  L: {stages: [{name: rough, type: roughness, params: {windw: 5}}], features: [roughness]}
+optimisers: {icm: {type: icm}}
+)");
+  const ConfigError e = expectConfigError(sweep);
+  const std::string all = e.what();
+  EXPECT_NE(all.find(sweep + ":6:25: unknown key 'frams' in split item (did you mean 'frames'?)"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(all.find(sweep + ":7:1: unknown key 'feature_set' in the sweep (did you mean "
+                             "'feature_sets'?)"),
+            std::string::npos)
+      << all;
+}
+
+TEST(SweepDiagnostics, UnknownStageParameterPointsIntoTheSweep) {
+  test::TempDir dir;
+  const std::string sweep = put(dir, "bad2.yaml",
+                                std::string(R"(version: 1
+datasets:
+  a: {type: simulator, params: {seed: 7, frames: 1, )") +
+                                    kSim + R"(}}
+  b: {type: simulator, params: {seed: 8, frames: 1, )" +
+                                    kSim + R"(}}
+split: {train: [a], test: [b]}
+feature_sets:
+  L:
+    stages:
+      - {name: rough, type: roughness, params: {windw: 5}}
+    features: [roughness, no_such_layer]
+optimisers: {icm: {type: icm}}
+)");
+  const ConfigError e = expectConfigError(sweep);
+  const std::string all = e.what();
+  EXPECT_NE(all.find(sweep + ":9:49: stage 'rough' (roughness): unknown parameter 'windw' (did you "
+                             "mean 'window'?)"),
+            std::string::npos)
+      << all;
+}
+
+TEST(SweepDiagnostics, FeatureNoStageWritesIsReported) {
+  test::TempDir dir;
+  const std::string sweep = put(dir, "bad3.yaml",
+                                std::string(R"(version: 1
+datasets:
+  a: {type: simulator, params: {seed: 7, frames: 1, )") +
+                                    kSim + R"(}}
+  b: {type: simulator, params: {seed: 8, frames: 1, )" +
+                                    kSim + R"(}}
+split: {train: [a], test: [b]}
+feature_sets:
+  L:
+    stages: [{name: hdiff, type: height_difference}]
+    features: [height_diff, roughness]
+optimisers: {icm: {type: icm}}
+)");
+  const ConfigError e = expectConfigError(sweep);
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  EXPECT_EQ(e.diagnostics()[0].line, 9);
+  EXPECT_NE(e.diagnostics()[0].message.find("feature 'roughness' is not written"),
+            std::string::npos)
+      << e.what();
+}
+
+// ---- a tiny sweep end to end ----------------------------------------------------------------
+
+TEST(SweepRun, TinySimulatorSweepWritesTheTables) {
+  test::TempDir dir;
+  PluginRegistry reg({test::pluginDir()});
+  const bool have_gibbs = reg.find("gibbs") != nullptr;
+  const std::string sweep = put(dir, "tiny.yaml", tinySweep(R"(  icm: {type: icm}
+  gibbs: {type: gibbs, params: {sweeps: 12, burn_in: 4, seed: 3}}
+  later: {type: alpha_expansion_not_built})"));
+  CompareOptions o;
+  o.sweep_path = sweep;
+  o.output_dir = dir.str() + "/out";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  std::ostringstream log;
+  o.log = &log;
+  const SweepResult r = runSweep(o);
+  EXPECT_EQ(r.exitCode(), 0) << log.str();
+  ASSERT_EQ(r.runs.size(), 6u);
+  EXPECT_EQ(r.feature_sets, (std::vector<std::string>{"L0", "L"}));
+  ASSERT_EQ(r.models.size(), 2u);
+  for (const auto& m : r.models) {
+    EXPECT_TRUE(m.trained) << m.reason;
+    EXPECT_EQ(m.labelled_frames, 2u);
+  }
+  for (const auto& x : r.runs) {
+    SCOPED_TRACE(x.key() + ": " + x.reason);
+    if (x.optimiser == "later" || (x.optimiser == "gibbs" && !have_gibbs)) {
+      EXPECT_EQ(x.status, RunRecord::Status::kSkipped);
+      EXPECT_NE(x.reason.find("is not installed"), std::string::npos);
+      continue;
+    }
+    ASSERT_EQ(x.status, RunRecord::Status::kOk);
+    EXPECT_EQ(x.frames_ok, 1u);
+    EXPECT_EQ(x.counts.scans, 1u);
+    EXPECT_GT(x.counts.cells_scored, 100u);
+    ASSERT_EQ(x.energies.size(), 1u);
+    EXPECT_TRUE(std::isfinite(x.energies[0].recomputed));
+    EXPECT_NEAR(x.energies[0].recomputed, x.energies[0].reported,
+                1e-4 * std::fabs(x.energies[0].reported) + 1e-3);
+    EXPECT_LE(x.energies[0].recomputed, x.energies[0].initial + 1e-3);
+    ASSERT_EQ(x.times.processing.size(), 1u);
+    EXPECT_GT(x.times.processing[0], 0.0);
+    EXPECT_EQ(x.score_source,
+              x.optimiser == "icm" ? ScoreSource::kLocalEnergy : ScoreSource::kScoreLayers);
+    ASSERT_FALSE(x.roc.empty());
+    for (const auto& c : x.roc)
+      if (c.class_name == "obstacle") EXPECT_GT(c.auc, 0.8);
+    // Road is found: the laser features separate it from obstacles in the simulator.
+    EXPECT_GT(x.counts.cell_wise.scores(labels::kRoad).tpr(), 0.5);
+  }
+  const std::string out = o.output_dir;
+  for (const char* f :
+       {"summary.md", "accuracy.md", "accuracy.csv", "runtime.md", "runtime.csv", "evaluation.md",
+        "evaluation.csv", "energies.md", "energies.csv", "roc_auc.csv", "results.json",
+        "models/L.yaml", "models/L0.yaml", "sweep.yaml", "roc/sim_test__L__icm.svg",
+        "roc/sim_test__L__icm.csv", "runs/sim_test__L__icm/resolved_config.yaml"})
+    EXPECT_TRUE(fs::exists(out + "/" + f)) << f;
+  const std::string acc = readFile(out + "/accuracy.md");
+  EXPECT_NE(acc.find("| Class/value | L0 | L |"), std::string::npos) << acc;
+  EXPECT_NE(acc.find("| Road/TPR |"), std::string::npos);
+  EXPECT_NE(acc.find("| Obstacle/FPR |"), std::string::npos);
+  EXPECT_NE(acc.find("skipped"), std::string::npos);  // the optimiser that is not built
+  const std::string rt = readFile(out + "/runtime.md");
+  EXPECT_NE(rt.find("| Mode | Mean | Std. dev. | Max | Min |"), std::string::npos) << rt;
+  EXPECT_NE(rt.find("| L0 (icm) |"), std::string::npos) << rt;
+  const std::string summary = readFile(out + "/summary.md");
+  EXPECT_NE(summary.find("alpha_expansion_not_built' is not installed"), std::string::npos);
+  EXPECT_NE(summary.find("Point-wise"), std::string::npos);  // paper 001 tables
+  if (have_gibbs)
+    EXPECT_NE(readFile(out + "/energies.md").find("≤ every other optimiser on"), std::string::npos);
+  // results.json is valid JSON (YAML reads JSON) with every run.
+  const YAML::Node js = YAML::LoadFile(out + "/results.json");
+  EXPECT_EQ(js["schema"].as<std::string>(), "terramrf.compare/1");
+  EXPECT_EQ(js["runs"].size(), 6u);
+  // The generated run config is what was run: it loads and names the trained model.
+  EXPECT_NE(
+      readFile(out + "/runs/sim_test__L__icm/resolved_config.yaml").find(out + "/models/L.yaml"),
+      std::string::npos);
+}
+
+// ---- train ----------------------------------------------------------------------------------
+
+TEST(Train, SimulatorModelLoadsInPottsGaussianAndNamesItsData) {
+  test::TempDir dir;
+  const std::string config = put(dir, "train.yaml",
+                                 std::string(R"(version: 1
+grid: {size_m: 30, cell_m: 0.5}
+source: {type: simulator, params: {seed: 7, frames: 3, )") +
+                                     kSim + R"(}}
+stages:
+  - {name: pre, type: eigen_preclass}
+  - {name: hdiff, type: height_difference}
+  - {name: mrf, type: potts_gaussian, params: {model: not_trained_yet.yaml, features: [height_diff, normal_eigenvalue]}}
+  - {name: solve, type: icm}
+split:
+  train: [{frames: [0, 1]}]
+  test: [{params: {seed: 1}}]
+)");
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/models/sim.yaml";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  std::ostringstream log;
+  o.log = &log;
+  const TrainResult r = trainModel(o);
+  EXPECT_EQ(r.features, (std::vector<std::string>{"height_diff", "normal_eigenvalue"}));
+  EXPECT_EQ(r.frames, 2u);
+  EXPECT_EQ(r.labelled_frames, 2u);
+  ASSERT_TRUE(fs::exists(o.model_out));
+  EXPECT_TRUE(r.missing.empty());
+  // Nothing left beside the model but the model.
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.str() + "/models"), fs::directory_iterator()),
+            1);
+
+  const YAML::Node m = YAML::LoadFile(o.model_out);
+  const std::string prov = m["provenance"].as<std::string>();
+  EXPECT_NE(prov.find(config), std::string::npos) << prov;
+  EXPECT_NE(prov.find("simulator"), std::string::npos) << prov;
+  const YAML::Node data = m["trained_from"]["data"];
+  ASSERT_EQ(data.size(), 1u);
+  EXPECT_EQ(data[0]["source"].as<std::string>(), "simulator");
+  EXPECT_EQ(data[0]["frames"].as<std::string>(), "frames 0-1");
+  EXPECT_EQ(data[0]["frame_ids"].size(), 2u);
+  EXPECT_EQ(m["trained_from"]["held_out"][0].as<std::string>(), "simulator seed=1 (all frames)");
+  // The road is flat, obstacles are tall: the learnt means say so.
+  EXPECT_LT(m["classes"]["road"]["height_diff"]["mean"].as<double>(), 0.1);
+  EXPECT_GT(m["classes"]["obstacle"]["height_diff"]["mean"].as<double>(), 0.5);
+
+  PluginRegistry reg({test::pluginDir()});
+  auto pg = reg.create("potts_gaussian");
+  PluginContext ctx;
+  const LabelSet ls = LabelSet::defaults();
+  ctx.labels = &ls;
+  EXPECT_NO_THROW(setParams(
+      *pg, "{model: " + o.model_out + ", features: [height_diff, normal_eigenvalue]}", ctx));
+}
+
+TEST(Train, OverlappingSplitInATrainConfigIsRejected) {
+  test::TempDir dir;
+  const std::string config = put(dir, "train.yaml",
+                                 std::string(R"(version: 1
+source: {type: simulator, params: {seed: 7, frames: 3, )") +
+                                     kSim + R"(}}
+stages:
+  - {name: hdiff, type: height_difference}
+outputs:
+  - {type: feature_stats, params: {features: [height_diff]}}
+split:
+  train: [{frames: [0, 2]}]
+  test: [{frames: [2, 2]}]
+)");
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/m.yaml";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  try {
+    trainModel(o);
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    ASSERT_EQ(e.diagnostics().size(), 1u);
+    EXPECT_EQ(e.diagnostics()[0].file, config);
+    EXPECT_EQ(e.diagnostics()[0].line, 9);
+    EXPECT_NE(e.diagnostics()[0].message.find("frame 2 in both"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(o.model_out));
+}
+
+TEST(Train, DataFolderOfRealScansIsRecordedWithItsLabelMap) {
+  test::TempDir dir;
+  TrainOptions o;
+  o.config_path = test::sourceDir() + "/configs/train/semantickitti_o3dml.yaml";
+  o.data = {test::dataPath("semantickitti_o3dml_demo/converted_semantickitti")};
+  o.model_out = dir.str() + "/skitti.yaml";
+  o.limit = 1;
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  std::ostringstream log;
+  o.log = &log;
+  const TrainResult r = trainModel(o);
+  ASSERT_EQ(r.items.size(), 1u);
+  EXPECT_EQ(r.labelled_frames, 1u);
+  const YAML::Node m = YAML::LoadFile(o.model_out);
+  const YAML::Node item = m["trained_from"]["data"][0];
+  EXPECT_EQ(item["path"].as<std::string>(), fs::weakly_canonical(o.data[0]).string());
+  EXPECT_EQ(
+      item["label_map"].as<std::string>(),
+      fs::weakly_canonical(test::sourceDir() + "/configs/label_maps/semantickitti.yaml").string());
+  EXPECT_EQ(m["trained_from"]["features"].size(), 4u);  // from the config's feature_stats output
+  EXPECT_NE(m["provenance"].as<std::string>().find("converted_semantickitti"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace terramrf

@@ -1,0 +1,182 @@
+// The whole paper 004 pipeline on a simulated drive: complete scene recovery (§3.3: building
+// heights beyond the LiDAR's reach) and building/tree masking (§3.4) against the simulator's
+// ground truth; frames without images and cameras looking away.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include "sim_scene.hpp"
+#include "terramrf/meshing/mesh_builder.hpp"
+
+namespace terramrf::meshing {
+namespace {
+
+using test::SimScene;
+
+int buildingAt(const sim::World& w, double x, double y, double margin) {
+  const auto& bs = w.buildings();
+  for (std::size_t i = 0; i < bs.size(); ++i) {
+    const auto& b = bs[i];
+    const double c = std::cos(b.yaw_rad), s = std::sin(b.yaw_rad);
+    const double dx = x - b.centre_m.x(), dy = y - b.centre_m.y();
+    const double lx = c * dx + s * dy, ly = -s * dx + c * dy;
+    if (std::abs(lx) <= b.half_size_m.x() + margin && std::abs(ly) <= b.half_size_m.y() + margin)
+      return int(i);
+  }
+  return -1;
+}
+
+bool treeAt(const sim::World& w, double x, double y, double margin) {
+  for (const auto& t : w.trees())
+    if ((t.position_m - Eigen::Vector2d(x, y)).norm() <= t.crown_radius_m + margin) return true;
+  return false;
+}
+
+struct Drive {
+  SimScene scene{3};
+  MeshBuilder builder;
+  MaskStats mask;
+  std::vector<FrameReport> reports;
+  explicit Drive(std::size_t frames, std::size_t step) : builder([] {
+        MeshBuilderParams p;
+        return p;
+      }()) {
+    for (std::size_t i = 0; i < frames; i += step) reports.push_back(builder.addFrame(scene.frame(i)));
+    mask = builder.finish();
+  }
+};
+
+const Drive& drive() {
+  static const Drive d(150, 5);
+  return d;
+}
+
+TEST(MeshBuilder, RecoversBuildingHeightsBeyondLidarReach) {
+  const Drive& d = drive();
+  const TerrainMesh& mesh = d.builder.mesh();
+  const sim::World& w = d.scene.world;
+  double abs_sum = 0, raised_abs_sum = 0;
+  std::size_t n = 0, n_raised = 0, n_building = 0;
+  std::map<int, std::vector<float>> per_building;
+  mesh.forEachVertex([&](const Tile& t, int k, const VertexKey& key) {
+    const double x = key.first * mesh.params().cell_m, y = key.second * mesh.params().cell_m;
+    const int b = buildingAt(w, x, y, 0.2);
+    if (b < 0 || t.cls[k] == VertexClass::kGround || t.cls[k] == VertexClass::kUnknown) return;
+    ++n_building;
+    if (t.rec_weight[k] <= 0) return;
+    const double h = mesh.displayHeight(t, k);
+    const double e = std::abs(h - w.buildings()[b].top_z_m);
+    abs_sum += e;
+    ++n;
+    if (t.z_max[k] < w.buildings()[b].top_z_m - 0.5) {
+      raised_abs_sum += e;
+      ++n_raised;
+    }
+    per_building[b].push_back(float(h));
+  });
+  std::printf("building vertices %zu, with height estimates %zu, MAE %.3f m; beyond LiDAR reach %zu, MAE %.3f m\n",
+              n_building, n, n ? abs_sum / n : NAN, n_raised, n_raised ? raised_abs_sum / n_raised : NAN);
+  // A building's recovered height: the median over its raised vertices (the paper compares the
+  // average estimated height with the actual one, §4).
+  double bsum = 0;
+  for (const auto& [b, hs] : per_building) {
+    std::vector<float> v = hs;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    bsum += std::abs(v[v.size() / 2] - w.buildings()[b].top_z_m);
+    std::printf("  building %d: true top %.2f m, median recovered %.2f m over %zu vertices\n", b,
+                w.buildings()[b].top_z_m, v[v.size() / 2], v.size());
+  }
+  ASSERT_GE(per_building.size(), 2u);
+  ASSERT_GT(n_raised, 50u);
+  const double building_mae = bsum / per_building.size();
+  std::printf("per-building height MAE %.3f m (target 0.11 m)\n", building_mae);
+  EXPECT_LE(building_mae, 0.11);
+  // Single vertices scatter more (tree crowns or far buildings above a wall's column, MRF
+  // leaks): a regression bound, not the paper's figure.
+  EXPECT_LE(raised_abs_sum / n_raised, 1.6);
+}
+
+TEST(MeshBuilder, ClassifiesBuildingsAndTreesAtCloseRange) {
+  const Drive& d = drive();
+  const TerrainMesh& mesh = d.builder.mesh();
+  const sim::World& w = d.scene.world;
+  std::size_t tp_b = 0, fn_b = 0, fp_b = 0, tn_t = 0;
+  std::vector<float> resp_b, resp_t;
+  mesh.forEachVertex([&](const Tile& t, int k, const VertexKey& key) {
+    if (t.cls[k] != VertexClass::kBuilding && t.cls[k] != VertexClass::kTree) return;
+    const double x = key.first * mesh.params().cell_m, y = key.second * mesh.params().cell_m;
+    // Close range: within 15 m of the road's centre line.
+    if (std::abs(w.lateralOffset(x, y)) > 15) return;
+    const bool is_b = buildingAt(w, x, y, 0.2) >= 0;
+    const bool is_t = !is_b && treeAt(w, x, y, 0.3);
+    if (!is_b && !is_t) return;
+    const bool pred_b = t.cls[k] == VertexClass::kBuilding;
+    (is_b ? resp_b : resp_t).push_back(t.mask_response[k]);
+    if (is_b) (pred_b ? tp_b : fn_b)++;
+    else (pred_b ? fp_b : tn_t)++;
+  });
+  for (auto* v : {&resp_b, &resp_t}) {
+    std::sort(v->begin(), v->end());
+    if (!v->empty())
+      std::printf("mask response %s: 10%% %.2f 50%% %.2f 90%% %.2f\n", v == &resp_b ? "building" : "tree",
+                  (*v)[v->size() / 10], (*v)[v->size() / 2], (*v)[v->size() * 9 / 10]);
+  }
+  const std::size_t total = tp_b + fn_b + fp_b + tn_t;
+  const double acc = total ? double(tp_b + tn_t) / total : 0;
+  std::printf("truth tree / inferred tree %zu building %zu; truth building / tree %zu building %zu; accuracy %.2f %%\n",
+              tn_t, fp_b, fn_b, tp_b, 100 * acc);
+  ASSERT_GT(tp_b + fn_b, 100u);
+  ASSERT_GT(tn_t + fp_b, 100u);
+  // Paper Table 5 (close range): 98.9 %; this implementation reaches ~75 % on the simulator
+  // (crown shells seen from the road look line-like too). Regression bound, see docs/meshing.md.
+  EXPECT_GE(acc, 0.70);
+}
+
+TEST(MeshBuilder, MissingImagesAndCamerasLookingAwayAreReported) {
+  SimScene s(5);
+  MeshBuilder b;
+  Frame with = s.frame(0);
+  Frame without = s.frame(5, /*with_camera=*/false);
+  Frame away = s.frame(10);
+  // Turn the camera round and drop the points behind the vehicle: it sees none of them.
+  Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
+  turn.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  away.cameras[0].model.T_camera_lidar = away.cameras[0].model.T_camera_lidar * turn;
+  PointCloud ahead;
+  for (std::size_t i = 0; i < away.points.size(); ++i)
+    if (away.points.x[i] > 0) ahead.push_back(away.points.x[i], away.points.y[i], away.points.z[i], 0);
+  away.points = ahead;
+  b.addFrame(with);
+  const std::size_t textured_before = b.mesh().texturedVertices();
+  const FrameReport r = b.addFrame(without);
+  EXPECT_FALSE(r.notes.empty());
+  const FrameReport ra = b.addFrame(away);
+  ASSERT_FALSE(ra.notes.empty());
+  EXPECT_NE(ra.notes[0].find("no LiDAR point projects"), std::string::npos) << ra.notes[0];
+  const BuilderSummary& sum = b.summary();
+  ASSERT_EQ(sum.frames_without_image.size(), 2u);  // the frame without camera, the one looking away
+  EXPECT_EQ(sum.frames_without_image[0], without.id);
+  ASSERT_EQ(sum.cameras_looking_away.size(), 1u);
+  EXPECT_EQ(b.mesh().texturedVertices(), textured_before);
+  EXPECT_GT(b.mesh().verticesWithData(), b.mesh().texturedVertices());
+  const std::string report = b.report();
+  EXPECT_NE(report.find("frames without a camera image"), std::string::npos) << report;
+  EXPECT_NE(report.find("cameras that see none of the points"), std::string::npos) << report;
+}
+
+TEST(MeshBuilder, GroundSegmentationOverTheDrive) {
+  const Drive& d = drive();
+  const GroundConfusion& c = d.builder.summary().confusion;
+  std::printf("drive: %zu images, ground found %.2f %%, errors %.2f %%\n", d.builder.summary().truth_frames,
+              100 * c.groundFound(), 100 * c.errorRate());
+  // Paper Table 1: 97.68 % found, 3.19 % errors. This drive (half-resolution LiDAR) reaches
+  // ~97.1 % / 2.8 %; the full-resolution demo config 97.7 % / 1.9 % (docs/meshing.md).
+  EXPECT_GE(c.groundFound(), 0.965);
+  EXPECT_LE(c.errorRate(), 0.032);
+}
+
+}  // namespace
+}  // namespace terramrf::meshing

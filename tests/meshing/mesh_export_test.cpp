@@ -1,0 +1,237 @@
+// Tiled mesh (paper 004 §3.1) and its exports, read back with independent readers: CGAL for OBJ
+// and PLY, tinygltf for the .glb. Bad output folders and partial exports.
+#include <CGAL/IO/OBJ.h>
+#include <CGAL/Simple_cartesian.h>
+#include <CGAL/Surface_mesh.h>
+#include <gtest/gtest.h>
+#include <tiny_gltf.h>
+
+#include <array>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "output_test_support.hpp"
+#include "terramrf/atomic_file.hpp"
+#include "terramrf/meshing/mesh_export.hpp"
+#include "terramrf/meshing/terrain_mesh.hpp"
+#include "test_support.hpp"
+
+namespace terramrf::meshing {
+namespace {
+
+namespace fs = std::filesystem;
+using Kernel = CGAL::Simple_cartesian<double>;
+
+TEST(TerrainMesh, TilesAreCreatedOnDemandAndShareBorders) {
+  TerrainMeshParams p;
+  p.tile_vertices = 11;  // 10 cells of 0.5 m = 5 m per tile
+  p.cell_m = 0.5;
+  TerrainMesh m(p);
+  m.addPoint({1.0, 1.0, 0.2});
+  EXPECT_EQ(m.tileCount(), 1u);
+  m.addPoint({5.0, 1.0, 0.4});  // on the border x = 5 m: vertex shared by tiles (0,0) and (1,0)
+  EXPECT_EQ(m.tileCount(), 2u);
+  m.addPoint({-0.3, -7.0, 0.1});  // negative coordinates: tile (−1, −2)
+  EXPECT_EQ(m.tileCount(), 3u);
+  EXPECT_NE(m.tile(-1, -2), nullptr);
+  // The border vertex exists in both tiles with the same data, and is counted once.
+  const Tile* a = m.tile(0, 0);
+  const Tile* b = m.tile(1, 0);
+  ASSERT_TRUE(a && b);
+  EXPECT_EQ(a->count[10 * 11 + 2], 1u);
+  EXPECT_EQ(b->count[0 * 11 + 2], 1u);
+  EXPECT_FLOAT_EQ(a->z_max[10 * 11 + 2], 0.4f);
+  EXPECT_EQ(m.verticesWithData(), 3u);
+  // A tile created later copies the border data already registered by its neighbour.
+  m.addPoint({11.0, 1.0, 0.0});  // tile (2,0)
+  m.addPoint({10.0, 1.0, 0.7});  // x = 10 m: border of tiles (1,0) and (2,0)
+  EXPECT_FLOAT_EQ(m.tile(2, 0)->z_max[0 * 11 + 2], 0.7f);
+  EXPECT_FLOAT_EQ(m.tile(1, 0)->z_max[10 * 11 + 2], 0.7f);
+  // Height statistics and display height (unknown class: mean).
+  m.addPoint({1.0, 1.0, 0.4});
+  EXPECT_NEAR(m.displayHeight(*a, 2 * 11 + 2), 0.3f, 1e-6);
+}
+
+TEST(TerrainMesh, PaperDefaults) {
+  TerrainMesh m;
+  EXPECT_EQ(m.params().tile_vertices, 151);
+  EXPECT_DOUBLE_EQ(m.params().cell_m, 0.125);
+  m.addPoint({0.01, 0.01, 0});
+  EXPECT_EQ(m.tile(0, 0)->vertices(), 151u * 151u);
+  EXPECT_EQ(m.textureSize(), 150 * 2 + 1);
+}
+
+// A sloped patch of ground, 12 m × 12 m, seen by a camera 3 m above its centre looking down; the
+// image is a colour ramp so the baked texture can be checked.
+struct Scene {
+  TerrainMesh mesh;
+  Image image{200, 200, 3};
+  CameraModel cam;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  Scene() : mesh([] {
+      TerrainMeshParams p;
+      p.tile_vertices = 21;
+      p.cell_m = 0.25;  // 5 m tiles
+      return p;
+    }()) {
+    for (double x = -1; x <= 11; x += 0.1)
+      for (double y = -1; y <= 11; y += 0.1) mesh.addPoint({x, y, 0.05 * x});
+    for (int v = 0; v < 200; ++v)
+      for (int u = 0; u < 200; ++u) {
+        uint8_t* px = image.at(u, v);
+        px[0] = uint8_t(u);
+        px[1] = uint8_t(v);
+        px[2] = 100;
+      }
+    cam.name = "down";
+    cam.width = cam.height = 200;
+    cam.P << 60, 0, 100, 0, 0, 60, 100, 0, 0, 0, 1, 0;
+    // Camera looking straight down from (5, 5, 3): optical axis −z, image x = −y, image y = −x.
+    Eigen::Matrix3d R;  // rows: camera axes in the LiDAR/world frame
+    R << 0, -1, 0, -1, 0, 0, 0, 0, -1;
+    Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
+    T_cam_world.linear() = R;
+    T_cam_world.translation() = -R * Eigen::Vector3d(5, 5, 3);
+    cam.T_camera_lidar = T_cam_world;  // pose = identity: LiDAR frame = world
+    mesh.bakeTexture(cam, image, pose, 50);
+  }
+};
+
+std::size_t countLines(const std::string& text, const std::string& prefix) {
+  std::istringstream in(text);
+  std::string line;
+  std::size_t n = 0;
+  while (std::getline(in, line))
+    if (line.rfind(prefix, 0) == 0) ++n;
+  return n;
+}
+
+TEST(MeshExport, AllFormatsReadBackWithIndependentReaders) {
+  Scene s;
+  ASSERT_GT(s.mesh.texturedVertices(), 0u);
+  EXPECT_LT(s.mesh.texturedVertices(), s.mesh.verticesWithData());  // the camera sees a part
+  test::TempDir dir;
+  const std::string out = (dir.path() / "mesh").string();
+  const ExportStats st = exportMesh(s.mesh, out, {});
+  EXPECT_EQ(st.tiles, 16u);  // x, y ∈ [−1, 11] m with 5 m tiles: tiles −1..2 on each axis
+  // 12 m / 0.25 m: 49 × 49 global vertices with data, split into tiles with duplicated borders.
+  EXPECT_GT(st.vertices, 49u * 49u);
+  EXPECT_GT(st.triangles, 2u * 48u * 48u - 1u);
+
+  // OBJ through CGAL (polygon soup: no manifold requirement).
+  std::vector<Kernel::Point_3> pts;
+  std::vector<std::vector<std::size_t>> polys;
+  ASSERT_TRUE(CGAL::IO::read_OBJ(out + "/terrain.obj", pts, polys));
+  EXPECT_EQ(pts.size(), st.vertices);
+  EXPECT_EQ(polys.size(), st.triangles);
+  const std::string obj = readFile(out + "/terrain.obj");
+  EXPECT_EQ(countLines(obj, "vt "), st.vertices);
+  std::istringstream in(obj);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("vt ", 0) != 0) continue;
+    double u = -1, v = -1;
+    std::sscanf(line.c_str(), "vt %lf %lf", &u, &v);
+    ASSERT_TRUE(u >= 0 && u <= 1 && v >= 0 && v <= 1) << line;
+  }
+  const std::string mtl = readFile(out + "/terrain.mtl");
+  EXPECT_EQ(countLines(mtl, "map_Kd "), st.tiles);
+  for (const auto& f : st.files) EXPECT_TRUE(fs::exists(out + "/" + f)) << f;
+
+  // PLY through CGAL::Surface_mesh with its vertex properties.
+  CGAL::Surface_mesh<Kernel::Point_3> sm;
+  std::ifstream ply(out + "/terrain.ply", std::ios::binary);
+  ASSERT_TRUE(CGAL::IO::read_PLY(ply, sm));
+  EXPECT_EQ(sm.number_of_faces(), st.triangles);
+  EXPECT_GE(sm.number_of_vertices(), st.vertices);
+  auto cls = sm.property_map<CGAL::Surface_mesh<Kernel::Point_3>::Vertex_index, uint8_t>("v:class");
+  EXPECT_TRUE(cls.second) << "PLY has no 'class' vertex property";
+  auto col = sm.property_map<CGAL::Surface_mesh<Kernel::Point_3>::Vertex_index, CGAL::IO::Color>("v:color");
+  EXPECT_TRUE(col.second) << "PLY has no vertex colour";
+
+  // glTF through tinygltf.
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model model;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadBinaryFromFile(&model, &err, &warn, out + "/terrain.glb")) << err;
+  EXPECT_EQ(model.meshes.size(), st.tiles);
+  EXPECT_EQ(model.images.size(), st.tiles);
+  std::size_t nv = 0, ni = 0;
+  for (const auto& mesh : model.meshes) {
+    ASSERT_EQ(mesh.primitives.size(), 1u);
+    const auto& prim = mesh.primitives[0];
+    nv += model.accessors.at(prim.attributes.at("POSITION")).count;
+    ni += model.accessors.at(prim.indices).count;
+    const auto& acc = model.accessors.at(prim.attributes.at("TEXCOORD_0"));
+    const auto& bv = model.bufferViews.at(acc.bufferView);
+    const unsigned char* base = model.buffers.at(bv.buffer).data.data() + bv.byteOffset + acc.byteOffset;
+    for (std::size_t k = 0; k < acc.count * 2; ++k) {
+      float f;
+      std::memcpy(&f, base + 4 * k, 4);
+      ASSERT_TRUE(f >= 0.f && f <= 1.f) << f;
+    }
+    const auto& mat = model.materials.at(prim.material);
+    const int tex = mat.pbrMetallicRoughness.baseColorTexture.index;
+    ASSERT_GE(tex, 0);
+    const auto& img = model.images.at(model.textures.at(tex).source);
+    EXPECT_EQ(img.width, s.mesh.textureSize());
+    EXPECT_EQ(img.height, s.mesh.textureSize());
+  }
+  EXPECT_EQ(nv, st.vertices);
+  EXPECT_EQ(ni, 3 * st.triangles);
+}
+
+TEST(MeshExport, TextureComesFromTheImage) {
+  Scene s;
+  // World (5, 5) is the image centre (100, 100): colour (100, 100, 100). Tile (1,1) starts at
+  // (5, 5) m, so its texel (0, 0) is there.
+  const Tile* t = s.mesh.tile(1, 1);
+  ASSERT_NE(t, nullptr);
+  const uint8_t* px = t->texture.at(0, 0);
+  EXPECT_NEAR(px[0], 100, 2);
+  EXPECT_NEAR(px[1], 100, 4);  // the slope moves the point a little in the image
+  EXPECT_EQ(px[2], 100);
+}
+
+TEST(MeshExport, UnwritableFolderIsAClearError) {
+  Scene s;
+  test::TempDir dir;
+  const std::string file = (dir.path() / "not_a_folder").string();
+  writeFileAtomic(file, "x");
+  try {
+    exportMesh(s.mesh, file + "/mesh", {});
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not_a_folder"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cannot be created"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(checkWritableFolder(file), std::runtime_error);
+}
+
+TEST(MeshExport, FailedExportKeepsThePreviousOne) {
+  Scene s;
+  test::TempDir dir;
+  const std::string out = (dir.path() / "mesh").string();
+  exportMesh(s.mesh, out, {});
+  const std::string obj = readFile(out + "/terrain.obj"), glb = readFile(out + "/terrain.glb");
+  s.mesh.addPoint({20, 20, 1});  // changes the mesh
+  {
+    test::FileSizeLimit limit(4096);
+    ASSERT_TRUE(limit.ok());
+    try {
+      exportMesh(s.mesh, out, {});
+      FAIL() << "expected the size limit to break the export";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("previous export is kept"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(readFile(out + "/terrain.obj"), obj);
+  EXPECT_EQ(readFile(out + "/terrain.glb"), glb);
+  for (const auto& e : fs::directory_iterator(dir.path()))
+    EXPECT_EQ(e.path().filename(), "mesh") << "left behind: " << e.path();
+}
+
+}  // namespace
+}  // namespace terramrf::meshing

@@ -1,0 +1,390 @@
+// The "alpha_expansion" optimiser: known answers (no smoothing → unary argmin; strong smoothing →
+// the best constant labelling), single-cell stability, score layers, fixed cells, init choices.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <boost/graph/adjacency_list.hpp>
+#include <boost/graph/boykov_kolmogorov_max_flow.hpp>
+#include <cmath>
+#include <random>
+
+#include "optimiser_test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+using test::OptimiserHarness;
+using test::RandomModelSpec;
+
+const char* kClasses[] = {"road", "rough", "obstacle", "vegetation"};
+
+TEST(AlphaExpansion, WithoutSmoothingEveryCellTakesItsUnaryArgmin) {
+  RandomModelSpec s;
+  s.size = 15;
+  s.labels = 4;
+  EnergyModel em = test::randomModel(21, s);
+  em.beta = em.beta_diagonal = 0.f;
+  OptimiserHarness h;
+  const auto r = h.run("alpha_expansion", "{}", em);
+  test::expectValidResult(r, em, "beta 0");
+  for (std::size_t i = 0; i < em.cells(); ++i) {
+    if (em.fixed[i]) continue;
+    const float* u = &em.unary[i * 4];
+    EXPECT_EQ(r.indices[i], std::min_element(u, u + 4) - u) << "cell " << i;
+  }
+  EXPECT_TRUE(r.report.converged);
+}
+
+TEST(AlphaExpansion, StrongSmoothingGivesTheBestConstantLabelling) {
+  // With β ≫ unaries the optimum is one label everywhere (the one with the least unary sum), and
+  // that labelling is one expansion move away from any start, so α-expansion must find it.
+  RandomModelSpec s;
+  s.size = 12;
+  s.labels = 4;
+  s.fixed_fraction = 0;
+  s.unary_lo = 0;
+  s.unary_hi = 1;
+  EnergyModel em = test::randomModel(22, s);
+  em.beta = em.beta_diagonal = 50.f;
+  std::vector<double> sum(4, 0.0);
+  for (std::size_t i = 0; i < em.cells(); ++i)
+    for (int k = 0; k < 4; ++k) sum[k] += em.unary[i * 4 + k];
+  const int k_star = static_cast<int>(std::min_element(sum.begin(), sum.end()) - sum.begin());
+  OptimiserHarness h;
+  const auto r = h.run("alpha_expansion", "{}", em);
+  test::expectValidResult(r, em, "beta 50");
+  for (std::size_t i = 0; i < em.cells(); ++i) ASSERT_EQ(r.indices[i], k_star) << "cell " << i;
+}
+
+TEST(AlphaExpansion, ResultIsStableUnderSingleCellChangesAndScoresAgree) {
+  // Changing one cell to α is an α-expansion move, so at convergence no single-cell change lowers
+  // the energy, and the softmax score is largest for the label each cell has.
+  RandomModelSpec s;
+  s.size = 25;
+  s.labels = 4;
+  s.fixed_fraction = 0.2;
+  const EnergyModel em = test::randomModel(23, s);
+  OptimiserHarness h;
+  const auto r = h.run("alpha_expansion", "{max_cycles: 50}", em);
+  test::expectValidResult(r, em, "stability");
+  ASSERT_TRUE(r.report.converged);
+  const auto lab = OptimiserHarness::labelling(r, em);
+  for (int i = 0; i < static_cast<int>(em.cells()); ++i) {
+    const float v0 = r.scores.at("road")[i];
+    if (em.fixed[i]) {
+      EXPECT_EQ(r.grid_labels[i], labels::kUnknown);
+      EXPECT_TRUE(std::isnan(v0));
+      continue;
+    }
+    const double own = em.localEnergy(lab, i, lab[i]);
+    double sum = 0, best_score = -1;
+    int argmax = -1;
+    for (int k = 0; k < 4; ++k) {
+      EXPECT_GE(em.localEnergy(lab, i, k), own - 1e-6) << "cell " << i << " label " << k;
+      const double v = r.scores.at(kClasses[k])[i];
+      sum += v;
+      if (v > best_score) best_score = v, argmax = k;
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-5);
+    EXPECT_EQ(argmax, lab[i]) << "cell " << i;
+  }
+}
+
+/// Lowest energy over all α-expansion moves from `lab` (every subset of the non-α, non-fixed
+/// cells taking α), by enumeration.
+double bestExpansionEnergy(const EnergyModel& em, const std::vector<uint8_t>& lab, int alpha) {
+  std::vector<int> movable;
+  for (std::size_t i = 0; i < em.cells(); ++i)
+    if (!em.fixed[i] && lab[i] != alpha) movable.push_back(static_cast<int>(i));
+  double best = em.energy(lab);
+  std::vector<uint8_t> move = lab;
+  for (uint32_t code = 1; code < (1u << movable.size()); ++code) {
+    for (std::size_t b = 0; b < movable.size(); ++b)
+      move[movable[b]] = (code >> b) & 1 ? static_cast<uint8_t>(alpha) : lab[movable[b]];
+    best = std::min(best, em.energy(move));
+  }
+  return best;
+}
+
+TEST(AlphaExpansion, ResultIsALocalMinimumOfEveryExpansionMove) {
+  // The defining property (and the premise of the factor-2 bound): at convergence no α-expansion
+  // move, checked by enumerating all of them on 4×4 grids, lowers the energy. Without the ICM
+  // start the cuts do all the work, several per label, so warm-started cuts are exercised too.
+  OptimiserHarness h;
+  for (int n = 0; n < 12; ++n) {
+    RandomModelSpec s;
+    s.size = 4;
+    s.labels = 3 + n % 2;
+    s.fixed_fraction = n % 3 == 0 ? 0.15 : 0.0;
+    s.beta_lo = 0.1;
+    s.beta_hi = 0.9;
+    const EnergyModel em = test::randomModel(60 + n, s);
+    for (const char* params : {"{pre_icm: false, max_cycles: 50}", "{max_cycles: 50}"}) {
+      const auto r = h.run("alpha_expansion", params, em);
+      test::expectValidResult(r, em, params);
+      ASSERT_TRUE(r.report.converged) << params;
+      const auto lab = OptimiserHarness::labelling(r, em);
+      for (int alpha = 0; alpha < s.labels; ++alpha)
+        EXPECT_GE(bestExpansionEnergy(em, lab, alpha), r.report.final_energy - 1e-6)
+            << params << " grid " << n << " alpha " << alpha;
+    }
+  }
+}
+
+/// Reference α-expansion with every move found by enumeration: labels in order, a move kept
+/// only if it lowers the energy by more than round-off, until a cycle keeps none. `repeats`
+/// counts expansions of a label whose earlier expansion saw another labelling (the plugin's
+/// warm-started cuts with changed capacities).
+std::vector<uint8_t> referenceExpansion(const EnergyModel& em, int* cycles, int* repeats) {
+  std::vector<uint8_t> lab = em.initial;
+  double e = em.energy(lab);
+  *cycles = *repeats = 0;
+  int version = 0;
+  std::vector<int> seen(em.numLabels(), -1);
+  for (bool improved = true; improved;) {
+    improved = false;
+    ++*cycles;
+    for (int alpha = 0; alpha < em.numLabels(); ++alpha) {
+      *repeats += seen[alpha] >= 0 && seen[alpha] != version;
+      std::vector<int> movable;
+      for (std::size_t i = 0; i < em.cells(); ++i)
+        if (!em.fixed[i] && lab[i] != alpha) movable.push_back(static_cast<int>(i));
+      std::vector<uint8_t> move = lab, best = lab;
+      double e_best = e;
+      for (uint32_t code = 1; code < (1u << movable.size()); ++code) {
+        for (std::size_t b = 0; b < movable.size(); ++b)
+          move[movable[b]] = (code >> b) & 1 ? static_cast<uint8_t>(alpha) : lab[movable[b]];
+        const double en = em.energy(move);
+        if (en < e_best) e_best = en, best = move;
+      }
+      if (e_best < e - 1e-9 * (1.0 + std::abs(e))) {
+        lab = best;
+        e = e_best;
+        improved = true;
+        ++version;
+      }
+      seen[alpha] = version;
+    }
+  }
+  return lab;
+}
+
+TEST(AlphaExpansion, EveryCutIsTheBestExpansionMoveAlongTheWholeRun) {
+  // Same start, same label order, same acceptance: the plugin (warm-started integer cuts with a
+  // greedy pre-push) must retrace the enumerating reference move for move, including the
+  // repeated expansions of a label after others changed the labelling.
+  OptimiserHarness h;
+  int repeats_total = 0;
+  for (int n = 0; n < 12; ++n) {
+    RandomModelSpec s;
+    s.size = 4;
+    s.labels = 3 + n % 2;
+    s.fixed_fraction = n % 3 == 0 ? 0.15 : 0.0;
+    s.beta_lo = 0.1;
+    s.beta_hi = 0.9;
+    const EnergyModel em = test::randomModel(100 + n, s);
+    int ref_cycles = 0, repeats = 0;
+    const auto ref = referenceExpansion(em, &ref_cycles, &repeats);
+    repeats_total += repeats;
+    const auto r = h.run("alpha_expansion", "{pre_icm: false, max_cycles: 50}", em);
+    EXPECT_EQ(OptimiserHarness::labelling(r, em), ref) << "grid " << n;
+    EXPECT_EQ(r.report.iterations, ref_cycles) << "grid " << n;
+  }
+  EXPECT_GE(repeats_total, 10) << "too few repeated expansions: warm starts go untested";
+  RecordProperty("warm_started_expansions", repeats_total);
+}
+
+// Textbook α-expansion as an independent reference for grids too large to enumerate: every cut
+// from scratch on a fresh Boost adjacency_list with double capacities, the pair term in the
+// asymmetric form of Kolmogorov & Zabih (2004), no warm start, no pre-push.
+using RefTraits = boost::adjacency_list_traits<boost::vecS, boost::vecS, boost::directedS>;
+using RefGraph = boost::adjacency_list<
+    boost::vecS, boost::vecS, boost::directedS,
+    boost::property<
+        boost::vertex_color_t, boost::default_color_type,
+        boost::property<boost::vertex_distance_t, long,
+                        boost::property<boost::vertex_predecessor_t, RefTraits::edge_descriptor>>>,
+    boost::property<
+        boost::edge_capacity_t, double,
+        boost::property<boost::edge_residual_capacity_t, double,
+                        boost::property<boost::edge_reverse_t, RefTraits::edge_descriptor>>>>;
+
+void addEdge(RefGraph& g, int u, int v, double cap) {
+  auto e = boost::add_edge(u, v, g).first, r = boost::add_edge(v, u, g).first;
+  boost::put(boost::edge_capacity, g, e, cap);
+  boost::put(boost::edge_capacity, g, r, 0.0);
+  boost::put(boost::edge_reverse, g, e, r);
+  boost::put(boost::edge_reverse, g, r, e);
+}
+
+std::vector<uint8_t> textbookExpansion(const EnergyModel& em, int* cycles) {
+  const int R = em.rows, C = em.cols, K = em.numLabels(), n = R * C;
+  std::vector<uint8_t> lab = em.initial;
+  double e = em.energy(lab);
+  *cycles = 0;
+  for (bool improved = true; improved;) {
+    improved = false;
+    ++*cycles;
+    for (int alpha = 0; alpha < K; ++alpha) {
+      RefGraph g(n + 2);
+      const int src = n, snk = n + 1;
+      std::vector<double> t(n, 0.0);  // cost(x=1) − cost(x=0)
+      for (int i = 0; i < n; ++i)
+        if (!em.fixed[i]) t[i] = em.unary[i * K + alpha] - em.unary[i * K + lab[i]];
+      static const int dr[4] = {0, 1, 1, 1}, dc[4] = {1, 0, 1, -1};
+      for (int r = 0; r < R; ++r)
+        for (int c = 0; c < C; ++c)
+          for (int d = 0; d < 4; ++d) {
+            const int p = r * C + c, rr = r + dr[d], cc = c + dc[d], q = rr * C + cc;
+            if (rr >= R || cc < 0 || cc >= C || em.fixed[p] || em.fixed[q]) continue;
+            const double v = 2.0 * (dr[d] && dc[d] ? em.beta_diagonal : em.beta);
+            const double A = lab[p] != lab[q] ? v : 0, B = lab[p] != alpha ? v : 0,
+                         Cc = alpha != lab[q] ? v : 0;
+            t[p] += Cc - A;
+            t[q] -= Cc;
+            addEdge(g, p, q, B + Cc - A);
+          }
+      for (int i = 0; i < n; ++i) {
+        if (em.fixed[i]) continue;
+        if (t[i] > 0) addEdge(g, src, i, t[i]);
+        if (t[i] < 0) addEdge(g, i, snk, -t[i]);
+      }
+      boost::boykov_kolmogorov_max_flow(g, src, snk);
+      std::vector<uint8_t> move = lab;
+      for (int i = 0; i < n; ++i)
+        if (!em.fixed[i] && boost::get(boost::vertex_color, g, i) != boost::black_color)
+          move[i] = static_cast<uint8_t>(alpha);
+      const double en = em.energy(move);
+      if (en < e - 1e-9 * (1.0 + std::abs(e))) {
+        lab = move;
+        e = en;
+        improved = true;
+      }
+    }
+  }
+  return lab;
+}
+
+/// Blocks of `block`² cells with random true labels; unary_k = −[k = truth] + σ·N(0,1); the
+/// unary argmin as initial labelling.
+EnergyModel blockyModel(uint32_t seed, int size, int labels, int block, double sigma,
+                        double fixed_fraction) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> label(0, labels - 1);
+  std::normal_distribution<double> noise(0, sigma);
+  std::uniform_real_distribution<double> coin(0, 1);
+  const int nb = (size + block - 1) / block;
+  std::vector<int> truth(nb * nb);
+  for (int& t : truth) t = label(rng);
+  EnergyModel em;
+  em.resize(size, size, labels);
+  for (int k = 0; k < labels; ++k) em.active[k] = static_cast<LabelId>(k + 1);
+  for (int r = 0; r < size; ++r)
+    for (int c = 0; c < size; ++c) {
+      const int i = r * size + c, t = truth[(r / block) * nb + c / block];
+      float* u = &em.unary[std::size_t(i) * labels];
+      for (int k = 0; k < labels; ++k)
+        u[k] = static_cast<float>((k == t ? -1.0 : 0.0) + noise(rng));
+      em.initial[i] = static_cast<uint8_t>(std::min_element(u, u + labels) - u);
+      em.fixed[i] = coin(rng) < fixed_fraction;
+    }
+  em.beta = em.beta_diagonal = 0.8f;
+  return em;
+}
+
+TEST(AlphaExpansion, MatchesATextbookImplementationOnLargerGrids) {
+  // Warm-started cuts that must move cells (the ones whose errors the energy check cannot hide)
+  // happen in third and later cycles, which these 40×40 blocky grids need; the trajectory must
+  // still be the textbook one, cut for cut.
+  OptimiserHarness h;
+  int long_runs = 0;
+  for (int n = 0; n < 12; ++n) {
+    // Like the benchmark: blocky truth, noisy unaries, the unary argmin as start.
+    const EnergyModel em = blockyModel(300 + n, 40, 3 + n % 2, 10, 0.6, n % 3 ? 0.1 : 0.0);
+    int ref_cycles = 0;
+    const auto ref = textbookExpansion(em, &ref_cycles);
+    const auto r = h.run("alpha_expansion", "{pre_icm: false, max_cycles: 50}", em);
+    EXPECT_EQ(OptimiserHarness::labelling(r, em), ref) << "grid " << n;
+    EXPECT_EQ(r.report.iterations, ref_cycles) << "grid " << n;
+    EXPECT_NEAR(r.report.final_energy, em.energy(ref), 1e-6) << "grid " << n;
+    long_runs += ref_cycles >= 3;
+  }
+  EXPECT_GE(long_runs, 6) << "too few runs with improving warm-started cuts";
+}
+
+TEST(AlphaExpansion, TwoLabelsFromAConstantStartGiveTheGlobalOptimum) {
+  // With two labels and every cell at label 0, the expansion of label 1 can reach every
+  // labelling, so one exact cut must find the global minimum (brute force over 2^16).
+  OptimiserHarness h;
+  for (int n = 0; n < 10; ++n) {
+    RandomModelSpec s;
+    s.size = 4;
+    s.labels = 2;
+    s.fixed_fraction = n % 2 ? 0.2 : 0.0;
+    s.beta_lo = 0.2;
+    s.beta_hi = 1.0;
+    EnergyModel em = test::randomModel(80 + n, s);
+    std::fill(em.initial.begin(), em.initial.end(), 0);
+    const auto [e_star, best] = test::bruteForce(em);
+    const auto r = h.run("alpha_expansion", "{pre_icm: false}", em);
+    EXPECT_NEAR(r.report.final_energy, e_star, 1e-6) << "grid " << n;
+  }
+}
+
+TEST(AlphaExpansion, ScoreIsTheSoftmaxOfTheNegativeLocalEnergy) {
+  RandomModelSpec s;
+  s.size = 6;
+  const EnergyModel em = test::randomModel(24, s);
+  OptimiserHarness h;
+  const auto r = h.run("alpha_expansion", "{score_temperature: 0.5}", em);
+  const auto lab = OptimiserHarness::labelling(r, em);
+  for (int i = 0; i < static_cast<int>(em.cells()); ++i) {
+    if (em.fixed[i]) continue;
+    double z = 0;
+    for (int k = 0; k < 3; ++k) z += std::exp(-em.localEnergy(lab, i, k) / 0.5);
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR(r.scores.at(kClasses[k])[i], std::exp(-em.localEnergy(lab, i, k) / 0.5) / z,
+                  1e-5);
+  }
+}
+
+TEST(AlphaExpansion, FixedCellsTakeNoPartInTheEnergy) {
+  RandomModelSpec s;
+  s.size = 14;
+  s.fixed_fraction = 0.3;
+  const EnergyModel a = test::randomModel(25, s);
+  EnergyModel b = a;
+  for (std::size_t i = 0; i < b.cells(); ++i)
+    if (b.fixed[i]) {
+      b.initial[i] = static_cast<uint8_t>((b.initial[i] + 1) % 3);
+      for (int k = 0; k < 3; ++k) b.unary[i * 3 + k] = -100.f * k;
+    }
+  OptimiserHarness h;
+  const auto ra = h.run("alpha_expansion", "{}", a), rb = h.run("alpha_expansion", "{}", b);
+  EXPECT_EQ(ra.grid_labels, rb.grid_labels);
+  EXPECT_DOUBLE_EQ(ra.report.final_energy, rb.report.final_energy);
+}
+
+TEST(AlphaExpansion, InitChoicesAndReuseOfOneInstanceAcrossFrames) {
+  RandomModelSpec s;
+  s.size = 16;
+  s.labels = 4;
+  s.fixed_fraction = 0.15;
+  OptimiserHarness h;
+  const EnergyModel em1 = test::randomModel(26, s);
+  s.fixed_fraction = 0.4;  // other fixed cells: the graph is rebuilt for this frame
+  const EnergyModel em2 = test::randomModel(27, s);
+  auto stage = h.make("alpha_expansion", "{init: unary_argmin}", em1);
+  const auto r1 = h.run(*stage, em1);
+  const auto r2 = h.run(*stage, em2);
+  const auto r1_again = h.run("alpha_expansion", "{init: unary_argmin}", em1);
+  test::expectValidResult(r1, em1, "frame 1");
+  test::expectValidResult(r2, em2, "frame 2");
+  EXPECT_EQ(r1.grid_labels, r1_again.grid_labels);
+  const auto from_initial = h.run("alpha_expansion", "{init: initial}", em1);
+  test::expectValidResult(from_initial, em1, "init initial");
+  EXPECT_THROW(h.make("alpha_expansion", "{init: random}", em1), std::exception);
+}
+
+}  // namespace
+}  // namespace terramrf

@@ -1,0 +1,68 @@
+// The "icm" optimiser: known answers (no smoothing → unary argmin), the ICM fixed point (no
+// single-cell change lowers the energy), fixed cells, report.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "optimiser_test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+using test::OptimiserHarness;
+using test::RandomModelSpec;
+
+TEST(Icm, WithoutSmoothingEveryCellTakesItsUnaryArgmin) {
+  RandomModelSpec s;
+  s.size = 15;
+  s.labels = 4;
+  EnergyModel em = test::randomModel(31, s);
+  em.beta = em.beta_diagonal = 0.f;
+  OptimiserHarness h;
+  const auto r = h.run("icm", "{}", em);
+  test::expectValidResult(r, em, "beta 0");
+  for (std::size_t i = 0; i < em.cells(); ++i) {
+    if (em.fixed[i]) continue;
+    const float* u = &em.unary[i * 4];
+    EXPECT_EQ(r.indices[i], std::min_element(u, u + 4) - u) << "cell " << i;
+  }
+  EXPECT_TRUE(r.report.converged);
+  EXPECT_EQ(r.report.iterations, 2);  // one sweep that changes, one that confirms
+}
+
+TEST(Icm, ConvergedResultIsAFixedPointOfSingleCellChanges) {
+  RandomModelSpec s;
+  s.size = 25;
+  s.labels = 4;
+  s.fixed_fraction = 0.2;
+  const EnergyModel em = test::randomModel(32, s);
+  OptimiserHarness h;
+  const auto r = h.run("icm", "{max_sweeps: 200}", em);
+  test::expectValidResult(r, em, "icm");
+  ASSERT_TRUE(r.report.converged);
+  const auto lab = OptimiserHarness::labelling(r, em);
+  for (int i = 0; i < static_cast<int>(em.cells()); ++i) {
+    if (em.fixed[i]) {
+      EXPECT_EQ(r.grid_labels[i], labels::kUnknown);
+      continue;
+    }
+    const double own = em.localEnergy(lab, i, lab[i]);
+    for (int k = 0; k < 4; ++k)
+      EXPECT_GE(em.localEnergy(lab, i, k), own - 1e-5) << "cell " << i << " label " << k;
+  }
+  EXPECT_LT(r.report.final_energy, r.report.initial_energy);
+}
+
+TEST(Icm, SweepLimitIsRespected) {
+  RandomModelSpec s;
+  s.size = 30;
+  const EnergyModel em = test::randomModel(33, s);
+  OptimiserHarness h;
+  const auto r = h.run("icm", "{max_sweeps: 1}", em);
+  test::expectValidResult(r, em, "one sweep");
+  EXPECT_EQ(r.report.iterations, 1);
+  EXPECT_FALSE(r.report.converged);  // a random start changes in its first sweep
+}
+
+}  // namespace
+}  // namespace terramrf

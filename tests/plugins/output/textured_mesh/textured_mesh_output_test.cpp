@@ -1,0 +1,79 @@
+// Output plugin "textured_mesh" driven like the runner drives it: simulator frames in, OBJ/PLY/glTF
+// and report.md out; bad parameters and an unwritable output folder are clear errors.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "output_test_support.hpp"
+#include "terramrf/atomic_file.hpp"
+#include "terramrf/param_values.hpp"
+#include "terramrf/registry.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(TexturedMeshOutput, WritesAllFormatsAndAReport) {
+  test::TempDir dir;
+  PluginContext ctx;
+  ctx.output_dir = dir.str();
+  PluginRegistry reg({test::pluginDir()});
+  auto src = reg.create("simulator");
+  setParams(*src, "{seed: 2, frames: 3, camera_width: 256, camera_height: 128, camera_fx: 148, "
+                  "azimuth_step_deg: 0.36}", ctx);
+  auto* source = dynamic_cast<Source*>(src.get());
+  ASSERT_NE(source, nullptr);
+  auto out = test::makeOutput("textured_mesh", "{tile_vertices: 81, texels_per_cell: 1, max_range_m: 20}", ctx);
+  ASSERT_NE(out, nullptr);
+  RunInfo info;
+  info.output_dir = dir.str();
+  out->begin(info);
+  for (std::size_t i = 0; i < source->size(); ++i) {
+    Frame f = source->read(i);
+    if (i == 1) f.cameras.clear();  // a frame without its image
+    FrameContext fc;
+    fc.frame = &f;
+    fc.index = i;
+    out->write(fc);
+  }
+  out->end({});
+  const fs::path mesh = dir.path() / "mesh";
+  for (const char* f : {"terrain.obj", "terrain.mtl", "terrain.ply", "terrain.glb", "report.md"})
+    EXPECT_TRUE(fs::exists(mesh / f)) << f;
+  EXPECT_TRUE(fs::exists(mesh / "textures"));
+  const std::string report = readFile((mesh / "report.md").string());
+  EXPECT_NE(report.find("frames without a camera image (mesh untextured there): 1"), std::string::npos) << report;
+  EXPECT_NE(report.find("Ground pixels found"), std::string::npos) << report;
+}
+
+TEST(TexturedMeshOutput, BadParametersAreRejected) {
+  PluginContext ctx;
+  PluginRegistry reg({test::pluginDir()});
+  auto p = reg.create("textured_mesh");
+  EXPECT_THROW(setParams(*p, "{formats: [stl]}", ctx), std::exception);
+  EXPECT_THROW(setParams(*p, "{mode: icm}", ctx), std::exception);
+  EXPECT_THROW(setParams(*p, "{subdir: /abs}", ctx), std::exception);
+}
+
+TEST(TexturedMeshOutput, UnwritableOutputFolderFailsBeforeTheRun) {
+  test::TempDir dir;
+  const std::string file = (dir.path() / "occupied").string();
+  writeFileAtomic(file, "x");
+  PluginContext ctx;
+  ctx.output_dir = file;
+  auto out = test::makeOutput("textured_mesh", "{}", ctx);
+  ASSERT_NE(out, nullptr);
+  RunInfo info;
+  info.output_dir = file;
+  try {
+    out->begin(info);
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("occupied"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace terramrf

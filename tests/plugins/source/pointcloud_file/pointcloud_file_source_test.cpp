@@ -1,0 +1,197 @@
+// The "pointcloud_file" source on PCD and PLY files written here with PCL.
+#include <gtest/gtest.h>
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+
+#include "terramrf/errors.hpp"
+#include "terramrf/param_values.hpp"
+#include "terramrf/registry.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+struct Pt {
+  float x, y, z, intensity;
+  uint16_t ring;
+  uint32_t label;
+};
+
+/// A cloud with x, y, z, intensity (float32), optional ring (uint16) and label (uint32).
+pcl::PCLPointCloud2 makeCloud(const std::vector<Pt>& pts, bool with_ring, bool with_label,
+                              bool with_intensity = true) {
+  pcl::PCLPointCloud2 c;
+  auto add = [&](const std::string& name, uint8_t type, int size) {
+    pcl::PCLPointField f;
+    f.name = name;
+    f.offset = c.point_step;
+    f.datatype = type;
+    f.count = 1;
+    c.fields.push_back(f);
+    c.point_step += size;
+  };
+  add("x", pcl::PCLPointField::FLOAT32, 4);
+  add("y", pcl::PCLPointField::FLOAT32, 4);
+  add("z", pcl::PCLPointField::FLOAT32, 4);
+  if (with_intensity) add("intensity", pcl::PCLPointField::FLOAT32, 4);
+  if (with_ring) add("ring", pcl::PCLPointField::UINT16, 2);
+  if (with_label) add("label", pcl::PCLPointField::UINT32, 4);
+  c.width = pts.size();
+  c.height = 1;
+  c.row_step = c.point_step * c.width;
+  c.is_dense = false;
+  c.data.resize(c.row_step);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    uint8_t* p = c.data.data() + i * c.point_step;
+    for (const auto& f : c.fields) {
+      const Pt& q = pts[i];
+      if (f.name == "x") std::memcpy(p + f.offset, &q.x, 4);
+      if (f.name == "y") std::memcpy(p + f.offset, &q.y, 4);
+      if (f.name == "z") std::memcpy(p + f.offset, &q.z, 4);
+      if (f.name == "intensity") std::memcpy(p + f.offset, &q.intensity, 4);
+      if (f.name == "ring") std::memcpy(p + f.offset, &q.ring, 2);
+      if (f.name == "label") std::memcpy(p + f.offset, &q.label, 4);
+    }
+  }
+  return c;
+}
+
+int savePcd(const std::string& path, const pcl::PCLPointCloud2& c, bool binary = true) {
+  const Eigen::Vector4f origin = Eigen::Vector4f::Zero();
+  const Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();
+  return pcl::io::savePCDFile(path, c, origin, orientation, binary);
+}
+
+const std::vector<Pt> kPoints{{1, 2, 3, 0.5f, 7, 40},
+                              {std::numeric_limits<float>::quiet_NaN(), 0, 0, 0, 1, 0},
+                              {0, 0, 0, 0, 2, 0},
+                              {-4, 5, -1, 0.25f, 9, 70}};
+
+class PointCloudFileTest : public ::testing::Test {
+ protected:
+  PointCloudFileTest() : reg_({test::pluginDir()}) { ctx_.labels = &labels_; }
+  std::unique_ptr<Source> make(const std::string& params) {
+    auto p = reg_.create("pointcloud_file");
+    setParams(*p, params, ctx_);
+    return std::unique_ptr<Source>(dynamic_cast<Source*>(p.release()));
+  }
+  std::string skMap() const { return test::sourceDir() + "/configs/label_maps/semantickitti.yaml"; }
+  PluginRegistry reg_;
+  LabelSet labels_ = LabelSet::defaults();
+  PluginContext ctx_;
+};
+
+void expectKPoints(const Frame& f) {
+  ASSERT_EQ(f.points.size(), 2u);
+  EXPECT_EQ(f.dropped_invalid_points, 2u);  // one NaN, one at the origin
+  EXPECT_EQ(f.points.x[1], -4.f);
+  EXPECT_EQ(f.points.intensity[0], 0.5f);
+  ASSERT_TRUE(f.points.hasRing());
+  EXPECT_EQ(f.points.ring, (std::vector<uint16_t>{7, 9}));
+  EXPECT_EQ(f.truth.raw, (std::vector<uint32_t>{40, 70}));
+  EXPECT_EQ(f.truth.label, (std::vector<LabelId>{labels::kRoad, labels::kObstacle}));
+}
+
+TEST_F(PointCloudFileTest, BinaryAndAsciiPcd) {
+  test::TempDir dir;
+  const auto cloud = makeCloud(kPoints, true, true);
+  ASSERT_EQ(savePcd(dir.str() + "/a.pcd", cloud, /*binary=*/true), 0);
+  ASSERT_EQ(savePcd(dir.str() + "/b.pcd", cloud, /*binary=*/false), 0);
+  auto src = make("{path: " + dir.str() + ", label_map: " + skMap() + "}");
+  ASSERT_EQ(src->size(), 2u);
+  EXPECT_EQ(src->frameId(0), "a");
+  for (std::size_t i = 0; i < 2; ++i) {
+    const Frame f = src->read(i);
+    expectKPoints(f);
+    EXPECT_EQ(f.source_path, dir.str() + (i ? "/b.pcd" : "/a.pcd"));
+  }
+}
+
+TEST_F(PointCloudFileTest, Ply) {
+  test::TempDir dir;
+  const std::string file = dir.str() + "/scan.ply";
+  pcl::PLYWriter w;
+  const Eigen::Vector4f origin = Eigen::Vector4f::Zero();
+  const Eigen::Quaternionf orientation = Eigen::Quaternionf::Identity();
+  ASSERT_EQ(w.write(file, makeCloud(kPoints, true, true), origin, orientation, /*binary=*/true,
+                    /*use_camera=*/false),
+            0);
+  const Frame f = make("{path: " + file + ", label_map: " + skMap() + "}")->read(0);
+  expectKPoints(f);
+}
+
+TEST_F(PointCloudFileTest, PlainXyzAndProjectClassLabels) {
+  test::TempDir dir;
+  std::vector<Pt> pts{{1, 1, 1, 0, 0, 2}, {2, 2, 2, 0, 0, 3}};
+  ASSERT_EQ(savePcd(dir.str() + "/xyz.pcd", makeCloud(pts, false, false, false)), 0);
+  Frame f = make("{path: " + dir.str() + "/xyz.pcd}")->read(0);
+  EXPECT_EQ(f.points.size(), 2u);
+  EXPECT_EQ(f.points.intensity, (std::vector<float>{0, 0}));
+  EXPECT_FALSE(f.points.hasRing());
+  EXPECT_TRUE(f.truth.empty());
+  // Without a label map a label field holds project class ids.
+  ASSERT_EQ(savePcd(dir.str() + "/l.pcd", makeCloud(pts, false, true)), 0);
+  f = make("{path: " + dir.str() + "/l.pcd}")->read(0);
+  EXPECT_EQ(f.truth.label, (std::vector<LabelId>{labels::kRough, labels::kObstacle}));
+  pts[1].label = 40;
+  ASSERT_EQ(savePcd(dir.str() + "/l.pcd", makeCloud(pts, false, true)), 0);
+  EXPECT_THROW(make("{path: " + dir.str() + "/l.pcd}")->read(0), InputError);
+  // With the label map, an unmapped dataset id is named.
+  pts[0].label = 40;
+  pts[1].label = 41;
+  ASSERT_EQ(savePcd(dir.str() + "/l.pcd", makeCloud(pts, false, true)), 0);
+  try {
+    make("{path: " + dir.str() + "/l.pcd, label_map: " + skMap() + "}")->read(0);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("41"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("l.pcd"), std::string::npos);
+  }
+}
+
+TEST_F(PointCloudFileTest, UnreadableFilesAreNamed) {
+  test::TempDir dir;
+  const std::string bad = dir.str() + "/broken.pcd";
+  std::ofstream(bad) << "this is not a point cloud\n";
+  try {
+    make("{path: " + bad + "}")->read(0);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), bad);
+  }
+  const std::string badply = dir.str() + "/broken.ply";
+  std::ofstream(badply) << "ply\nformat ascii 1.0\nelement vertex 3\nend_header\n1 2\n";
+  EXPECT_THROW(make("{path: " + badply + "}")->read(0), InputError);
+  test::TempDir empty;
+  EXPECT_THROW(make("{path: " + empty.str() + "}"), std::exception);
+  EXPECT_THROW(make("{path: " + dir.str() + "/missing.pcd}"), std::exception);
+}
+
+TEST_F(PointCloudFileTest, RingRecoveryForFilesWithoutRings) {
+  // A KITTI scan stored as PCD in scan order gets its rings back with ring_method auto.
+  test::TempDir dir;
+  std::ifstream in(
+      test::dataPath("semantickitti_seq00_000000-000005/sequences/00/velodyne/000000.bin"),
+      std::ios::binary);
+  std::vector<float> xyzi(124668 * 4);
+  in.read(reinterpret_cast<char*>(xyzi.data()), std::streamsize(xyzi.size() * 4));
+  std::vector<Pt> pts(124668);
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    pts[i] = {xyzi[4 * i], xyzi[4 * i + 1], xyzi[4 * i + 2], xyzi[4 * i + 3], 0, 0};
+  ASSERT_EQ(savePcd(dir.str() + "/k.pcd", makeCloud(pts, false, false)), 0);
+  const Frame f = make("{path: " + dir.str() + "/k.pcd, ring_method: auto}")->read(0);
+  ASSERT_EQ(f.points.size(), 124668u);
+  ASSERT_TRUE(f.points.hasRing());
+  EXPECT_EQ(f.points.ring.front(), 0);
+  EXPECT_EQ(f.points.ring.back(), 63);
+  EXPECT_FALSE(make("{path: " + dir.str() + "/k.pcd}")->read(0).points.hasRing());
+}
+
+}  // namespace
+}  // namespace terramrf

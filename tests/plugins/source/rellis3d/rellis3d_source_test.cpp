@@ -1,0 +1,127 @@
+// The "rellis3d" source on the RELLIS-3D example frame, plus bad input.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include "terramrf/errors.hpp"
+#include "terramrf/param_values.hpp"
+#include "terramrf/registry.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+class Rellis3dSourceTest : public ::testing::Test {
+ protected:
+  Rellis3dSourceTest() : reg_({test::pluginDir()}) { ctx_.labels = &labels_; }
+  std::unique_ptr<Source> make(const std::string& params) {
+    auto p = reg_.create("rellis3d");
+    setParams(*p, params, ctx_);
+    return std::unique_ptr<Source>(dynamic_cast<Source*>(p.release()));
+  }
+  PluginRegistry reg_;
+  LabelSet labels_ = LabelSet::defaults();
+  PluginContext ctx_;
+};
+
+TEST_F(Rellis3dSourceTest, ExampleFrameWithLabelsRingsAndCamera) {
+  const std::string dir = test::dataPath("rellis3d_example_000104");
+  auto src = make("{path: " + dir + ", use_images: true}");
+  ASSERT_EQ(src->size(), 1u);  // vel000104.bin (Velodyne) is not a frame
+  EXPECT_EQ(src->frameId(0), "000104");
+  const Frame f = src->read(0);
+  EXPECT_EQ(f.points.size(), 131072u - 53364u);
+  EXPECT_EQ(f.dropped_invalid_points, 53364u);  // Ouster no-returns at the origin
+  EXPECT_NEAR(f.timestamp_s, 1581624663.149, 1e-3);
+  ASSERT_TRUE(f.points.hasRing());
+  std::map<int, std::size_t> per_ring;
+  for (uint16_t r : f.points.ring) ++per_ring[r];
+  EXPECT_EQ(per_ring.size(), 64u);
+  ASSERT_EQ(f.truth.label.size(), f.points.size());
+  std::map<LabelId, std::size_t> mapped;
+  for (LabelId l : f.truth.label) ++mapped[l];
+  // PROVENANCE.md histogram mapped by configs/label_maps/rellis3d.yaml, no-returns dropped.
+  EXPECT_EQ(mapped[labels::kUnknown], 68284u - 53364u);
+  EXPECT_EQ(mapped[labels::kRoad], 20242u);
+  EXPECT_EQ(mapped[labels::kRough], 18040u + 1269u + 100u);
+  EXPECT_EQ(mapped[labels::kObstacle], 17872u + 1310u + 595u + 3360u);
+
+  ASSERT_EQ(f.cameras.size(), 1u);
+  const CameraImage& cam = f.cameras[0];
+  ASSERT_TRUE(cam.image);
+  ASSERT_TRUE(cam.truth);
+  EXPECT_EQ(cam.image->width, 1920);
+  EXPECT_EQ(cam.image->height, 1200);
+  EXPECT_EQ(cam.truth->channels, 1);
+  // Pixel histogram of PROVENANCE.md (RELLIS ids) mapped to project classes.
+  std::map<int, std::size_t> px;
+  for (uint8_t v : cam.truth->data) ++px[v];
+  EXPECT_EQ(px[labels::kRough], 415080u + 401363u + 22443u);
+  EXPECT_EQ(px[labels::kObstacle], 475286u + 207u + 6727u + 49037u + 4880u + 430063u);
+  EXPECT_EQ(px[labels::kUnknown], 498914u);
+  EXPECT_EQ(px[labels::kRoad], 0u);
+  // Labelled points that land in the image mostly hit a pixel of the same project class.
+  std::size_t both = 0, same = 0;
+  for (std::size_t i = 0; i < f.points.size(); ++i) {
+    const auto uv = cam.model.project({f.points.x[i], f.points.y[i], f.points.z[i]});
+    if (!uv) continue;
+    const LabelId p = *cam.truth->at(int(uv->x()), int(uv->y()));
+    if (p == labels::kUnknown || f.truth.label[i] == labels::kUnknown) continue;
+    ++both;
+    same += p == f.truth.label[i];
+  }
+  std::printf("RELLIS 000104: %zu labelled points in the image, %.3f same project class\n", both,
+              double(same) / both);
+  EXPECT_GT(both, 7000u);
+  EXPECT_GT(double(same) / both, 0.8);
+}
+
+TEST_F(Rellis3dSourceTest, WithoutImagesNoCamera) {
+  const Frame f = make("{path: " + test::dataPath("rellis3d_example_000104") + "}")->read(0);
+  EXPECT_TRUE(f.cameras.empty());
+  const Frame g = make("{path: " + test::dataPath("rellis3d_example_000104") +
+                       ", drop_no_return: false, use_labels: false}")
+                      ->read(0);
+  EXPECT_EQ(g.points.size(), 131072u);
+  EXPECT_TRUE(g.truth.empty());
+  EXPECT_EQ(g.points.ring[64], 0);
+  EXPECT_EQ(g.points.ring[65], 1);
+}
+
+TEST_F(Rellis3dSourceTest, MissingFilesAreNamed) {
+  test::TempDir dir;
+  std::vector<float> pts(4 * 128, 0.f);
+  for (int i = 0; i < 128; ++i) pts[4 * i] = 1.f + i;
+  std::ofstream(dir.str() + "/000001.bin", std::ios::binary)
+      .write(reinterpret_cast<const char*>(pts.data()), std::streamsize(pts.size() * 4));
+  auto src = make("{path: " + dir.str() + ", use_images: true}");
+  try {
+    src->read(0);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("frame000001"), std::string::npos) << e.what();
+  }
+  // Image present, calibration missing.
+  std::filesystem::copy_file(
+      test::dataPath("rellis3d_example_000104/frame000104-1581624663_149.jpg"),
+      dir.str() + "/frame000001-1581624663_149.jpg");
+  src = make("{path: " + dir.str() + ", use_images: true}");
+  try {
+    src->read(0);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), dir.str() + "/camera_info.txt");
+  }
+  // Not whole columns of 64 rings.
+  pts.resize(4 * 100);
+  std::ofstream(dir.str() + "/000001.bin", std::ios::binary)
+      .write(reinterpret_cast<const char*>(pts.data()), std::streamsize(pts.size() * 4));
+  EXPECT_THROW(make("{path: " + dir.str() + "}")->read(0), InputError);
+  test::TempDir empty;
+  EXPECT_THROW(make("{path: " + empty.str() + "}"), std::exception);
+}
+
+}  // namespace
+}  // namespace terramrf

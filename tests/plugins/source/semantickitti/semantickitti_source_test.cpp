@@ -1,0 +1,295 @@
+// The "semantickitti" source on every KITTI-style folder of the shared data, plus bad input.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include "terramrf/adapters/opencv_image.hpp"
+#include "terramrf/errors.hpp"
+#include "terramrf/param_values.hpp"
+#include "terramrf/registry.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+class SemanticKittiSourceTest : public ::testing::Test {
+ protected:
+  SemanticKittiSourceTest() : reg_({test::pluginDir()}) { ctx_.labels = &labels_; }
+
+  std::unique_ptr<Source> make(const std::string& params) {
+    auto p = reg_.create("semantickitti");
+    setParams(*p, params, ctx_);
+    plugin_ = std::move(p);
+    return std::unique_ptr<Source>(dynamic_cast<Source*>(plugin_.release()));
+  }
+
+  PluginRegistry reg_;
+  LabelSet labels_ = LabelSet::defaults();
+  PluginContext ctx_;
+  std::unique_ptr<Plugin> plugin_;
+};
+
+void writeFloats(const std::string& path, const std::vector<float>& v) {
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * 4));
+}
+void writeU32(const std::string& path, const std::vector<uint32_t>& v) {
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * 4));
+}
+
+const char* kOdoCalib =
+    "P0: 718.856 0 607.1928 0 0 718.856 185.2157 0 0 0 1 0\n"
+    "P1: 718.856 0 607.1928 -386.1448 0 718.856 185.2157 0 0 0 1 0\n"
+    "P2: 718.856 0 607.1928 45.38225 0 718.856 185.2157 -0.1130887 0 0 1 0.003779761\n"
+    "P3: 718.856 0 607.1928 -337.2877 0 718.856 185.2157 2.369057 0 0 1 0.004915215\n"
+    "Tr: 0 -1 0 0 0 0 -1 0 1 0 0 -0.27\n";
+
+/// A sequence folder with one 3-point scan (and labels) in a temp dir.
+std::string tinySequence(const test::TempDir& dir, bool calib = true) {
+  const std::string seq = dir.str() + "/seq";
+  std::filesystem::create_directories(seq + "/velodyne");
+  std::filesystem::create_directories(seq + "/labels");
+  writeFloats(seq + "/velodyne/000000.bin", {5, 0, -1.7f, 0.3f, 6, 1, -1.7f, 0.2f, 7, -1, 0, 0.1f});
+  writeU32(seq + "/labels/000000.label", {40, 72, 70});
+  if (calib) std::ofstream(seq + "/calib.txt") << kOdoCalib;
+  return seq;
+}
+
+TEST_F(SemanticKittiSourceTest, Seq00FramesLabelsPosesRings) {
+  const std::string seq = test::dataPath("semantickitti_seq00_000000-000005/sequences/00");
+  auto src = make("{path: " + seq + "}");
+  ASSERT_EQ(src->size(), 6u);
+  EXPECT_EQ(src->frameId(5), "000005");
+  const std::size_t counts[] = {124668, 124605, 124478, 124167, 123969, 123924};
+  std::map<LabelId, std::size_t> mapped;
+  for (std::size_t i = 0; i < 6; ++i) {
+    const Frame f = src->read(i);
+    EXPECT_EQ(f.points.size(), counts[i]);
+    EXPECT_EQ(f.dropped_invalid_points, 0u);
+    EXPECT_NEAR(f.timestamp_s, 0.1 * i, 1e-9);
+    ASSERT_TRUE(f.points.hasRing());
+    EXPECT_EQ(*std::max_element(f.points.ring.begin(), f.points.ring.end()), 63);
+    ASSERT_TRUE(f.pose.has_value());
+    if (i < 3) {
+      ASSERT_EQ(f.truth.label.size(), counts[i]);
+      ASSERT_EQ(f.truth.raw.size(), counts[i]);
+      for (LabelId l : f.truth.label) ++mapped[l];
+    } else {
+      EXPECT_TRUE(f.truth.empty()) << "frames 3-5 have no labels";
+    }
+    if (i == 1) EXPECT_NEAR(f.pose->translation().x(), 0.8588, 1e-3);
+    if (i == 0) EXPECT_TRUE(f.pose->isApprox(Eigen::Isometry3d::Identity(), 1e-6));
+    EXPECT_TRUE(f.cameras.empty());
+  }
+  // README: road 51.3 %, rough 2.2 %, obstacle 44.7 %, unknown 1.7 % (frames 0-2).
+  const double total = counts[0] + counts[1] + counts[2];
+  EXPECT_NEAR(100 * mapped[labels::kRoad] / total, 51.3, 0.05);
+  EXPECT_NEAR(100 * mapped[labels::kRough] / total, 2.2, 0.05);
+  EXPECT_NEAR(100 * mapped[labels::kObstacle] / total, 44.7, 0.05);
+  EXPECT_NEAR(100 * mapped[labels::kUnknown] / total, 1.7, 0.05);
+  EXPECT_THROW(src->read(6), std::out_of_range);
+}
+
+TEST_F(SemanticKittiSourceTest, DatasetRootWithSequence) {
+  const std::string root = test::dataPath("semantickitti_seq00_000000-000005");
+  EXPECT_EQ(make("{path: " + root + ", sequence: '00'}")->size(), 6u);
+  EXPECT_EQ(make("{path: " + root + "}")->size(), 6u);  // the only sequence
+  try {
+    make("{path: " + root + ", sequence: '08'}");
+    FAIL() << "expected an error for a missing sequence";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("sequence"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("00"), std::string::npos) << e.what();
+  }
+  const auto fixture = make("{path: " + test::dataPath("semantickitti_mmdet3d_fixture") + "}");
+  ASSERT_EQ(fixture->size(), 1u);
+  const Frame f = fixture->read(0);
+  EXPECT_EQ(f.points.size(), 50u);
+  std::map<uint32_t, std::size_t> h;
+  for (uint32_t r : f.truth.raw) ++h[r];
+  EXPECT_EQ(
+      h, (std::map<uint32_t, std::size_t>{{0, 2}, {50, 25}, {52, 1}, {70, 17}, {71, 3}, {80, 2}}));
+  EXPECT_FALSE(f.points.hasRing());  // 50 points carry no ring structure
+}
+
+TEST_F(SemanticKittiSourceTest, MissingDataPathIsAParameterError) {
+  try {
+    make("{path: /nonexistent/kitti}");
+    FAIL();
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("does not exist"), std::string::npos) << e.what();
+  }
+  test::TempDir dir;
+  EXPECT_THROW(make("{path: " + dir.str() + "}"), std::exception);  // no velodyne/
+}
+
+TEST_F(SemanticKittiSourceTest, KittiObjectWithImages) {
+  auto src =
+      make("{path: " + test::dataPath("kitti_object_fusion/training") + ", use_images: true}");
+  ASSERT_EQ(src->size(), 2u);
+  const std::size_t points[] = {115384, 120268};
+  const int w[] = {1224, 1242}, h[] = {370, 375};
+  const std::size_t in_image[] = {20285, 18630};  // numpy with P2·R0_rect·Tr_velo_to_cam
+  for (std::size_t i = 0; i < 2; ++i) {
+    const Frame f = src->read(i);
+    EXPECT_EQ(f.points.size(), points[i]);
+    EXPECT_TRUE(f.truth.empty());  // label_2 boxes are not per-point labels
+    EXPECT_FALSE(f.pose.has_value());
+    ASSERT_EQ(f.cameras.size(), 1u);
+    const CameraImage& cam = f.cameras[0];
+    EXPECT_EQ(cam.model.width, w[i]);
+    EXPECT_EQ(cam.model.height, h[i]);
+    ASSERT_TRUE(cam.image);
+    EXPECT_EQ(cam.image->width, w[i]);
+    EXPECT_EQ(cam.image->channels, 3);
+    std::size_t in = 0;
+    for (std::size_t k = 0; k < f.points.size(); ++k)
+      in += cam.model.project({f.points.x[k], f.points.y[k], f.points.z[k]}).has_value();
+    EXPECT_NEAR(double(in), double(in_image[i]), 3.0);
+  }
+  // The parent folder works too.
+  EXPECT_EQ(make("{path: " + test::dataPath("kitti_object_fusion") + "}")->size(), 2u);
+}
+
+TEST_F(SemanticKittiSourceTest, RecentresTheShiftedOpen3dMlScan) {
+  const std::string path = test::dataPath("semantickitti_o3dml_demo/converted_semantickitti");
+  auto raw = make("{path: " + path + ", ring_method: none}");
+  auto rec = make("{path: " + path + ", recentre: auto}");
+  ASSERT_EQ(rec->size(), 2u);
+  const Frame a0 = raw->read(0), a1 = rec->read(0);
+  ASSERT_EQ(a0.points.size(), 85962u);
+  ASSERT_EQ(a1.points.size(), 85962u);
+  const double dx = a1.points.x[0] - a0.points.x[0], dy = a1.points.y[0] - a0.points.y[0];
+  // PROVENANCE.md: the sensor sits near (0.0, -100.1) in 000700.
+  EXPECT_NEAR(dx, 0.0, 0.5);
+  EXPECT_NEAR(dy, 100.1, 0.5);
+  EXPECT_NEAR(a1.points.y[1000] - a0.points.y[1000], dy, 1e-3);
+  EXPECT_TRUE(a1.points.hasRing());  // elevation binning: the .npy order is not scan order
+  EXPECT_EQ(a1.truth.label.size(), 85962u);
+  const Frame b0 = raw->read(1), b1 = rec->read(1);
+  ASSERT_EQ(b1.points.size(), 86139u);
+  EXPECT_EQ(b0.points.x, b1.points.x);  // 000750 is centred: left untouched
+  EXPECT_EQ(b0.points.y, b1.points.y);
+}
+
+TEST_F(SemanticKittiSourceTest, MissingImageOrCalibrationWhenRequested) {
+  test::TempDir dir;
+  const std::string seq = tinySequence(dir);
+  auto src = make("{path: " + seq + ", use_images: true}");
+  try {
+    src->read(0);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), seq + "/image_2/000000.png");
+  }
+  // Image present, calibration missing.
+  test::TempDir dir2;
+  const std::string seq2 = tinySequence(dir2, /*calib=*/false);
+  writeImageAtomic(seq2 + "/image_2/000000.png", Image(16, 8, 3));
+  auto src2 = make("{path: " + seq2 + ", use_images: true}");
+  try {
+    src2->read(0);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), seq2 + "/calib.txt");
+  }
+  // Both present: a frame with a camera.
+  std::ofstream(seq2 + "/calib.txt") << kOdoCalib;
+  const Frame f = make("{path: " + seq2 + ", use_images: true}")->read(0);
+  ASSERT_EQ(f.cameras.size(), 1u);
+  EXPECT_EQ(f.cameras[0].model.width, 16);
+  EXPECT_EQ(f.truth.label,
+            (std::vector<LabelId>{labels::kRoad, labels::kRough, labels::kObstacle}));
+}
+
+TEST_F(SemanticKittiSourceTest, BadScansAndLabels) {
+  test::TempDir dir;
+  const std::string seq = tinySequence(dir);
+  // Label count mismatch.
+  writeU32(seq + "/labels/000000.label", {40, 72});
+  auto src = make("{path: " + seq + "}");
+  try {
+    src->read(0);
+    FAIL();
+  } catch (const InputError& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("000000.label"), std::string::npos) << w;
+    EXPECT_NE(w.find("000000.bin"), std::string::npos) << w;
+    EXPECT_NE(w.find("2 labels"), std::string::npos) << w;
+    EXPECT_NE(w.find("3 points"), std::string::npos) << w;
+  }
+  // Unmapped id.
+  writeU32(seq + "/labels/000000.label", {40, 72, 5});
+  try {
+    src->read(0);
+    FAIL();
+  } catch (const InputError& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("semantickitti.yaml"), std::string::npos) << w;
+    EXPECT_NE(w.find(" 5"), std::string::npos) << w;
+    EXPECT_NE(w.find("000000.label"), std::string::npos) << w;
+  }
+  // NaN coordinates and no-return points are counted, with their labels dropped.
+  const float nan = std::nanf("");
+  writeFloats(seq + "/velodyne/000000.bin", {5, 0, -1.7f, 0.3f, nan, 1, 1, 0, 0, 0, 0, 0});
+  writeU32(seq + "/labels/000000.label", {40, 72, 0});
+  Frame f = src->read(0);
+  EXPECT_EQ(f.points.size(), 1u);
+  EXPECT_EQ(f.dropped_invalid_points, 2u);
+  EXPECT_EQ(f.truth.raw, (std::vector<uint32_t>{40}));
+  // Size not a multiple of 16.
+  writeFloats(seq + "/velodyne/000000.bin", {1, 2, 3, 4, 5});
+  try {
+    src->read(0);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), seq + "/velodyne/000000.bin");
+    EXPECT_NE(std::string(e.what()).find("20 bytes"), std::string::npos) << e.what();
+  }
+  // Empty scan: a valid empty frame.
+  writeFloats(seq + "/velodyne/000000.bin", {});
+  writeU32(seq + "/labels/000000.label", {});
+  f = src->read(0);
+  EXPECT_TRUE(f.points.empty());
+  EXPECT_EQ(f.dropped_invalid_points, 0u);
+  EXPECT_EQ(f.id, "000000");
+}
+
+TEST_F(SemanticKittiSourceTest, ReadTime) {
+  // Thread CPU time, so other jobs on the machine do not count; bounds only catch gross
+  // regressions (e.g. per-point allocation), the printed numbers are what docs report.
+  auto cpu_ms = [] {
+    timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+  };
+  const std::string seq = test::dataPath("semantickitti_seq00_000000-000005/sequences/00");
+  auto src = make("{path: " + seq + "}");
+  auto raw = make("{path: " + seq + ", ring_method: none, use_poses: false}");
+  double best_full = 1e9, best_raw = 1e9;
+  for (int rep = 0; rep < 5; ++rep) {
+    const double t0 = cpu_ms();
+    const Frame f = src->read(0);
+    const double t1 = cpu_ms();
+    const Frame g = raw->read(0);
+    const double t2 = cpu_ms();
+    best_full = std::min(best_full, t1 - t0);
+    best_raw = std::min(best_raw, t2 - t1);
+    ASSERT_EQ(f.truth.label.size(), g.points.size());
+  }
+  std::printf(
+      "semantickitti read of frame 0 (124668 points + labels): %.2f ms CPU; with pose and "
+      "ring recovery %.2f ms CPU (best of 5)\n",
+      best_raw, best_full);
+  EXPECT_LT(best_raw, 50.0);
+  EXPECT_LT(best_full, 200.0);
+}
+
+}  // namespace
+}  // namespace terramrf

@@ -1,0 +1,129 @@
+// The LiDAR model against the world's ground truth: walls taller than the top beam reaches, the
+// ditch seen as a negative obstacle, and motion distortion.
+#include "terramrf/sim/lidar.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+
+#include "terramrf/sim/trajectory.hpp"
+#include "terramrf/sim/world.hpp"
+
+namespace terramrf::sim {
+namespace {
+
+struct Scene {
+  World world;
+  Trajectory traj;
+  LidarModel lidar;
+  Frame frame;
+  Scene(uint64_t seed, LidarParams lp = {})
+      : world([seed] {
+          WorldParams p;
+          p.seed = seed;
+          p.x_min_m = -130;
+          p.x_max_m = 250;
+          p.terrain_half_width_m = 140;
+          return p;
+        }()),
+        traj(world, TrajectoryParams{}),
+        lidar(world, lp) {
+    lidar.scan([this](double tau) { return traj.pose(tau); }, 11, frame);
+  }
+};
+
+int buildingAt(const World& w, const Eigen::Vector3d& p) {
+  for (std::size_t k = 0; k < w.buildings().size(); ++k) {
+    const Building& b = w.buildings()[k];
+    const Eigen::Vector2d d = p.head<2>() - b.centre_m;
+    const double c = std::cos(b.yaw_rad), s = std::sin(b.yaw_rad);
+    if (std::abs(c * d.x() + s * d.y()) < b.half_size_m.x() + 0.2 &&
+        std::abs(-s * d.x() + c * d.y()) < b.half_size_m.y() + 0.2)
+      return int(k);
+  }
+  return -1;
+}
+
+TEST(SimLidar, WallsTallerThanTheTopBeamReaches) {
+  for (uint64_t seed : {1, 2, 3}) {
+    const Scene s(seed);
+    const Eigen::Isometry3d T = s.traj.pose(0);
+    const double tan_top = std::tan(2.0 * M_PI / 180);
+    std::map<int, std::pair<int, double>> hits;  // building -> points, max z
+    for (std::size_t i = 0; i < s.frame.points.size(); ++i) {
+      if (s.frame.truth.raw[i] != uint32_t(Material::kBuildingWall)) continue;
+      const Eigen::Vector3d p =
+          T * Eigen::Vector3d(s.frame.points.x[i], s.frame.points.y[i], s.frame.points.z[i]);
+      const int b = buildingAt(s.world, p);
+      ASSERT_GE(b, 0) << "wall point not on any building";
+      auto& h = hits[b];
+      ++h.first;
+      h.second = std::max(h.second, p.z());
+    }
+    int clipped = 0;
+    for (const auto& [b, h] : hits) {
+      if (h.first < 200) continue;
+      const Building& bd = s.world.buildings()[b];
+      double far = 0;
+      for (const auto& c : bd.corners())
+        far = std::max(far, (c - T.translation().head<2>()).norm());
+      const double reach = T.translation().z() + far * tan_top + 0.3;  // pitch margin
+      if (bd.top_z_m > reach && h.second < bd.top_z_m - 1.0) ++clipped;
+    }
+    EXPECT_GE(clipped, 1) << "seed " << seed << ": no building taller than the top beam's reach";
+  }
+}
+
+TEST(SimLidar, DitchPointsLieBelowTheRoad) {
+  const Scene s(1);
+  const Eigen::Isometry3d T = s.traj.pose(0);
+  int floor = 0;
+  for (std::size_t i = 0; i < s.frame.points.size(); ++i) {
+    if (s.frame.truth.raw[i] != uint32_t(Material::kDitchFloor)) continue;
+    const Eigen::Vector3d p =
+        T * Eigen::Vector3d(s.frame.points.x[i], s.frame.points.y[i], s.frame.points.z[i]);
+    EXPECT_NEAR(s.world.smoothHeight(p.x(), p.y()) - p.z(), 1.0, 0.15);
+    ++floor;
+  }
+  EXPECT_GT(floor, 50);
+}
+
+TEST(SimLidar, PointsLieOnTheSurfacesTheyAreLabelledWith) {
+  LidarParams lp;
+  lp.range_noise_m = 0;
+  lp.azimuth_step_deg = 0.5;
+  const Scene s(2, lp);
+  const Eigen::Isometry3d T = s.traj.pose(0);
+  int ground = 0;
+  for (std::size_t i = 0; i < s.frame.points.size(); ++i) {
+    const Material m = Material(s.frame.truth.raw[i]);
+    if (m != Material::kAsphalt && m != Material::kGrass && m != Material::kGravel) continue;
+    const Eigen::Vector3d p =
+        T * Eigen::Vector3d(s.frame.points.x[i], s.frame.points.y[i], s.frame.points.z[i]);
+    ASSERT_NEAR(p.z(), s.world.terrainHeight(p.x(), p.y()), 0.02);
+    EXPECT_EQ(s.world.groundMaterial(p.x(), p.y()), m);
+    ++ground;
+  }
+  EXPECT_GT(ground, 5000);
+}
+
+TEST(SimLidar, MotionDistortionShiftsLateColumns) {
+  LidarParams a, b;
+  a.azimuth_step_deg = b.azimuth_step_deg = 1.0;
+  a.range_noise_m = b.range_noise_m = 0;
+  a.dropout_prob = b.dropout_prob = 0;
+  b.motion_distortion = true;
+  const Scene sa(4, a), sb(4, b);
+  // Column 0 is fired at the sweep start in both; late columns differ by the motion (~0.9 m).
+  ASSERT_GT(sa.frame.points.size(), 1000u);
+  EXPECT_EQ(sa.frame.points.x[0], sb.frame.points.x[0]);
+  double diff = 0;
+  std::size_t n = std::min(sa.frame.points.size(), sb.frame.points.size());
+  for (std::size_t i = n - 200; i < n; ++i)
+    diff = std::max(diff, double(std::abs(sa.frame.points.x[i] - sb.frame.points.x[i])));
+  EXPECT_GT(diff, 0.1);
+}
+
+}  // namespace
+}  // namespace terramrf::sim

@@ -1,0 +1,314 @@
+// The "simulator" source plugin as the pipeline sees it: determinism, HDL-64E geometry, classes,
+// camera, sensor samples, parameter errors, and a (non-asserted) timing note.
+#include <gtest/gtest.h>
+#include <time.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <set>
+
+#include "terramrf/param_values.hpp"
+#include "terramrf/registry.hpp"
+#include "terramrf/sim/lidar.hpp"
+#include "terramrf/sim/materials.hpp"
+#include "terramrf/sim/simulation.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+std::unique_ptr<Plugin> makeSource(const std::string& params) {
+  PluginRegistry reg({test::pluginDir()});
+  auto p = reg.create("simulator");
+  PluginContext ctx;
+  setParams(*p, params, ctx);
+  return p;
+}
+Source& src(std::unique_ptr<Plugin>& p) { return dynamic_cast<Source&>(*p); }
+
+/// Frame 0 of the default configuration, read once for several tests.
+const Frame& defaultFrame0() {
+  static const Frame f = [] {
+    auto p = makeSource("{frames: 5}");
+    return src(p).read(0);
+  }();
+  return f;
+}
+
+void expectSameFrame(const Frame& a, const Frame& b) {
+  ASSERT_EQ(a.points.size(), b.points.size());
+  EXPECT_EQ(a.points.x, b.points.x);
+  EXPECT_EQ(a.points.y, b.points.y);
+  EXPECT_EQ(a.points.z, b.points.z);
+  EXPECT_EQ(a.points.intensity, b.points.intensity);
+  EXPECT_EQ(a.points.ring, b.points.ring);
+  EXPECT_EQ(a.points.time_s, b.points.time_s);
+  EXPECT_EQ(a.truth.label, b.truth.label);
+  EXPECT_EQ(a.truth.raw, b.truth.raw);
+  EXPECT_EQ(a.timestamp_s, b.timestamp_s);
+  ASSERT_TRUE(a.pose && b.pose);
+  EXPECT_TRUE(a.pose->isApprox(*b.pose, 0.0));
+  ASSERT_EQ(a.imu.size(), b.imu.size());
+  for (std::size_t i = 0; i < a.imu.size(); ++i)
+    EXPECT_EQ(a.imu[i].accel_m_s2, b.imu[i].accel_m_s2);
+  ASSERT_EQ(a.gps.size(), b.gps.size());
+  for (std::size_t i = 0; i < a.gps.size(); ++i)
+    EXPECT_EQ(a.gps[i].position_m, b.gps[i].position_m);
+  ASSERT_EQ(a.cameras.size(), b.cameras.size());
+  for (std::size_t i = 0; i < a.cameras.size(); ++i) {
+    EXPECT_EQ(a.cameras[i].image->data, b.cameras[i].image->data);
+    EXPECT_EQ(a.cameras[i].truth->data, b.cameras[i].truth->data);
+  }
+}
+
+TEST(SimulatorSource, DeterministicAndIndependentOfReadOrder) {
+  const std::string params =
+      "{frames: 4, seed: 5, camera_width: 160, camera_height: 64, camera_fx: 90}";
+  auto a = makeSource(params), b = makeSource(params);
+  EXPECT_EQ(src(a).size(), 4u);
+  EXPECT_EQ(src(a).frameId(3), "000003");
+  const Frame a1 = src(a).read(1), a2 = src(a).read(2);
+  const Frame b2 = src(b).read(2), b1 = src(b).read(1);  // other order, other instance
+  expectSameFrame(a1, b1);
+  expectSameFrame(a2, b2);
+  EXPECT_EQ(a2.id, "000002");
+  EXPECT_DOUBLE_EQ(a2.timestamp_s, 0.2);
+  // Another seed: another world and other noise.
+  auto c = makeSource("{frames: 4, seed: 6, enable_camera: false}");
+  const Frame c1 = src(c).read(1);
+  EXPECT_NE(c1.points.size(), a1.points.size());
+  EXPECT_FALSE(c1.pose->isApprox(*a1.pose, 1e-6));
+  // Next frame moves ~0.9 m forward.
+  EXPECT_NEAR((a2.pose->translation() - a1.pose->translation()).norm(), 0.9, 0.1);
+}
+
+TEST(SimulatorSource, SeedMeansOneWorldWhateverTheFrameCountOrCamera) {
+  // The strip is sized from frames, ranges and the camera; the LiDAR frames must not change.
+  auto a = makeSource("{frames: 2, seed: 4, enable_camera: false, azimuth_step_deg: 0.5}");
+  auto b = makeSource(
+      "{frames: 300, seed: 4, azimuth_step_deg: 0.5, camera_width: 64, "
+      "camera_height: 64, camera_fx: 40}");
+  Frame fa = src(a).read(1), fb = src(b).read(1);
+  fb.cameras.clear();
+  expectSameFrame(fa, fb);
+}
+
+TEST(SimulatorSource, LibraryRebuildsThePluginsWorld) {
+  // A module that needs ground truth (meshing, evaluation) builds sim::Simulation from the same
+  // params as the pipeline's source and gets the identical world and frames.
+  const std::string params = "{frames: 3, seed: 9, enable_camera: false, azimuth_step_deg: 0.5}";
+  auto p = makeSource(params);
+  const sim::Simulation sim(sim::parseSimulationConfig(params));
+  EXPECT_EQ(sim.size(), 3u);
+  expectSameFrame(src(p).read(2), sim.frame(2));
+  EXPECT_FALSE(sim.world().buildings().empty());
+  const Eigen::Vector3d at = sim.frame(0).pose->translation();
+  EXPECT_EQ(sim.world().classAt(at.x(), at.y()), labels::kRoad);
+  EXPECT_THROW(sim::parseSimulationConfig("{frames: -1}"), std::exception);
+  EXPECT_THROW(sim::parseSimulationConfig("{no_such_param: 1}"), std::exception);
+}
+
+TEST(SimulatorSource, Hdl64eRingsAnglesAndScanOrder) {
+  const Frame& f = defaultFrame0();
+  ASSERT_TRUE(f.points.hasRing());
+  ASSERT_TRUE(f.points.hasTime());
+  const auto& el = sim::hdl64ElevationsDeg();
+  EXPECT_NEAR(el.front(), 2.0, 1e-9);
+  EXPECT_NEAR(el[31], -8.333, 1e-3);
+  EXPECT_NEAR(el[32], -8.83, 1e-9);
+  EXPECT_NEAR(el.back(), -24.33, 1e-9);
+  for (int r = 1; r < 32; ++r) EXPECT_NEAR(el[r - 1] - el[r], 1.0 / 3.0, 1e-9);
+  for (int r = 33; r < 64; ++r) EXPECT_NEAR(el[r - 1] - el[r], 0.5, 1e-9);
+  std::set<uint16_t> rings;
+  double max_err = 0;
+  for (std::size_t i = 0; i < f.points.size(); ++i) {
+    const uint16_t r = f.points.ring[i];
+    ASSERT_LT(r, 64);
+    rings.insert(r);
+    const double e =
+        std::atan2(f.points.z[i], std::hypot(f.points.x[i], f.points.y[i])) * 180 / M_PI;
+    max_err = std::max(max_err, std::abs(e - el[r]));
+    ASSERT_GE(f.points.time_s[i], 0.0f);
+    ASSERT_LT(f.points.time_s[i], 0.1f);
+  }
+  EXPECT_EQ(rings.size(), 64u);
+  EXPECT_LT(max_err, 0.01) << "elevation of each point = its ring's angle";
+  // Column order: rings ascend within a column, time never decreases, ~4000 columns.
+  std::size_t columns = 1;
+  for (std::size_t i = 1; i < f.points.size(); ++i) {
+    ASSERT_GE(f.points.time_s[i], f.points.time_s[i - 1]);
+    if (f.points.time_s[i] > f.points.time_s[i - 1])
+      ++columns;
+    else
+      ASSERT_GT(f.points.ring[i], f.points.ring[i - 1]);
+  }
+  EXPECT_GT(columns, 3900u);
+  EXPECT_LE(columns, 4000u);
+  // Range: every point within max range; the lowest ring sees the ground ~3.8 m away.
+  double min_r63 = 1e9;
+  for (std::size_t i = 0; i < f.points.size(); ++i) {
+    const double r = std::sqrt(f.points.x[i] * f.points.x[i] + f.points.y[i] * f.points.y[i] +
+                               f.points.z[i] * f.points.z[i]);
+    ASSERT_LE(r, 100.0 + 1e-3);
+    if (f.points.ring[i] == 63) min_r63 = std::min(min_r63, r);
+  }
+  EXPECT_NEAR(min_r63, 1.73 / std::sin(24.33 * M_PI / 180), 0.4);
+}
+
+TEST(SimulatorSource, RingOrderIsKittiLike) {
+  auto p =
+      makeSource("{frames: 1, enable_camera: false, point_order: ring, azimuth_step_deg: 0.36}");
+  const Frame f = src(p).read(0);
+  for (std::size_t i = 1; i < f.points.size(); ++i)
+    ASSERT_GE(f.points.ring[i], f.points.ring[i - 1]);
+  // Within a ring the azimuth sweeps counter-clockwise from 0 (forward).
+  std::size_t i0 = 0;
+  while (i0 < f.points.size() && f.points.ring[i0] != 40) ++i0;
+  ASSERT_LT(i0 + 10, f.points.size());
+  const double a0 = std::atan2(f.points.y[i0], f.points.x[i0]);
+  const double a1 = std::atan2(f.points.y[i0 + 5], f.points.x[i0 + 5]);
+  EXPECT_NEAR(a0, 0.0, 0.05);
+  EXPECT_GT(a1, a0);
+  EXPECT_EQ(f.points.size(), f.truth.label.size());
+}
+
+TEST(SimulatorSource, ClassesAndPointCount) {
+  const Frame& f = defaultFrame0();
+  const std::size_t n = f.points.size();
+  EXPECT_GT(n, 150000u);
+  EXPECT_LE(n, 64u * 4000u);
+  ASSERT_EQ(f.truth.label.size(), n);
+  ASSERT_EQ(f.truth.raw.size(), n);
+  std::map<LabelId, std::size_t> cls;
+  std::map<uint32_t, std::size_t> raw;
+  for (std::size_t i = 0; i < n; ++i) {
+    ++cls[f.truth.label[i]];
+    ++raw[f.truth.raw[i]];
+    ASSERT_EQ(f.truth.label[i], sim::projectClass(sim::Material(f.truth.raw[i])));
+  }
+  EXPECT_EQ(cls[labels::kUnknown], 0u) << "every return hits a labelled surface";
+  EXPECT_GT(cls[labels::kRoad], n / 10);
+  EXPECT_GT(cls[labels::kRough], n / 10);
+  EXPECT_GT(cls[labels::kObstacle], n / 20);
+  using M = sim::Material;
+  for (M m : {M::kAsphalt, M::kLaneMarking, M::kGrass, M::kGravel, M::kBuildingWall, M::kTreeTrunk,
+              M::kTreeCrown, M::kDitchFloor, M::kDitchWall})
+    EXPECT_GT(raw[uint32_t(m)], 20u) << sim::materialName(m);
+  // Intensity by material: lane markings are bright, asphalt dark.
+  double mark = 0, asph = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (f.truth.raw[i] == uint32_t(M::kLaneMarking)) mark += f.points.intensity[i];
+    if (f.truth.raw[i] == uint32_t(M::kAsphalt)) asph += f.points.intensity[i];
+  }
+  EXPECT_GT(mark / raw[uint32_t(M::kLaneMarking)], 3 * asph / raw[uint32_t(M::kAsphalt)]);
+}
+
+TEST(SimulatorSource, CameraImageAndPixelTruth) {
+  const Frame& f = defaultFrame0();
+  ASSERT_EQ(f.cameras.size(), 1u);
+  const CameraImage& cam = f.cameras[0];
+  EXPECT_EQ(cam.model.name, "image_2");
+  ASSERT_TRUE(cam.image && cam.truth);
+  EXPECT_EQ(cam.image->width, 640);
+  EXPECT_EQ(cam.image->height, 256);
+  EXPECT_EQ(cam.image->channels, 3);
+  EXPECT_EQ(cam.truth->width, 640);
+  EXPECT_EQ(cam.truth->height, 256);
+  EXPECT_EQ(cam.truth->channels, 1);
+  // P = K [I | 0].
+  EXPECT_DOUBLE_EQ(cam.model.P(0, 0), 370.0);
+  EXPECT_DOUBLE_EQ(cam.model.P(0, 3), 0.0);
+  std::map<int, std::size_t> px;
+  for (uint8_t v : cam.truth->data) ++px[v];
+  EXPECT_GT(px[labels::kRoad], 5000u);
+  EXPECT_GT(px[labels::kUnknown], 5000u) << "sky";
+  EXPECT_GT(px[labels::kRough], 5000u);
+  EXPECT_GT(px[labels::kObstacle], 1000u);
+  // Top centre is sky (blue-ish, unknown); bottom centre is road (grey).
+  const uint8_t* sky = cam.image->at(320, 2);
+  EXPECT_GT(sky[2], sky[0]);
+  EXPECT_EQ(*cam.truth->at(320, 2), labels::kUnknown);
+  EXPECT_EQ(*cam.truth->at(300, 250), labels::kRoad);
+  // LiDAR and camera see the same world through T_camera_lidar and P: the class of a point
+  // equals the pixel truth where it projects (except at edges and parallax occlusions).
+  std::size_t in = 0, agree = 0;
+  for (std::size_t i = 0; i < f.points.size(); i += 7) {
+    const auto uv = cam.model.project({f.points.x[i], f.points.y[i], f.points.z[i]});
+    if (!uv) continue;
+    const int u = int(std::lround(uv->x())), v = int(std::lround(uv->y()));
+    if (u < 0 || v < 0 || u >= 640 || v >= 256) continue;
+    ++in;
+    agree += *cam.truth->at(u, v) == f.truth.label[i];
+  }
+  EXPECT_GT(in, 2000u);
+  EXPECT_GT(double(agree) / in, 0.93) << agree << " of " << in;
+}
+
+TEST(SimulatorSource, SensorSamplesBetweenFrames) {
+  auto p = makeSource("{frames: 6, enable_camera: false, azimuth_step_deg: 1.0}");
+  std::size_t gps = 0;
+  for (std::size_t i = 0; i < 6; ++i) {
+    const Frame f = src(p).read(i);
+    ASSERT_EQ(f.imu.size(), 10u) << "100 Hz IMU, 10 Hz frames";
+    ASSERT_EQ(f.odometry.size(), 2u) << "20 Hz odometry";
+    gps += f.gps.size();
+    for (const ImuSample& s : f.imu) {
+      EXPECT_GT(s.t_s, f.timestamp_s - 0.1 + 1e-9);
+      EXPECT_LE(s.t_s, f.timestamp_s + 1e-9);
+      EXPECT_NEAR(s.accel_m_s2.z(), 9.81, 1.0);  // + vertical curvature of the road
+      EXPECT_LT(s.gyro_rad_s.norm(), 0.3);
+    }
+    for (const OdometrySample& o : f.odometry) EXPECT_NEAR(o.speed_m_s, 9.0, 1.2);
+    for (const GpsSample& g : f.gps)
+      EXPECT_LT((g.position_m - f.pose->translation()).head<2>().norm(), 8.0);
+  }
+  EXPECT_EQ(gps, 2u) << "2 Hz GPS over (−0.1, 0.5] s";
+}
+
+TEST(SimulatorSource, RejectsBadParameters) {
+  EXPECT_THROW(makeSource("{min_range_m: 5, max_range_m: 5}"), std::exception);
+  EXPECT_THROW(makeSource("{point_order: diagonal}"), std::exception);
+  EXPECT_THROW(makeSource("{azimuth_step_deg: 0}"), std::exception);
+  auto p = makeSource("{frames: 2, enable_camera: false, azimuth_step_deg: 2}");
+  EXPECT_THROW(src(p).read(2), std::out_of_range);
+}
+
+double threadCpuMs() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+TEST(SimulatorSource, PerformanceNote) {
+  // Not a timed assertion (shared machines vary): prints the median time per frame so a
+  // regression is visible in the log. CPU time of this thread is what one core spends; wall time
+  // also counts waiting for a busy machine. Reference numbers: docs/plugins/simulator.md.
+  auto p = makeSource("{frames: 5}");
+  auto q = makeSource("{frames: 5, enable_camera: false}");
+  std::vector<double> lidar_cpu, full_cpu, lidar_wall;
+  std::size_t points = 0;
+  for (std::size_t i = 0; i < 5; ++i) {
+    const auto w0 = std::chrono::steady_clock::now();
+    const double c0 = threadCpuMs();
+    points = src(q).read(i).points.size();
+    const double c1 = threadCpuMs();
+    const auto w1 = std::chrono::steady_clock::now();
+    src(p).read(i);
+    const double c2 = threadCpuMs();
+    lidar_cpu.push_back(c1 - c0);
+    full_cpu.push_back(c2 - c1);
+    lidar_wall.push_back(std::chrono::duration<double, std::milli>(w1 - w0).count());
+  }
+  for (auto* v : {&lidar_cpu, &full_cpu, &lidar_wall}) std::sort(v->begin(), v->end());
+  std::printf(
+      "simulator: %zu points/frame; median CPU %.0f ms per LiDAR frame (wall %.0f ms), "
+      "%.0f ms with the 640x256 camera\n",
+      points, lidar_cpu[2], lidar_wall[2], full_cpu[2]);
+  SUCCEED();
+}
+
+}  // namespace
+}  // namespace terramrf
