@@ -39,7 +39,7 @@ struct SliceFixture {
     add("eigen_preclass", "{}");
     add("height_difference", "{}");
     add("potts_gaussian",
-        "{model: models/laser_default.yaml, features: [height_diff, normal_eigenvalue], "
+        "{model: models/laser_simulator.yaml, features: [height_diff, normal_eigenvalue], "
         "preclass_layer: preclass}");
     add("icm", "{report_energy: false}");
   }
