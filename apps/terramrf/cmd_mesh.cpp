@@ -12,38 +12,14 @@
 
 namespace terramrf::cli {
 
-int cmdMesh(const Args& args);
-
 int cmdMesh(const Args& args) {
-  Args a = args;
-  if (a.empty() || a[0].rfind("--", 0) == 0) {
-    std::cerr << "usage: terramrf mesh CONFIG [--out DIR] [--data DIR] [--first N] [--limit N] "
-                 "[--no-progress]\n";
-    return kUsage;
-  }
-  const std::string config = a[0];
-  a.erase(a.begin());
-  LoadOptions lo;
-  lo.data_override = takeOption(a, "--data");
-  lo.output_dir = takeOption(a, "--out");
-  RunOptions ro;
-  const std::string first = takeOption(a, "--first"), limit = takeOption(a, "--limit");
-  if (!first.empty()) ro.first = std::stoul(first);
-  if (!limit.empty()) ro.limit = std::stoul(limit);
-  ro.progress = !takeFlag(a, "--no-progress");
-  if (!a.empty()) {
-    std::cerr << "terramrf mesh: unexpected argument '" << a[0] << "'\n";
-    return kUsage;
-  }
+  RunArgs ra;
+  if (parseRunArgs(args, "mesh", ra) != kOk) return kUsage;
+  const std::string& config = ra.config;
+  const RunOptions& ro = ra.run;
   PluginRegistry reg(PluginRegistry::defaultSearchDirs());
   Pipeline p;
-  try {
-    p = loadPipeline(config, lo, reg);
-  } catch (const ConfigError& e) {
-    for (const auto& d : e.diagnostics()) std::cerr << d.str() << "\n";
-    std::cerr << e.diagnostics().size() << " error(s) in " << config << "; nothing was run\n";
-    return kUsage;
-  }
+  if (!loadOrReport(config, ra.load, reg, p)) return kUsage;
   std::string mesh_dir = p.output_dir + "/mesh";
   bool have = false;
   for (const auto& o : p.outputs) have = have || o->type() == "textured_mesh";

@@ -42,31 +42,42 @@ int cmdValidate(const Args& args) {
   }
 }
 
-int cmdRun(const Args& args) {
+int parseRunArgs(const Args& args, const char* command, RunArgs& out) {
   Args a = args;
-  std::string config;
-  if (!parseConfigArgs(a, "run", config)) return kUsage;
-  LoadOptions lo;
-  lo.data_override = takeOption(a, "--data");
-  lo.output_dir = takeOption(a, "--out");
-  RunOptions ro;
+  if (!parseConfigArgs(a, command, out.config)) return kUsage;
+  out.load.data_override = takeOption(a, "--data");
+  out.load.output_dir = takeOption(a, "--out");
   const std::string first = takeOption(a, "--first"), limit = takeOption(a, "--limit");
-  if (!first.empty()) ro.first = std::stoul(first);
-  if (!limit.empty()) ro.limit = std::stoul(limit);
-  ro.progress = !takeFlag(a, "--no-progress");
+  if (!first.empty()) out.run.first = std::stoul(first);
+  if (!limit.empty()) out.run.limit = std::stoul(limit);
+  out.run.progress = !takeFlag(a, "--no-progress");
   if (!a.empty()) {
-    std::cerr << "terramrf run: unexpected argument '" << a[0] << "'\n";
+    std::cerr << "terramrf " << command << ": unexpected argument '" << a[0] << "'\n";
     return kUsage;
   }
-  PluginRegistry reg(PluginRegistry::defaultSearchDirs());
-  Pipeline p;
+  return kOk;
+}
+
+bool loadOrReport(const std::string& config, const LoadOptions& options, PluginRegistry& registry,
+                  Pipeline& out) {
   try {
-    p = loadPipeline(config, lo, reg);
+    out = loadPipeline(config, options, registry);
+    return true;
   } catch (const ConfigError& e) {
     for (const auto& d : e.diagnostics()) std::cerr << d.str() << "\n";
     std::cerr << e.diagnostics().size() << " error(s) in " << config << "; nothing was run\n";
-    return kUsage;
+    return false;
   }
+}
+
+int cmdRun(const Args& args) {
+  RunArgs ra;
+  if (parseRunArgs(args, "run", ra) != kOk) return kUsage;
+  const std::string& config = ra.config;
+  const RunOptions& ro = ra.run;
+  PluginRegistry reg(PluginRegistry::defaultSearchDirs());
+  Pipeline p;
+  if (!loadOrReport(config, ra.load, reg, p)) return kUsage;
   std::cerr << "terramrf: " << p.source->size() << " frame(s) from " << p.source->type()
             << ", outputs in " << p.output_dir << "\n";
   RunResult r = runPipeline(p, ro);

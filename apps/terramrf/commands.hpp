@@ -3,6 +3,9 @@
 #include <string>
 #include <vector>
 
+#include "terramrf/config.hpp"
+#include "terramrf/pipeline.hpp"
+
 namespace terramrf::cli {
 
 using Args = std::vector<std::string>;
@@ -22,5 +25,18 @@ enum Exit { kOk = 0, kError = 1, kUsage = 2, kSomeFramesFailed = 3, kFailed = 4 
 /// Value of `--name VALUE` (or "--name=VALUE") in args; "" if absent. Removes it from args.
 std::string takeOption(Args& args, const std::string& name);
 bool takeFlag(Args& args, const std::string& name);
+
+/// CONFIG [--data DIR] [--out DIR] [--first N] [--limit N] [--no-progress], shared by the
+/// commands that run a pipeline. Returns kOk, or kUsage after printing what is wrong.
+struct RunArgs {
+  std::string config;
+  LoadOptions load;
+  RunOptions run;
+};
+int parseRunArgs(const Args& args, const char* command, RunArgs& out);
+
+/// Loads and validates a config; on failure prints every diagnostic and returns false.
+bool loadOrReport(const std::string& config, const LoadOptions& options, PluginRegistry& registry,
+                  Pipeline& out);
 
 }  // namespace terramrf::cli
