@@ -4,6 +4,8 @@
 //   BM_L              laser part: grid binning + eigen_preclass + height_difference + roughness
 //   BM_L_H / _FH / _C laser part + camera_fusion + haralick / homogeneity / colour (the paper's
 //                     feature sets: H = Haralick, FH = homogeneity, C = colour)
+//   BM_L_G            laser part + relative_height + height_above_ground (sweep feature set L+G)
+//   BM_HeightAboveGround, BM_RelativeHeight   one stage alone on an already binned grid
 //   BM_Img_*          the image part alone (camera_fusion + the feature) on an already binned grid
 // Run: build/bin/terramrf_bench_features
 #include <benchmark/benchmark.h>
@@ -28,6 +30,7 @@ struct FeatureFixture {
   PluginRegistry reg{PluginRegistry::defaultSearchDirs()};
   PluginContext pctx;
   std::vector<std::unique_ptr<Plugin>> laser;
+  std::vector<std::unique_ptr<Plugin>> ground;  // the G of L+G
   std::unique_ptr<Plugin> fusion, haralick, homogeneity, colour_rgb, colour_hsv, colour_lab;
 
   FeatureFixture() {
@@ -44,6 +47,8 @@ struct FeatureFixture {
     laser.push_back(make("eigen_preclass", "{}"));
     laser.push_back(make("height_difference", "{}"));
     laser.push_back(make("roughness", "{}"));
+    ground.push_back(make("relative_height", "{}"));
+    ground.push_back(make("height_above_ground", "{}"));
     fusion = make("camera_fusion", "{}");
     haralick = make("haralick", "{}");
     homogeneity = make("homogeneity", "{}");
@@ -66,7 +71,8 @@ FeatureFixture& fixture() {
 void run(Plugin& p, FrameContext& ctx) { static_cast<Stage&>(p).process(ctx); }
 
 /// Laser part (optional) then fusion and `feature` (optional), per iteration.
-void bench(benchmark::State& state, bool with_laser, Plugin* feature, bool with_fusion = true) {
+void bench(benchmark::State& state, bool with_laser, Plugin* feature, bool with_fusion = true,
+           bool with_ground = false) {
   FeatureFixture& f = fixture();
   FrameContext ctx;
   ctx.frame = &f.frame;
@@ -79,6 +85,8 @@ void bench(benchmark::State& state, bool with_laser, Plugin* feature, bool with_
       f.grid.reset(f.geom);
       f.grid.binPoints(f.frame.points);
       for (auto& s : f.laser) run(*s, ctx);
+      if (with_ground)
+        for (auto& s : f.ground) run(*s, ctx);
     }
     if (with_fusion) run(*f.fusion, ctx);
     if (feature) run(*feature, ctx);
@@ -91,6 +99,9 @@ void bench(benchmark::State& state, bool with_laser, Plugin* feature, bool with_
 }
 
 void BM_L(benchmark::State& s) { bench(s, true, nullptr, false); }
+void BM_L_G(benchmark::State& s) { bench(s, true, nullptr, false, true); }
+void BM_HeightAboveGround(benchmark::State& s) { bench(s, false, fixture().ground[1].get(), false); }
+void BM_RelativeHeight(benchmark::State& s) { bench(s, false, fixture().ground[0].get(), false); }
 void BM_L_H(benchmark::State& s) { bench(s, true, fixture().haralick.get()); }
 void BM_L_FH(benchmark::State& s) { bench(s, true, fixture().homogeneity.get()); }
 void BM_L_C(benchmark::State& s) { bench(s, true, fixture().colour_rgb.get()); }
@@ -104,6 +115,9 @@ void BM_Img_FusionColourLab(benchmark::State& s) { bench(s, false, fixture().col
 #define TERRAMRF_BENCH(fn) \
   BENCHMARK(fn)->Unit(benchmark::kMillisecond)->Repetitions(10)->ReportAggregatesOnly(true)
 TERRAMRF_BENCH(BM_L);
+TERRAMRF_BENCH(BM_L_G);
+TERRAMRF_BENCH(BM_HeightAboveGround);
+TERRAMRF_BENCH(BM_RelativeHeight);
 TERRAMRF_BENCH(BM_L_H);
 TERRAMRF_BENCH(BM_L_FH);
 TERRAMRF_BENCH(BM_L_C);

@@ -1522,7 +1522,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
     if (!tr.IsMap()) {
       d.add(tr.Mark(), "'training' must be a map of feature_stats parameters");
     } else {
-      checkKeys(d, tr, {"min_purity", "min_labelled_points", "min_sigma"}, "training");
+      checkKeys(d, tr, {"min_purity", "min_labelled_points", "min_sigma", "estimator", "obstacle_rule"}, "training");
       s->training = tr;
       s->training_mark = tr.Mark();
     }
@@ -1633,7 +1633,8 @@ class RunCollector final : public Output {
   void write(const FrameContext& ctx) override {
     const TerrainGrid& g = *ctx.grid;
     const Frame& fr = *ctx.frame;
-    evaluator_.addFrame(g, fr);
+    const EvalCounts frame_counts = evaluator_.addFrame(g, fr);
+    if (frame_counts.scans) rec_.per_scan.emplace_back(fr.id, frame_counts);
     const RocFrameStats st = roc_.addFrame(
         g, fr, energy_fallback_ ? &ctx.energy : static_cast<const EnergyModel*>(nullptr));
     if (st.source != ScoreSource::kNone) sources_.insert(st.source);
@@ -2169,6 +2170,46 @@ std::string evaluationCsv(const SweepResult& r) {
   return o.str();
 }
 
+/// Cell-wise precision/recall of every class, one row per scan (paper 001's rules).
+std::string perScanCsv(const SweepResult& r) {
+  std::ostringstream o;
+  o << "dataset,feature_set,optimiser,frame,level,class,tp,fp,fn,precision,recall\n";
+  for (const auto& x : r.runs)
+    for (const auto& [frame, counts] : x.per_scan)
+      for (const char* level : {"point", "cell"})
+        for (LabelId c : scoredClasses(r.labels)) {
+          const ClassScores s = (level[0] == 'p' ? counts.point_wise : counts.cell_wise).scores(c);
+          o << csvStr(x.dataset) << "," << csvStr(x.feature_set) << "," << csvStr(x.optimiser) << ","
+            << csvStr(frame) << "," << level << "," << r.labels.name(c) << "," << s.tp << ","
+            << s.fp << "," << s.fn << "," << csvNum(s.precision()) << "," << csvNum(s.recall())
+            << "\n";
+        }
+  return o.str();
+}
+
+/// Markdown: one row per run and scan, cell-wise P/R per class.
+std::string perScanSection(const SweepResult& r) {
+  std::ostringstream o;
+  o << "## Cell-wise precision / recall per scan (paper 001 §VI-B)\n\n| dataset | feature set | "
+       "optimiser | scan |";
+  const std::vector<LabelId> classes = scoredClasses(r.labels);
+  for (LabelId c : classes) o << " " << r.labels.name(c) << " P / R |";
+  o << "\n|---|---|---|---|";
+  for (std::size_t i = 0; i < classes.size(); ++i) o << "---:|";
+  o << "\n";
+  for (const auto& x : r.runs)
+    for (const auto& [frame, counts] : x.per_scan) {
+      o << "| " << x.dataset << " | " << x.feature_set << " | " << x.optimiser << " | " << frame
+        << " |";
+      for (LabelId c : classes) {
+        const ClassScores s = counts.cell_wise.scores(c);
+        o << " " << fmt("%.3f", s.precision()) << " / " << fmt("%.3f", s.recall()) << " |";
+      }
+      o << "\n";
+    }
+  return o.str() + "\n";
+}
+
 std::string runtimeCsv(const SweepResult& r) {
   std::ostringstream o;
   o << "dataset,feature_set,optimiser,status,scans,processing_mean_ms,processing_std_ms,"
@@ -2362,11 +2403,14 @@ void writeSweepReport(const SweepResult& r, const std::string& dir) {
   writeFileAtomic(dir + "/accuracy.md", acc.str());
   writeFileAtomic(dir + "/runtime.md", rt.str());
   writeFileAtomic(dir + "/energies.md", energies);
+  const std::string per_scan = perScanSection(r);
   writeFileAtomic(dir + "/evaluation.md", evaluation);
-  writeFileAtomic(dir + "/summary.md",
-                  head.str() + acc.str() + rt.str() + roc + energies + runs + evaluation);
+  writeFileAtomic(dir + "/per_scan.md", per_scan);
+  writeFileAtomic(dir + "/summary.md", head.str() + acc.str() + per_scan + rt.str() + roc +
+                                           energies + runs + evaluation);
   writeFileAtomic(dir + "/accuracy.csv", accuracyCsv(r));
   writeFileAtomic(dir + "/evaluation.csv", evaluationCsv(r));
+  writeFileAtomic(dir + "/per_scan.csv", perScanCsv(r));
   writeFileAtomic(dir + "/runtime.csv", runtimeCsv(r));
   writeFileAtomic(dir + "/energies.csv", energiesCsv(r));
   writeFileAtomic(dir + "/roc_auc.csv", rocAucCsv(r));

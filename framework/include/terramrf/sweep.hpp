@@ -111,6 +111,9 @@ struct RunRecord {
   std::size_t frames_ok = 0;
   std::vector<std::pair<std::string, std::string>> failed;  ///< frame id, reason
   EvalCounts counts;
+  /// The same counts per scanned frame (frame id, counts), in reading order: one bad scan or
+  /// one easy scan must not hide in the total.
+  std::vector<std::pair<std::string, EvalCounts>> per_scan;
   std::vector<RocCurve> roc;
   ScoreSource score_source = ScoreSource::kNone;  ///< of the frames that had scores
   std::string roc_note;  ///< why there is no ROC, or where its scores came from

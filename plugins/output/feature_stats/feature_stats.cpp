@@ -2,6 +2,7 @@
 // cell whose labelled points agree on one class (purity), each feature value is added to that
 // class's running mean/variance. The model file it writes is what potts_gaussian loads, with a
 // provenance line naming the config and frames it came from.
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -25,6 +26,15 @@ class FeatureStats final : public Output {
           "unit): keeps a feature that is nearly constant in the training data from vetoing a "
           "class on unseen data")
         .min(0);
+    d.add("estimator", estimator_,
+          "how mean and σ are estimated: moments (sample mean and standard deviation, paper 000 "
+          "§4.6) or robust (median and 1.4826 × median absolute deviation: a few mislabelled "
+          "cells at class borders no longer inflate σ)")
+        .choices({"moments", "robust"});
+    d.add("obstacle_rule", obstacle_rule_,
+          "a cell holding at least one ground-truth obstacle point is an obstacle sample whatever "
+          "its purity, as in the cell-wise evaluation of paper 001 §VI-B (the class the "
+          "classifier is scored against)");
   }
   void configure(const PluginContext&) override {
     if (min_sigma_.size() > 1 && min_sigma_.size() != features_.size())
@@ -39,6 +49,9 @@ class FeatureStats final : public Output {
     n_.assign(K * F, 0);
     mean_.assign(K * F, 0);
     m2_.assign(K * F, 0);
+    samples_.assign(K * F, {});
+    robust_ = estimator_ == "robust";
+    obstacle_ = static_cast<std::size_t>(std::max(0, info.labels->obstacle()));
     frames_ = 0;
   }
 
@@ -64,12 +77,15 @@ class FeatureStats final : public Output {
       std::size_t best = 1;
       for (std::size_t k = 1; k < K; ++k)
         if (count[k] > count[best]) best = k;
-      if (count[best] < min_purity_ * labelled) continue;
+      const bool obstacle_cell = obstacle_rule_ && obstacle_ > 0 && count[obstacle_] > 0;
+      if (obstacle_cell) best = obstacle_;
+      else if (count[best] < min_purity_ * labelled) continue;
       for (std::size_t f = 0; f < F; ++f) {
         const float v = layers[f][c];
         if (std::isnan(v)) continue;
         // Welford's update: stable for millions of cells.
         const std::size_t i = best * F + f;
+        if (robust_) samples_[i].push_back(v);
         ++n_[i];
         const double d = v - mean_[i];
         mean_[i] += d / n_[i];
@@ -83,7 +99,8 @@ class FeatureStats final : public Output {
     o << "# Per-class Gaussian feature model (paper 000 §4.6), learnt by the feature_stats output.\n";
     o << "provenance: \"config " << info_.config_path << ", " << frames_
       << " labelled frame(s), cells with purity >= " << min_purity_ << " and >= " << min_points_
-      << " labelled points\"\n";
+      << " labelled points" << (obstacle_rule_ ? ", any obstacle point makes an obstacle cell" : "")
+      << ", " << estimator_ << " estimates\"\n";
     o << "classes:\n";
     const std::size_t K = info_.labels->size(), F = features_.size();
     o.precision(6);
@@ -95,8 +112,10 @@ class FeatureStats final : public Output {
         if (n_[i] < 2) continue;
         any = true;
         const double floor = min_sigma_.empty() ? 0 : min_sigma_[min_sigma_.size() == 1 ? 0 : f];
-        const double sigma = std::max(floor, std::sqrt(m2_[i] / (n_[i] - 1)));
-        cls << "    " << features_[f] << ": {mean: " << mean_[i] << ", sigma: " << sigma
+        double mean = mean_[i], sigma = std::sqrt(m2_[i] / (n_[i] - 1));
+        if (robust_) robustEstimate(samples_[i], mean, sigma);
+        sigma = std::max(floor, sigma);
+        cls << "    " << features_[f] << ": {mean: " << mean << ", sigma: " << sigma
             << "}  # " << n_[i] << " cells\n";
       }
       if (any) o << "  " << info_.labels->name(static_cast<LabelId>(k)) << ":\n" << cls.str();
@@ -107,6 +126,18 @@ class FeatureStats final : public Output {
   }
 
  private:
+  // Median and 1.4826·MAD: σ of a Gaussian core, unaffected by up to half of outliers.
+  static void robustEstimate(std::vector<float>& v, double& mean, double& sigma) {
+    auto median = [](std::vector<float>& x) {
+      auto mid = x.begin() + x.size() / 2;
+      std::nth_element(x.begin(), mid, x.end());
+      return static_cast<double>(*mid);
+    };
+    mean = median(v);
+    for (float& x : v) x = static_cast<float>(std::abs(x - mean));
+    sigma = 1.4826 * median(v);
+  }
+
   std::vector<std::string> features_;
   std::string out_path_ = "model.yaml";
   double min_purity_ = 0.9;
@@ -115,6 +146,11 @@ class FeatureStats final : public Output {
   RunInfo info_;
   std::vector<uint64_t> n_;
   std::vector<double> mean_, m2_;
+  std::string estimator_ = "moments";
+  bool obstacle_rule_ = false;
+  bool robust_ = false;
+  std::size_t obstacle_ = 0;
+  std::vector<std::vector<float>> samples_;
   std::size_t frames_ = 0;
 };
 

@@ -280,6 +280,9 @@ TEST(SweepRun, TinySimulatorSweepWritesTheTables) {
     EXPECT_EQ(x.frames_ok, 1u);
     EXPECT_EQ(x.counts.scans, 1u);
     EXPECT_GT(x.counts.cells_scored, 100u);
+    // One scan: its per-scan counts are the total.
+    ASSERT_EQ(x.per_scan.size(), 1u);
+    EXPECT_EQ(x.per_scan[0].second.cells_scored, x.counts.cells_scored);
     ASSERT_EQ(x.energies.size(), 1u);
     EXPECT_TRUE(std::isfinite(x.energies[0].recomputed));
     EXPECT_NEAR(x.energies[0].recomputed, x.energies[0].reported,
@@ -298,7 +301,7 @@ TEST(SweepRun, TinySimulatorSweepWritesTheTables) {
   const std::string out = o.output_dir;
   for (const char* f :
        {"summary.md", "accuracy.md", "accuracy.csv", "runtime.md", "runtime.csv", "evaluation.md",
-        "evaluation.csv", "energies.md", "energies.csv", "roc_auc.csv", "results.json",
+        "evaluation.csv", "per_scan.md", "per_scan.csv", "energies.md", "energies.csv", "roc_auc.csv", "results.json",
         "models/L.yaml", "models/L0.yaml", "sweep.yaml", "roc/sim_test__L__icm.svg",
         "roc/sim_test__L__icm.csv", "runs/sim_test__L__icm/resolved_config.yaml"})
     EXPECT_TRUE(fs::exists(out + "/" + f)) << f;
@@ -307,6 +310,11 @@ TEST(SweepRun, TinySimulatorSweepWritesTheTables) {
   EXPECT_NE(acc.find("| Road/TPR |"), std::string::npos);
   EXPECT_NE(acc.find("| Obstacle/FPR |"), std::string::npos);
   EXPECT_NE(acc.find("skipped"), std::string::npos);  // the optimiser that is not built
+  const std::string per_scan = readFile(out + "/per_scan.csv");
+  EXPECT_EQ(per_scan.rfind("dataset,feature_set,optimiser,frame,level,class,", 0), 0u) << per_scan;
+  EXPECT_NE(per_scan.find("sim_test,L,icm,"), std::string::npos) << per_scan;
+  EXPECT_NE(readFile(out + "/per_scan.md").find("| dataset | feature set | optimiser | scan |"),
+            std::string::npos);
   const std::string rt = readFile(out + "/runtime.md");
   EXPECT_NE(rt.find("| Mode | Mean | Std. dev. | Max | Min |"), std::string::npos) << rt;
   EXPECT_NE(rt.find("| L0 (icm) |"), std::string::npos) << rt;
@@ -434,7 +442,7 @@ TEST(Train, DataFolderOfRealScansIsRecordedWithItsLabelMap) {
   EXPECT_EQ(
       item["label_map"].as<std::string>(),
       fs::weakly_canonical(test::sourceDir() + "/configs/label_maps/semantickitti.yaml").string());
-  EXPECT_EQ(m["trained_from"]["features"].size(), 4u);  // from the config's feature_stats output
+  EXPECT_EQ(m["trained_from"]["features"].size(), 5u);  // from the config's feature_stats output
   EXPECT_NE(m["provenance"].as<std::string>().find("converted_semantickitti"), std::string::npos);
 }
 

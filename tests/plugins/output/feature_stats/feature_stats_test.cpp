@@ -1,0 +1,102 @@
+// Known answers of the model learner: the moments of paper 000 §4.6, the robust estimate (median,
+// 1.4826·MAD) that ignores a few mislabelled cells, and the obstacle rule of paper 001's
+// cell-wise truth.
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "output_test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+// One frame of 10 × 1 cells (1 m), one point per cell at the cell centre with the given truth,
+// plus one extra point of truth `extra` in cell 9; layer "f" = the given values.
+struct Scene {
+  LabelSet labels = LabelSet::defaults();
+  GridGeometry geom;
+  Frame frame;
+  TerrainGrid grid;
+  Scene(const std::vector<LabelId>& truth, const std::vector<float>& f, LabelId extra) {
+    geom.size_m = 10;
+    geom.cell_m = 1;
+    grid.reset(geom);
+    const Eigen::Vector2d o = geom.origin();
+    for (std::size_t i = 0; i < truth.size(); ++i) {
+      frame.points.push_back(float(o.x() + 0.5), float(o.y() + i + 0.5), 0.f, 0);
+      frame.truth.label.push_back(truth[i]);
+    }
+    frame.points.push_back(float(o.x() + 0.5), float(o.y() + 9.6), 0.f, 0);
+    frame.truth.label.push_back(extra);
+    grid.binPoints(frame.points);
+    Layer& l = grid.add("f");
+    for (std::size_t i = 0; i < f.size(); ++i) l[geom.cellOf(o.x() + 0.5, o.y() + i + 0.5)] = f[i];
+  }
+  YAML::Node learn(const std::string& params) {
+    test::TempDir dir;
+    PluginContext pc;
+    pc.grid = geom;
+    pc.labels = &labels;
+    auto out = test::makeOutput("feature_stats", params, pc);
+    RunInfo info;
+    info.config_path = "test.yaml";
+    info.output_dir = dir.str();
+    info.labels = &labels;
+    info.grid = geom;
+    out->begin(info);
+    FrameContext ctx;
+    ctx.frame = &frame;
+    ctx.grid = &grid;
+    ctx.labels = &labels;
+    out->write(ctx);
+    out->end(RunSummary{});
+    return YAML::LoadFile(dir.str() + "/model.yaml");
+  }
+};
+
+constexpr LabelId kRoad = 1, kRough = 2, kObstacle = 3;
+
+}  // namespace
+
+TEST(FeatureStats, MomentsAndRobustEstimates) {
+  // Nine road cells: eight around 0.02 and one mislabelled at 2.0 (a car's edge).
+  Scene s({kRoad, kRoad, kRoad, kRoad, kRoad, kRoad, kRoad, kRoad, kRoad, kRoad},
+          {0.00f, 0.01f, 0.02f, 0.03f, 0.04f, 0.01f, 0.03f, 0.02f, 0.02f, 2.0f}, kRoad);
+  const YAML::Node m = s.learn("{features: [f], min_labelled_points: 1}");
+  const double mean = m["classes"]["road"]["f"]["mean"].as<double>();
+  EXPECT_NEAR(mean, 0.218, 1e-4);  // (0.18 + 2.0) / 10
+  EXPECT_GT(m["classes"]["road"]["f"]["sigma"].as<double>(), 0.6);
+  const YAML::Node r = s.learn("{features: [f], min_labelled_points: 1, estimator: robust}");
+  // Sorted: 0 .01 .01 .02 .02 .02 .03 .03 .04 2.0 → median (upper) 0.02; |x − 0.02| sorted:
+  // 0 0 0 .01 .01 .01 .01 .02 .02 1.98 → median 0.01; σ = 1.4826 × 0.01.
+  EXPECT_NEAR(r["classes"]["road"]["f"]["mean"].as<double>(), 0.02, 1e-6);
+  EXPECT_NEAR(r["classes"]["road"]["f"]["sigma"].as<double>(), 0.014826, 1e-5);
+  EXPECT_NE(r["provenance"].as<std::string>().find("robust"), std::string::npos);
+}
+
+TEST(FeatureStats, ObstacleRuleMakesMixedCellsObstacleSamples) {
+  // Cell 9 holds a road point and an obstacle point: purity 0.5, so by purity it is no sample;
+  // by the evaluation's rule it is an obstacle cell (the class it will be scored as).
+  Scene s({kRough, kRough, kObstacle, kObstacle, kRoad, kRoad, kRoad, kRoad, kRoad, kRoad},
+          {0.1f, 0.1f, 1.0f, 3.0f, 0.f, 0.f, 0.f, 0.f, 0.f, 0.5f}, kObstacle);
+  const YAML::Node plain = s.learn("{features: [f], min_labelled_points: 1}");
+  EXPECT_NEAR(plain["classes"]["obstacle"]["f"]["mean"].as<double>(), 2.0, 1e-6);
+  const YAML::Node rule = s.learn("{features: [f], min_labelled_points: 1, obstacle_rule: true}");
+  EXPECT_NEAR(rule["classes"]["obstacle"]["f"]["mean"].as<double>(), 1.5, 1e-6);  // (1 + 3 + .5) / 3
+  EXPECT_NEAR(rule["classes"]["road"]["f"]["mean"].as<double>(), 0.0, 1e-6);
+}
+
+TEST(FeatureStats, UnknownEstimatorIsAParameterError) {
+  Scene s({kRoad}, {0.f}, kRoad);
+  try {
+    s.learn("{features: [f], estimator: median}");
+    FAIL() << "expected an error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("estimator"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace terramrf
