@@ -25,7 +25,9 @@ std::optional<Eigen::Vector2d> CameraModel::projectUnbounded(const Eigen::Vector
 std::optional<Eigen::Vector2d> CameraModel::project(const Eigen::Vector3d& p_lidar) const {
   auto uv = projectUnbounded(p_lidar);
   if (!uv) return uv;
-  if (uv->x() < 0 || uv->y() < 0 || uv->x() >= width || uv->y() >= height) return std::nullopt;
+  // Pixel centres sit at integer coordinates, so pixel (0, 0) covers [−0.5, 0.5)².
+  if (!(uv->x() >= -0.5 && uv->y() >= -0.5 && uv->x() < width - 0.5 && uv->y() < height - 0.5))
+    return std::nullopt;
   return uv;
 }
 

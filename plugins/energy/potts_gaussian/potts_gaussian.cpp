@@ -27,6 +27,11 @@ class PottsGaussian final : public Stage {
         .unit("1").range(-1, 1e6);
     d.add("preclass_layer", preclass_layer_,
           "pre-class layer (0 unknown, 1 flat, 2 obstacle) used for the initial labelling; '' = none");
+    d.add("class_cost", class_cost_,
+          "constant added to each class's feature energy, in the order of `classes` (empty = all "
+          "0): a negative log prior, or the price of missing a class — a negative obstacle cost "
+          "trades false alarms for obstacle recall (docs/energy.md)")
+        .unit("energy");
     d.add("min_points", min_points_, "cells with fewer points are fixed to unknown (no data)")
         .unit("points").range(1, 1000);
   }
@@ -38,6 +43,9 @@ class PottsGaussian final : public Stage {
       throw ParamError("model", e.what());
     }
     if (features_.empty()) throw ParamError("features", "list at least one feature layer");
+    if (!class_cost_.empty() && class_cost_.size() != classes_.size())
+      throw ParamError("class_cost", "give one value per class of `classes` (" +
+                                         std::to_string(classes_.size()) + "), or none");
     active_.clear();
     obstacle_index_ = -1;
     for (const auto& c : classes_) {
@@ -54,6 +62,8 @@ class PottsGaussian final : public Stage {
           throw ParamError("features", "feature '" + f + "' is not in model " + model_path_ +
                                            " for class '" + c + "' (the model was made for other features)");
     }
+    cost_.assign(active_.size(), 0.f);
+    for (std::size_t k = 0; k < class_cost_.size(); ++k) cost_[k] = static_cast<float>(class_cost_[k]);
     // Precompute per class/feature: 1/(2σ²) and log(√(2π)σ).
     const std::size_t K = active_.size(), F = features_.size();
     inv2var_.assign(K * F, 0);
@@ -103,7 +113,7 @@ class PottsGaussian final : public Stage {
           const float d = v - mean_[k * F + f];
           e += d * d * inv2var_[k * F + f] + lognorm_[k * F + f];
         }
-        u[k] = alpha * e;
+        u[k] = alpha * e + cost_[k];
       }
       // Initial labelling: the pre-classification decides obstacle vs flat; among the others
       // the feature term decides.
@@ -132,11 +142,12 @@ class PottsGaussian final : public Stage {
   double beta_diagonal_ = -1;
   std::string preclass_layer_ = "";
   int min_points_ = 1;
+  std::vector<double> class_cost_;
 
   GaussianModel model_;
   std::vector<LabelId> active_;
   int obstacle_index_ = -1;
-  std::vector<float> mean_, inv2var_, lognorm_;
+  std::vector<float> mean_, inv2var_, lognorm_, cost_;
 };
 
 }  // namespace terramrf

@@ -85,7 +85,7 @@ class CameraFusion final : public Stage {
   /// Pixel index of projected coordinates (u, v): pixel centres are at integer coordinates, so
   /// the nearest one; a point within half a pixel beyond the last row/column has none.
   static bool store(const CameraModel& m, double u, double v, int32_t* pix) {
-    const int iu = int(u + 0.5), iv = int(v + 0.5);
+    const int iu = int(u + 0.5), iv = int(v + 0.5);  // u, v >= −0.5: the sum is >= 0
     if (iu >= m.width || iv >= m.height) return false;
     *pix = iv * m.width + iu;
     return true;
@@ -116,7 +116,7 @@ class CameraFusion final : public Stage {
       if (qz <= 1e-9) continue;
       const double u = (M(0, 0) * x + M(0, 1) * y + M(0, 2) * z + M(0, 3)) / qz;
       const double v = (M(1, 0) * x + M(1, 1) * y + M(1, 2) * z + M(1, 3)) / qz;
-      if (!(u >= 0 && v >= 0 && u < w && v < h)) continue;  // as project
+      if (!(u >= -0.5 && v >= -0.5 && u < w - 0.5 && v < h - 0.5)) continue;  // as project
       visible += store(m, u, v, &pix[i]);
     }
     return visible;

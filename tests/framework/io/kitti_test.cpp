@@ -223,7 +223,9 @@ TEST(KittiCalib, OdometryVariant) {
 TEST(KittiCalib, ObjectVariantProjectsIntoTheImage) {
   const std::string base = test::dataPath("kitti_object_fusion/training");
   const std::pair<int, int> sizes[] = {{1224, 370}, {1242, 375}};
-  const std::size_t expected_in_image[] = {20285, 18630};  // numpy, P2·R0_rect·Tr_velo_to_cam
+  // P2·R0_rect·Tr_velo_to_cam with pixel centres at integers (−0.5 ≤ u < W − 0.5); numpy's count
+  // with 0 ≤ u < W is 20285 / 18630.
+  const std::size_t expected_in_image[] = {20259, 18608};
   const std::size_t expected_points[] = {115384, 120268};
   for (int i = 0; i < 2; ++i) {
     const KittiCalib c = readKittiCalib(base + "/calib/00000" + std::to_string(i) + ".txt");

@@ -42,6 +42,29 @@ TEST(PottsGaussian, UnaryIsAlphaTimesEq11) {
   EXPECT_FLOAT_EQ(em.beta_diagonal, 0.8f);
 }
 
+TEST(PottsGaussian, ClassCostShiftsTheUnaryAndCanFlipTheStart) {
+  test::TempDir d;
+  test::StageHarness h;
+  h.frame.points.push_back(1.1f, 1.1f, -1.7f, 0);
+  h.bin();
+  h.grid.add("f")[h.geom.cellOf(1.1, 1.1)] = 1.0f;
+  const std::string m = writeModel(d);
+  const int c = h.geom.cellOf(1.1, 1.1);
+  h.make("potts_gaussian", "{model: " + m + ", features: [f]}")->process(h.ctx);
+  const float base_obstacle = h.ctx.energy.unary[c * 3 + 2];
+  EXPECT_EQ(h.ctx.energy.initial[c], 1);
+  // Obstacle's energy is 3.39 above rough's (3.61 vs 0.23): a cost of −4 makes it the cheapest.
+  h.make("potts_gaussian", "{model: " + m + ", features: [f], class_cost: [0, 0, -4]}")->process(h.ctx);
+  EXPECT_NEAR(h.ctx.energy.unary[c * 3 + 2], base_obstacle - 4, 1e-5);
+  EXPECT_EQ(h.ctx.energy.initial[c], 2);
+  try {
+    h.make("potts_gaussian", "{model: " + m + ", features: [f], class_cost: [0, -1]}");
+    FAIL() << "expected an error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("class_cost"), std::string::npos) << e.what();
+  }
+}
+
 TEST(PottsGaussian, NaNFeatureDoesNotVoteAndPreclassSetsStart) {
   test::TempDir d;
   test::StageHarness h;

@@ -113,7 +113,8 @@ TEST(CameraFusionReal, KittiObjectMatchesTheCalibrationFile) {
     if (x.z() > 1e-6) {
       const Eigen::Vector3d q = P2 * x.homogeneous();
       const double u = q.x() / q.z(), v = q.y() / q.z();
-      if (u >= 0 && v >= 0 && std::lround(u) < 1224 && std::lround(v) < 370)
+      // Pixel centres at integer coordinates: pixel k covers [k − 0.5, k + 0.5).
+      if (u >= -0.5 && v >= -0.5 && u < 1224 - 0.5 && v < 370 - 0.5)
         expect = int(std::lround(v)) * 1224 + int(std::lround(u));
     }
     visible += expect >= 0;

@@ -135,7 +135,9 @@ TEST_F(SemanticKittiSourceTest, KittiObjectWithImages) {
   ASSERT_EQ(src->size(), 2u);
   const std::size_t points[] = {115384, 120268};
   const int w[] = {1224, 1242}, h[] = {370, 375};
-  const std::size_t in_image[] = {20285, 18630};  // numpy with P2·R0_rect·Tr_velo_to_cam
+  // P2·R0_rect·Tr_velo_to_cam, in front of the camera, −0.5 ≤ u < W − 0.5 and −0.5 ≤ v < H − 0.5
+  // (pixel centres at integers; with 0 ≤ u < W instead numpy counts 20285 and 18630).
+  const std::size_t in_image[] = {20259, 18608};
   for (std::size_t i = 0; i < 2; ++i) {
     const Frame f = src->read(i);
     EXPECT_EQ(f.points.size(), points[i]);
