@@ -1,18 +1,28 @@
-// The vertical slice per scan, through the real plugins as the pipeline runs them:
+// Per-scan classification through the real plugins as the pipeline runs them, grid binning
+// included, reading excluded:
 //   BM_GridPreclassHeightDiff: binning + eq. 1 pre-classification + height difference
-//   BM_Slice:                  the above + Potts/Gaussian energy + ICM
-// Data: SemanticKITTI sequence 00 frame 000000 (HDL-64E, 124668 points), 40 m grid, 0.5 m cells.
+//   BM_Slice:                  the above + Potts/Gaussian energy + ICM (the foundation slice)
+//   BM_L_Icm / BM_L_AlphaExpansion:
+//       paper 000's laser set L: pre-class + height difference + roughness + energy + optimiser
+//   BM_LG_Icm / BM_LG_AlphaExpansion:
+//       configs/semantickitti.yaml: L + relative height + height above ground + energy + optimiser
+// Data: SemanticKITTI sequence 00 frame 000000 (HDL-64E, 124668 points; rings recovered by the
+// reader), 40 m grid, 0.5 m cells (80 × 80), one thread.
 #include <benchmark/benchmark.h>
 
 #include <cstdlib>
-#include <iostream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
 
-#include "terramrf/io/kitti.hpp"
 #include "terramrf/param_values.hpp"
 #include "terramrf/registry.hpp"
 
 namespace terramrf {
 namespace {
+
+using Chain = std::vector<std::unique_ptr<Plugin>>;
 
 struct SliceFixture {
   Frame frame;
@@ -20,33 +30,60 @@ struct SliceFixture {
   GridGeometry geom;
   TerrainGrid grid;
   PluginRegistry reg{PluginRegistry::defaultSearchDirs()};
-  std::vector<std::unique_ptr<Plugin>> stages;
+  PluginContext ctx;
+  std::map<std::string, Chain> chains;
 
   SliceFixture() {
     const char* env = std::getenv("TERRAMRF_DATA_DIR");
-    const std::string data = env ? env : TERRAMRF_DATA_DIR;
-    const std::string scan = data + "/semantickitti_seq00_000000-000005/sequences/00/velodyne/000000.bin";
-    readKittiScan(scan, frame.points);
-    PluginContext ctx;
+    const std::string data = env && *env ? env : TERRAMRF_DATA_DIR;
     ctx.config_dir = std::string(TERRAMRF_SOURCE_DIR) + "/configs";
     ctx.grid = geom;
     ctx.labels = &labels;
-    auto add = [&](const char* type, const std::string& params) {
-      auto p = reg.create(type);
-      setParams(*p, params, ctx);
-      stages.push_back(std::move(p));
-    };
-    add("eigen_preclass", "{}");
-    add("height_difference", "{}");
-    add("potts_gaussian",
-        "{model: models/laser_simulator.yaml, features: [height_diff, normal_eigenvalue], "
-        "preclass_layer: preclass}");
-    add("icm", "{report_energy: false}");
+    auto source = make("semantickitti", "{path: " + data +
+                                            "/semantickitti_seq00_000000-000005, use_labels: false}");
+    frame = static_cast<Source&>(*source).read(0);
+    const std::string l_energy =
+        "{model: models/laser_semantickitti.yaml, features: [height_diff, roughness], "
+        "preclass_layer: preclass}";
+    const std::string lg_energy =
+        "{model: models/laser_semantickitti.yaml, features: [height_diff, roughness, "
+        "relative_height, height_above_ground], preclass_layer: preclass}";
+    chains["slice"] = chain({{"eigen_preclass", "{}"},
+                             {"height_difference", "{}"},
+                             {"potts_gaussian",
+                              "{model: models/laser_simulator.yaml, features: [height_diff, "
+                              "normal_eigenvalue], preclass_layer: preclass}"},
+                             {"icm", "{report_energy: false}"}});
+    for (const char* opt : {"icm", "alpha_expansion"}) {
+      const std::string params = std::string(opt) == "icm" ? "{report_energy: false}" : "{}";
+      chains[std::string("L_") + opt] = chain({{"eigen_preclass", "{}"},
+                                               {"height_difference", "{}"},
+                                               {"roughness", "{}"},
+                                               {"potts_gaussian", l_energy},
+                                               {opt, params}});
+      chains[std::string("LG_") + opt] = chain({{"eigen_preclass", "{}"},
+                                                {"height_difference", "{}"},
+                                                {"roughness", "{}"},
+                                                {"relative_height", "{}"},
+                                                {"height_above_ground", "{}"},
+                                                {"potts_gaussian", lg_energy},
+                                                {opt, params}});
+    }
   }
-  void run(FrameContext& ctx, std::size_t n_stages) {
+  std::unique_ptr<Plugin> make(const std::string& type, const std::string& params) {
+    auto p = reg.create(type);
+    setParams(*p, params, ctx);
+    return p;
+  }
+  Chain chain(const std::vector<std::pair<std::string, std::string>>& stages) {
+    Chain c;
+    for (const auto& [type, params] : stages) c.push_back(make(type, params));
+    return c;
+  }
+  void run(FrameContext& fc, const Chain& c, std::size_t n_stages) {
     grid.reset(geom);
     grid.binPoints(frame.points);
-    for (std::size_t s = 0; s < n_stages; ++s) static_cast<Stage&>(*stages[s]).process(ctx);
+    for (std::size_t s = 0; s < n_stages && s < c.size(); ++s) static_cast<Stage&>(*c[s]).process(fc);
   }
 };
 
@@ -55,25 +92,36 @@ SliceFixture& fixture() {
   return f;
 }
 
-void runStages(benchmark::State& state, std::size_t n_stages) {
+void runChain(benchmark::State& state, const std::string& name, std::size_t n_stages = 100) {
   SliceFixture& f = fixture();
-  FrameContext ctx;
-  ctx.frame = &f.frame;
-  ctx.grid = &f.grid;
-  ctx.labels = &f.labels;
+  const Chain& c = f.chains.at(name);
+  FrameContext fc;
+  fc.frame = &f.frame;
+  fc.grid = &f.grid;
+  fc.labels = &f.labels;
   for (auto _ : state) {
-    f.run(ctx, n_stages);
+    f.run(fc, c, n_stages);
     benchmark::DoNotOptimize(f.grid.labels().data());
   }
   state.counters["points"] = static_cast<double>(f.frame.points.size());
   state.counters["cells"] = static_cast<double>(f.grid.cells());
 }
 
-void BM_GridPreclassHeightDiff(benchmark::State& state) { runStages(state, 2); }
-void BM_Slice(benchmark::State& state) { runStages(state, 4); }
+void BM_GridPreclassHeightDiff(benchmark::State& s) { runChain(s, "slice", 2); }
+void BM_Slice(benchmark::State& s) { runChain(s, "slice"); }
+void BM_L_Icm(benchmark::State& s) { runChain(s, "L_icm"); }
+void BM_L_AlphaExpansion(benchmark::State& s) { runChain(s, "L_alpha_expansion"); }
+void BM_LG_Icm(benchmark::State& s) { runChain(s, "LG_icm"); }
+void BM_LG_AlphaExpansion(benchmark::State& s) { runChain(s, "LG_alpha_expansion"); }
 
-BENCHMARK(BM_GridPreclassHeightDiff)->Unit(benchmark::kMillisecond)->Repetitions(10)->ReportAggregatesOnly(true);
-BENCHMARK(BM_Slice)->Unit(benchmark::kMillisecond)->Repetitions(10)->ReportAggregatesOnly(true);
+#define TERRAMRF_BENCH(fn) \
+  BENCHMARK(fn)->Unit(benchmark::kMillisecond)->Repetitions(10)->ReportAggregatesOnly(true)
+TERRAMRF_BENCH(BM_GridPreclassHeightDiff);
+TERRAMRF_BENCH(BM_Slice);
+TERRAMRF_BENCH(BM_L_Icm);
+TERRAMRF_BENCH(BM_L_AlphaExpansion);
+TERRAMRF_BENCH(BM_LG_Icm);
+TERRAMRF_BENCH(BM_LG_AlphaExpansion);
 
 }  // namespace
 }  // namespace terramrf
