@@ -77,21 +77,47 @@ MaskStats classifyVertices(TerrainMesh& mesh, const MaskParams& p) {
       hrel[q] = std::max(0.f, float(elev[q] - g));
     }
 
-  // Line masks: offsets on the line and off it, per orientation.
-  struct Mask {
-    std::vector<std::pair<int, int>> on, off;
-  };
-  std::vector<Mask> masks(std::max(1, p.orientations));
-  const double pi = 3.14159265358979323846;
-  for (std::size_t o = 0; o < masks.size(); ++o) {
-    const double th = pi * double(o) / double(masks.size());
-    const double cs = std::cos(th), sn = std::sin(th);
-    for (int m = -p.size; m <= p.size; ++m)
-      for (int n = -p.size; n <= p.size; ++n) {
-        const double dist = std::abs(-sn * m + cs * n);
-        (dist <= 0.5 + 1e-9 ? masks[o].on : masks[o].off).push_back({m, n});
+  // A wall is sampled as a 1–2 vertex thick staircase with missing vertices (beam spacing), so a
+  // straight digital line through a wall vertex leaves the wall after a few cells. Grey-level
+  // dilation by a (2t+1)² window closes those gaps and steps; an isolated foliage return only
+  // grows into a (2t+1)² blob, which still fills a small part of a (2s+1) long line.
+  std::vector<float> hl = hrel;
+  if (p.line_tolerance > 0) {
+    const int t = p.line_tolerance;
+    std::vector<float> tmp(NC, 0.f);
+    for (int r = 0; r < R; ++r)
+      for (int c = 0; c < Cn; ++c) {
+        float m = 0;
+        for (int cc = std::max(0, c - t); cc <= std::min(Cn - 1, c + t); ++cc)
+          m = std::max(m, hrel[std::size_t(r) * Cn + cc]);
+        tmp[std::size_t(r) * Cn + c] = m;
+      }
+    for (int r = 0; r < R; ++r)
+      for (int c = 0; c < Cn; ++c) {
+        float m = 0;
+        for (int rr = std::max(0, r - t); rr <= std::min(R - 1, r + t); ++rr)
+          m = std::max(m, tmp[std::size_t(rr) * Cn + c]);
+        hl[std::size_t(r) * Cn + c] = m;
       }
   }
+  // Window sums of hl (integral image): the off-line sum is the window's minus the line's.
+  std::vector<double> I((R + 1) * std::size_t(Cn + 1), 0.0);
+  for (int r = 0; r < R; ++r)
+    for (int c = 0; c < Cn; ++c)
+      I[at(r + 1, c + 1)] = I[at(r, c + 1)] + I[at(r + 1, c)] - I[at(r, c)] + hl[std::size_t(r) * Cn + c];
+
+  // Line masks (Fig. 10): the cells within half a cell of a line through the centre, per
+  // orientation; f = +1/|line| there and −1/|rest| on the rest of the (2s+1)² window.
+  std::vector<std::vector<std::pair<int, int>>> lines(std::max(1, p.orientations));
+  const double pi = 3.14159265358979323846;
+  for (std::size_t o = 0; o < lines.size(); ++o) {
+    const double th = pi * double(o) / double(lines.size());
+    const double cs = std::cos(th), sn = std::sin(th);
+    for (int m = -p.size; m <= p.size; ++m)
+      for (int n = -p.size; n <= p.size; ++n)
+        if (std::abs(-sn * m + cs * n) <= 0.5 + 1e-9) lines[o].push_back({m, n});
+  }
+  const double n_window = double(2 * p.size + 1) * double(2 * p.size + 1);
   std::vector<float> resp(NC, nan);
   std::vector<uint8_t> out(NC, 0);
   for (int r = 0; r < R; ++r)
@@ -99,21 +125,31 @@ MaskStats classifyVertices(TerrainMesh& mesh, const MaskParams& p) {
       const std::size_t q = std::size_t(r) * Cn + c;
       if (cls[q] != uint8_t(VertexClass::kObject)) continue;
       ++st.object_vertices;
+      const int r0 = std::max(0, r - p.size), r1 = std::min(R, r + p.size + 1);
+      const int c0 = std::max(0, c - p.size), c1 = std::min(Cn, c + p.size + 1);
+      const double window = I[at(r1, c1)] - I[at(r0, c1)] - I[at(r1, c0)] + I[at(r0, c0)];
       float best = -1e30f;
-      for (const Mask& mk : masks) {
-        double on = 0, off = 0;
-        for (const auto& [m, n] : mk.on) {
+      for (const auto& line : lines) {
+        double on = 0, on_raised = 0;
+        int n_raised = 0;
+        for (const auto& [m, n] : line) {
           const int rr = r + m, cc = c + n;
-          if (rr >= 0 && cc >= 0 && rr < R && cc < Cn) on += hrel[std::size_t(rr) * Cn + cc];
+          if (rr < 0 || cc < 0 || rr >= R || cc >= Cn) continue;
+          const float h = hl[std::size_t(rr) * Cn + cc];
+          on += h;
+          if (h > 0) {
+            on_raised += h;
+            ++n_raised;
+          }
         }
-        for (const auto& [m, n] : mk.off) {
-          const int rr = r + m, cc = c + n;
-          if (rr >= 0 && cc >= 0 && rr < R && cc < Cn) off += hrel[std::size_t(rr) * Cn + cc];
+        const double off = (window - on) / std::max(1.0, n_window - double(line.size()));
+        double u = on / double(line.size()) - off;  // eq. 13 with the zero-sum mask
+        if (p.normalise) {
+          // Divide by the height a complete wall along this line would give: the mean of the
+          // raised cells on it (at least this vertex's own).
+          const double wall = std::max(double(hl[q]), n_raised ? on_raised / n_raised : 0.0);
+          u = wall > 1e-6 ? u / wall : 0.0;
         }
-        on /= double(mk.on.size());
-        off /= double(std::max<std::size_t>(1, mk.off.size()));
-        double u = on - off;  // eq. 13 with the zero-sum mask
-        if (p.normalise) u = on > 1e-6 ? u / on : 0.0;
         best = std::max(best, float(u));
       }
       resp[q] = best;

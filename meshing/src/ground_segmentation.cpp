@@ -27,68 +27,16 @@ GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
   std::vector<uint32_t> lidar_obj;  // pixels of non-ground points
   const double lo = -p.sensor_height_m - p.band_m, hi = -p.sensor_height_m + p.band_m;
   const double obj = hi + p.object_above_m;
-  // Column cells around the sensor: lowest/highest point per cell, and the lowest/highest over
-  // the (2·nb+1)² neighbourhood, for local (slope-independent) object and ditch tests.
-  const double reach = 60.0, cs = p.seed_cell_m;
-  const int nc = int(2 * reach / cs);
-  std::vector<float> zlo(std::size_t(nc) * nc, 1e9f), zhi(std::size_t(nc) * nc, -1e9f);
-  auto cellOf = [&](double x, double y) -> int {
-    const int r = int((x + reach) / cs), c = int((y + reach) / cs);
-    return (x + reach < 0 || y + reach < 0 || r >= nc || c >= nc) ? -1 : r * nc + c;
-  };
-  std::vector<int> cell_of(pts.size());
-  for (std::size_t i = 0; i < pts.size(); ++i) {
-    const int c = cell_of[i] = cellOf(pts.x[i], pts.y[i]);
-    if (c < 0) continue;
-    zlo[c] = std::min(zlo[c], pts.z[i]);
-    zhi[c] = std::max(zhi[c], pts.z[i]);
-  }
-  const int nb = std::max(1, int(std::lround(p.neighbourhood_m / cs)));
-  auto filter = [&](const std::vector<float>& in, bool take_min) {
-    std::vector<float> tmp(in.size()), out(in.size());
-    auto pick = [&](float a, float b) { return take_min ? std::min(a, b) : std::max(a, b); };
-    for (int r = 0; r < nc; ++r)
-      for (int c = 0; c < nc; ++c) {
-        float m = in[r * nc + c];
-        for (int k = std::max(0, c - nb); k <= std::min(nc - 1, c + nb); ++k) m = pick(m, in[r * nc + k]);
-        tmp[r * nc + c] = m;
-      }
-    for (int r = 0; r < nc; ++r)
-      for (int c = 0; c < nc; ++c) {
-        float m = tmp[r * nc + c];
-        for (int k = std::max(0, r - nb); k <= std::min(nc - 1, r + nb); ++k) m = pick(m, tmp[k * nc + c]);
-        out[r * nc + c] = m;
-      }
-    return out;
-  };
-  const std::vector<float> nlo = filter(zlo, true), nhi = filter(zhi, false);
-  const double below_r2 = p.below_sample_range_m * p.below_sample_range_m;
-  // Eq. 7: t = K R [I | −C] T, here P · T_camera_lidar (CameraModel::projectUnbounded).
+  // Eq. 7: t = K R [I | −C] T, here P · T_camera_lidar (CameraModel::projectUnbounded). Every
+  // point is projected once; its pixel (or −1) is kept for the passes below.
   const Eigen::Matrix3d R = cam.T_camera_lidar.linear();
   const Eigen::Vector3d tr = cam.T_camera_lidar.translation();
   const bool plain = cam.distortion == std::array<double, 5>{0, 0, 0, 0, 0};
+  thread_local std::vector<int32_t> pix;
+  pix.assign(pts.size(), -1);
+  double xmin = 1e30, xmax = -1e30, ymin = 1e30, ymax = -1e30;
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    const double z = pts.z[i];
-    const double r2 = double(pts.x[i]) * pts.x[i] + double(pts.y[i]) * pts.y[i];
-    const int cell = cell_of[i];
-    // Object: clearly above the lowest point around it. Ditch: clearly below the highest point
-    // around it and below the band. Both give non-ground colour samples.
-    // An object has height within its own cell (a wall, a crown, a car's side), or stands far
-    // above everything around it; flat ground beside a ditch is above the ditch floor but flat.
-    const bool is_obj = cell >= 0 ? (z - nlo[cell] >= p.object_above_m &&
-                                     (zhi[cell] - zlo[cell] >= p.seed_max_step_m ||
-                                      (z - nlo[cell] >= 1.5 && z > hi + 1.0)))
-                                  : z >= obj;
-    const bool below = z < lo - 0.1 && r2 < below_r2 && cell >= 0 && nhi[cell] - z >= p.object_above_m;
-    bool in_band = z >= lo && z <= hi && !is_obj;
-    // Hills: the flat-world band misses ground that rises or falls away from the vehicle; a
-    // point at the bottom of a flat neighbourhood is ground as well.
-    if (!in_band && p.local_seeds && cell >= 0 && !is_obj && z - nlo[cell] < 0.5 * p.band_m &&
-        nhi[cell] - nlo[cell] < p.local_relief_m &&
-        std::abs(z + p.sensor_height_m) <= p.band_m + p.local_max_slope * std::sqrt(r2))
-      in_band = true;
-    if (!in_band && !is_obj && !below) continue;
-    const Eigen::Vector3d pl(pts.x[i], pts.y[i], z);
+    const Eigen::Vector3d pl(pts.x[i], pts.y[i], pts.z[i]);
     double uf, vf;
     if (plain) {
       const Eigen::Vector3d pc = R * pl + tr;
@@ -104,6 +52,103 @@ GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
     }
     const int u = int(std::floor(uf + 0.5)), v = int(std::floor(vf + 0.5));
     if (u < 0 || v < 0 || u >= W || v >= H) continue;
+    pix[i] = v * W + u;
+    xmin = std::min(xmin, double(pts.x[i]));
+    xmax = std::max(xmax, double(pts.x[i]));
+    ymin = std::min(ymin, double(pts.y[i]));
+    ymax = std::max(ymax, double(pts.y[i]));
+  }
+  // Column cells (seed_cell_m, aligned to multiples of it) over the points in view plus one
+  // neighbourhood: lowest/highest point per cell, and the lowest/highest over the (2·nb+1)²
+  // neighbourhood, for local (slope-independent) object and ditch tests. They cover the whole
+  // view up to kMaxReachM: ground beyond them could only be seeded by the flat-world band, and
+  // far-field grass on a hill, up to the horizon, would be lost (a fixed 60 m reach was the main
+  // cause of missed ground). Buffers are reused between calls (no page faults per image).
+  constexpr double kMaxReachM = 200.0;
+  const double cs = p.seed_cell_m;
+  const int nb = std::max(1, int(std::lround(p.neighbourhood_m / cs)));
+  if (xmin > xmax) xmin = xmax = ymin = ymax = 0;
+  xmin = std::max(xmin, -kMaxReachM);
+  xmax = std::min(xmax, kMaxReachM);
+  ymin = std::max(ymin, -kMaxReachM);
+  ymax = std::min(ymax, kMaxReachM);
+  const int r0 = int(std::floor(xmin / cs)) - nb - 1, c0 = int(std::floor(ymin / cs)) - nb - 1;
+  const int nr = std::max(1, int(std::floor(xmax / cs)) + nb + 2 - r0);
+  const int ncol = std::max(1, int(std::floor(ymax / cs)) + nb + 2 - c0);
+  const std::size_t ncell = std::size_t(nr) * ncol;
+  thread_local std::vector<float> zlo, zhi, zlo_ref, nlo, nhi, nlo_obj, tmp;
+  thread_local std::vector<int32_t> cell_of;
+  zlo.assign(ncell, 1e9f);
+  zhi.assign(ncell, -1e9f);
+  cell_of.resize(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const double fr = std::floor(pts.x[i] / cs) - r0, fc = std::floor(pts.y[i] / cs) - c0;
+    const bool in = fr >= 0 && fc >= 0 && fr < nr && fc < ncol;
+    const int c = cell_of[i] = in ? int(fr) * ncol + int(fc) : -1;
+    if (c < 0) continue;
+    zlo[c] = std::min(zlo[c], pts.z[i]);
+    zhi[c] = std::max(zhi[c], pts.z[i]);
+  }
+  auto filter = [&](const std::vector<float>& in, bool take_min, std::vector<float>& out) {
+    tmp.resize(ncell);
+    out.resize(ncell);
+    auto pick = [&](float a, float b) { return take_min ? std::min(a, b) : std::max(a, b); };
+    for (int r = 0; r < nr; ++r)
+      for (int c = 0; c < ncol; ++c) {
+        float m = in[r * ncol + c];
+        for (int k = std::max(0, c - nb); k <= std::min(ncol - 1, c + nb); ++k)
+          m = pick(m, in[r * ncol + k]);
+        tmp[r * ncol + c] = m;
+      }
+    for (int r = 0; r < nr; ++r)
+      for (int c = 0; c < ncol; ++c) {
+        float m = tmp[r * ncol + c];
+        for (int k = std::max(0, r - nb); k <= std::min(nr - 1, r + nb); ++k)
+          m = pick(m, tmp[k * ncol + c]);
+        out[r * ncol + c] = m;
+      }
+  };
+  filter(zlo, true, nlo);
+  filter(zhi, false, nhi);
+  const double below_r2 = p.below_sample_range_m * p.below_sample_range_m;
+  // The object test measures height above the lowest point around, but a ditch floor is no
+  // ground level: the grass on its rim would stand "above" it and become a non-ground sample
+  // (a strip of missed ground along every ditch). Within the ditch-sampling range, cells below
+  // the band count as at its bottom for this reference.
+  zlo_ref = zlo;
+  for (int r = 0; r < nr; ++r) {
+    const double x = (r0 + r + 0.5) * cs;
+    if (std::abs(x) > p.below_sample_range_m) continue;
+    for (int c = 0; c < ncol; ++c) {
+      const double y = (c0 + c + 0.5) * cs;
+      float& z = zlo_ref[r * ncol + c];
+      if (x * x + y * y < below_r2) z = std::max(z, float(lo));
+    }
+  }
+  filter(zlo_ref, true, nlo_obj);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    if (pix[i] < 0) continue;
+    const double z = pts.z[i];
+    const double r2 = double(pts.x[i]) * pts.x[i] + double(pts.y[i]) * pts.y[i];
+    const int cell = cell_of[i];
+    // Object: clearly above the lowest point around it. Ditch: clearly below the highest point
+    // around it and below the band. Both give non-ground colour samples.
+    // An object has height within its own cell (a wall, a crown, a car's side), or stands far
+    // above everything around it; flat ground beside a ditch is above the ditch floor but flat.
+    const bool is_obj = cell >= 0 ? (z - nlo_obj[cell] >= p.object_above_m &&
+                                     (zhi[cell] - zlo[cell] >= p.seed_max_step_m ||
+                                      (z - nlo_obj[cell] >= 1.5 && z > hi + 1.0)))
+                                  : z >= obj;
+    const bool below = z < lo - 0.1 && r2 < below_r2 && cell >= 0 && nhi[cell] - z >= p.object_above_m;
+    bool in_band = z >= lo && z <= hi && !is_obj;
+    // Hills: the flat-world band misses ground that rises or falls away from the vehicle; a
+    // point at the bottom of a flat neighbourhood is ground as well.
+    if (!in_band && p.local_seeds && cell >= 0 && !is_obj && z - nlo[cell] < 0.5 * p.band_m &&
+        nhi[cell] - nlo[cell] < p.local_relief_m &&
+        std::abs(z + p.sensor_height_m) <= p.band_m + p.local_max_slope * std::sqrt(r2))
+      in_band = true;
+    if (!in_band && !is_obj && !below) continue;
+    const int u = pix[i] % W, v = pix[i] / W;
     ++g.projected_points;
     const std::size_t s = std::size_t(v) * W + u;
     if (in_band) {

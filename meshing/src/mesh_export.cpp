@@ -3,6 +3,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -11,6 +12,7 @@
 
 #include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/meshing/decimation.hpp"
 
 namespace terramrf::meshing {
 
@@ -144,9 +146,14 @@ ExportStats exportMesh(const TerrainMesh& mesh, const std::string& dir,
   ExportStats st;
   try {
     fs::create_directories(tmp);
-    const std::vector<TileMesh> tiles = extractTileMeshes(mesh);
+    std::vector<TileMesh> tiles = extractTileMeshes(mesh);
     st.tiles = tiles.size();
-    for (const auto& m : tiles) {
+    for (auto& m : tiles) {
+      st.triangles_before_decimation += m.triangles.size();
+      if (options.decimate) {
+        const DecimationStats d = decimateTileMesh(m, options.flat_tolerance_m);
+        st.max_deviation_m = std::max(st.max_deviation_m, d.max_deviation_m);
+      }
       st.vertices += m.positions.size();
       st.triangles += m.triangles.size();
     }

@@ -9,6 +9,49 @@ namespace {
 bool isObjectVertex(const Tile& t, int k) {
   return t.count[k] > 0 && t.object_votes[k] > t.ground_votes[k];
 }
+
+// d_s of the object/background MRF: RGB histograms (16 bins per channel, blurred by one bin) of
+// the object seeds and of the background samples. The background samples are the pixels far
+// from every LiDAR return: the sky, but also every object part above the LiDAR's reach (crowns,
+// upper walls), whose colours are the seeds' colours. So a colour is background only where it
+// is `odds` times more frequent among the background samples than among the seeds; colours seen
+// in neither are background (the sky is never sensed, object colours are).
+class ObjectColours {
+ public:
+  void add(const uint8_t* rgb, bool object) {
+    (object ? obj_ : bg_)[bin(rgb)] += 1;
+    ++(object ? n_obj_ : n_bg_);
+  }
+  std::vector<uint8_t> classify(const Image& img, double odds) {
+    blur(obj_);
+    blur(bg_);
+    std::vector<uint8_t> decide(kBins * kBins * kBins);
+    for (std::size_t b = 0; b < decide.size(); ++b) {
+      const double po = n_obj_ ? obj_[b] / double(n_obj_) : 0.0;
+      const double pb = n_bg_ ? bg_[b] / double(n_bg_) : 0.0;
+      decide[b] = po > 0 && odds * po >= pb ? 1 : 0;
+    }
+    std::vector<uint8_t> out(std::size_t(img.width) * img.height);
+    for (std::size_t s = 0; s < out.size(); ++s) out[s] = decide[bin(&img.data[s * 3])];
+    return out;
+  }
+
+ private:
+  static constexpr int kBins = 16;
+  static int bin(const uint8_t* c) { return ((c[0] >> 4) * kBins + (c[1] >> 4)) * kBins + (c[2] >> 4); }
+  static void blur(std::vector<float>& h) {
+    std::vector<float> tmp(h.size());
+    for (int stride : {kBins * kBins, kBins, 1}) {
+      for (int i = 0; i < int(h.size()); ++i) {
+        const int c = (i / stride) % kBins;
+        tmp[i] = h[i] + (c > 0 ? h[i - stride] : 0.f) + (c + 1 < kBins ? h[i + stride] : 0.f);
+      }
+      h.swap(tmp);
+    }
+  }
+  std::vector<float> obj_ = std::vector<float>(kBins * kBins * kBins, 0.f), bg_ = obj_;
+  std::size_t n_obj_ = 0, n_bg_ = 0;
+};
 }  // namespace
 
 SceneRecoveryStats recoverHeights(TerrainMesh& mesh, const CameraView& view, const Image& image,
@@ -25,7 +68,7 @@ SceneRecoveryStats recoverHeights(TerrainMesh& mesh, const CameraView& view, con
   // ---- object seeds: visible object vertices and the frame's non-ground LiDAR pixels --------
   std::vector<uint8_t> seed(N, 0), allowed(N, 0);
   for (std::size_t s = 0; s < N; ++s) allowed[s] = ground.ground[s] ? 0 : 1;
-  ColourModel colours(16);
+  ObjectColours colours;
   struct Candidate {
     Tile* tile;
     int k;
@@ -92,8 +135,7 @@ SceneRecoveryStats recoverHeights(TerrainMesh& mesh, const CameraView& view, con
       }
     }
   }
-  colours.finish();
-  const std::vector<uint8_t> observed = colours.classify(image);
+  const std::vector<uint8_t> observed = colours.classify(image, p.background_odds);
   PixelMrfResult mrf = solvePixelMrf(image, seed, observed, allowed, p.mrf);
   const std::vector<uint8_t>& obj = mrf.label;
 
@@ -104,7 +146,7 @@ SceneRecoveryStats recoverHeights(TerrainMesh& mesh, const CameraView& view, con
     Eigen::Vector2d dir(0, -1);
     if (up && (*up - c.uv).norm() > 1e-6) dir = (*up - c.uv).normalized();
     int last = -1, gap = 0;
-    bool left_image = false;
+    bool left_image = false, occluded = false;
     for (int t = 0;; ++t) {
       const Eigen::Vector2d q = c.uv + t * dir;
       const int u = int(q.x() + 0.5), v = int(q.y() + 0.5);
@@ -117,6 +159,12 @@ SceneRecoveryStats recoverHeights(TerrainMesh& mesh, const CameraView& view, con
       if (view.lidarDepth(u, v) > c.depth + p.depth_jump_m + 0.05 * c.depth &&
           std::isfinite(view.lidarDepth(u, v)))
         break;
+      // A clearly nearer surface covers the column (a crown or car in front of a wall): the
+      // boundary above it would be the occluder's, so the walk ends here with a lower bound.
+      if (p.stop_at_occluders && t > 0 && !view.visible(u, v, c.depth)) {
+        occluded = true;
+        break;
+      }
       if (obj[s]) {
         last = t;
         gap = 0;
@@ -138,7 +186,8 @@ SceneRecoveryStats recoverHeights(TerrainMesh& mesh, const CameraView& view, con
     Tile& t = *c.tile;
     const int i = c.k / t.n, j = c.k % t.n;
     const VertexKey key{int64_t(t.ti) * span + i, int64_t(t.tj) * span + j};
-    if (left_image) {
+    if (occluded) ++st.occluded;
+    if (left_image || occluded) {
       ++st.lower_bounds;
       mesh.forEachCopy(key, [&](Tile& tt, int kk) {
         if (!(tt.rec_lower[kk] >= z)) tt.rec_lower[kk] = float(z);

@@ -78,9 +78,10 @@ TEST(GroundSegmentation, FloodFillOnHardSimulatorFrames) {
   std::printf("flood_fill: ground found %.2f %%, errors %.2f %% over %zu px, %.2f ms/image\n",
               100 * c.groundFound(), 100 * c.errorRate(), c.total(), ms);
   // Paper Table 1: 97.68 % / 3.19 %. These 8 frames are spread over buildings, trees and the
-  // ditch (harder than the drive's average): ~94 % / 3.4 % (docs/meshing.md).
-  EXPECT_GE(c.groundFound(), 0.93);
-  EXPECT_LE(c.errorRate(), 0.04);
+  // ditch: 98.4 % / 1.1 % (docs/meshing.md); before the seed cells covered the whole view and
+  // ditch floors stopped making their rims "objects", 94.7 % / 3.3 %.
+  EXPECT_GE(c.groundFound(), 0.977);
+  EXPECT_LE(c.errorRate(), 0.032);
 }
 
 TEST(GroundSegmentation, GibbsModeSegmentsToo) {
@@ -88,8 +89,8 @@ TEST(GroundSegmentation, GibbsModeSegmentsToo) {
   const GroundConfusion c = runAll(MrfMode::kGibbs, &ms);
   std::printf("gibbs: ground found %.2f %%, errors %.2f %% over %zu px, %.2f ms/image\n",
               100 * c.groundFound(), 100 * c.errorRate(), c.total(), ms);
-  EXPECT_GE(c.groundFound(), 0.9);
-  EXPECT_LE(c.errorRate(), 0.1);
+  EXPECT_GE(c.groundFound(), 0.977);  // 98.4 % / 1.1 %, as the flood fill
+  EXPECT_LE(c.errorRate(), 0.032);
 }
 
 TEST(GroundSegmentation, FloodFillDoesLessWorkThanGibbs) {

@@ -7,6 +7,9 @@
 #include <tiny_gltf.h>
 
 #include <array>
+#include <cmath>
+#include <cstdio>
+#include <map>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +17,7 @@
 
 #include "output_test_support.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/meshing/decimation.hpp"
 #include "terramrf/meshing/mesh_export.hpp"
 #include "terramrf/meshing/terrain_mesh.hpp"
 #include "test_support.hpp"
@@ -231,6 +235,225 @@ TEST(MeshExport, FailedExportKeepsThePreviousOne) {
   EXPECT_EQ(readFile(out + "/terrain.glb"), glb);
   for (const auto& e : fs::directory_iterator(dir.path()))
     EXPECT_EQ(e.path().filename(), "mesh") << "left behind: " << e.path();
+}
+
+
+// Decimation of flat regions (decimation.hpp). Heights are given exactly at the vertices (one
+// point each) so the original surface is known.
+struct HeightField {
+  TerrainMesh mesh;
+  explicit HeightField(double (*height)(double x, double y), VertexClass (*cls)(double x) = nullptr)
+      : mesh([] {
+          TerrainMeshParams p;
+          p.tile_vertices = 41;
+          p.cell_m = 0.25;  // 10 m tiles
+          return p;
+        }()) {
+    for (int i = 0; i <= 40; ++i)
+      for (int j = 0; j <= 40; ++j) {
+        const double x = 0.25 * i, y = 0.25 * j;
+        mesh.addPoint({x, y, height(x, y)});
+        if (cls) mesh.forEachCopy({i, j}, [&](Tile& t, int k) { t.cls[k] = cls(x); });
+      }
+  }
+};
+
+// Height of a triangle mesh at (x, y) (x-y projection); NaN outside.
+double heightAt(const TileMesh& m, double x, double y) {
+  for (const auto& t : m.triangles) {
+    const auto &A = m.positions[t[0]], &B = m.positions[t[1]], &C = m.positions[t[2]];
+    const double d = (B[1] - C[1]) * (A[0] - C[0]) + (C[0] - B[0]) * (A[1] - C[1]);
+    const double l1 = ((B[1] - C[1]) * (x - C[0]) + (C[0] - B[0]) * (y - C[1])) / d;
+    const double l2 = ((C[1] - A[1]) * (x - C[0]) + (A[0] - C[0]) * (y - C[1])) / d;
+    const double l3 = 1 - l1 - l2;
+    if (l1 >= -1e-9 && l2 >= -1e-9 && l3 >= -1e-9) return l1 * A[2] + l2 * B[2] + l3 * C[2];
+  }
+  return NAN;
+}
+
+// Samples every original vertex and triangle centroid: largest vertical distance of the
+// decimated surface from the original one.
+double maxDeviation(const TileMesh& orig, const TileMesh& dec) {
+  double worst = 0;
+  auto probe = [&](double x, double y, double z) {
+    const double h = heightAt(dec, x, y);
+    worst = std::isnan(h) ? INFINITY : std::max(worst, std::abs(h - z));
+  };
+  for (const auto& p : orig.positions) probe(p[0], p[1], p[2]);
+  for (const auto& t : orig.triangles) {
+    double c[3] = {0, 0, 0};
+    for (int e = 0; e < 3; ++e)
+      for (int a = 0; a < 3; ++a) c[a] += orig.positions[t[e]][a] / 3;
+    probe(c[0], c[1], c[2]);
+  }
+  return worst;
+}
+
+// Kept vertices keep their own texture coordinate and colour (texture stays exact).
+void expectAttributesOfOriginals(const TileMesh& orig, const TileMesh& dec) {
+  std::map<std::pair<long, long>, std::size_t> at;
+  for (std::size_t k = 0; k < orig.positions.size(); ++k)
+    at[{std::lround(orig.positions[k][0] * 1000), std::lround(orig.positions[k][1] * 1000)}] = k;
+  for (std::size_t k = 0; k < dec.positions.size(); ++k) {
+    const auto it = at.find({std::lround(dec.positions[k][0] * 1000), std::lround(dec.positions[k][1] * 1000)});
+    ASSERT_NE(it, at.end());
+    EXPECT_EQ(dec.positions[k], orig.positions[it->second]);
+    EXPECT_EQ(dec.uvs[k], orig.uvs[it->second]);
+    EXPECT_EQ(dec.classes[k], orig.classes[it->second]);
+    EXPECT_TRUE(dec.uvs[k][0] >= 0 && dec.uvs[k][0] <= 1 && dec.uvs[k][1] >= 0 && dec.uvs[k][1] <= 1);
+  }
+}
+
+TEST(Decimation, FlatTileBecomesFewTriangles) {
+  // A tilted plane: flat within any tolerance, so only the border vertices must stay.
+  HeightField f([](double x, double y) { return 0.03 * x - 0.02 * y + 1.0; });
+  const std::vector<TileMesh> tiles = extractTileMeshes(f.mesh);
+  ASSERT_EQ(tiles.size(), 1u);
+  TileMesh dec = tiles[0];
+  const DecimationStats st = decimateTileMesh(dec, 0.02);
+  std::printf("flat tile: %zu -> %zu triangles, %zu -> %zu vertices\n", st.triangles_before,
+              st.triangles_after, st.vertices_before, st.vertices_after);
+  EXPECT_EQ(st.triangles_before, 2u * 40 * 40);
+  EXPECT_EQ(st.triangles_after, dec.triangles.size());
+  // 160 border vertices fan into ~2·160 triangles at most (3200 before).
+  EXPECT_LE(st.triangles_after, 330u);
+  // The tile border (160 vertices, shared with neighbours) stays; next to nothing inside.
+  EXPECT_GE(st.vertices_after, 160u);
+  EXPECT_LE(st.vertices_after, 170u);
+  EXPECT_LE(maxDeviation(tiles[0], dec), 1e-6);
+  expectAttributesOfOriginals(tiles[0], dec);
+  // Every triangle still counter-clockwise seen from above.
+  for (const auto& t : dec.triangles) {
+    const auto &A = dec.positions[t[0]], &B = dec.positions[t[1]], &C = dec.positions[t[2]];
+    EXPECT_GT((B[0] - A[0]) * (C[1] - A[1]) - (B[1] - A[1]) * (C[0] - A[0]), 0);
+  }
+}
+
+TEST(Decimation, BuildingStepKeepsItsEdgeWithinTolerance) {
+  // Ground with 3 cm bumps, a 3 m building from x = 5 m: the wall and the roof edge stay, the
+  // bumpy ground is decimated only within the tolerance.
+  auto height = [](double x, double y) {
+    return x >= 5.0 ? 3.0 : 0.03 * std::sin(1.3 * x) * std::cos(0.9 * y);
+  };
+  auto cls = [](double x) { return x >= 5.0 ? VertexClass::kBuilding : VertexClass::kGround; };
+  HeightField f(height, cls);
+  const std::vector<TileMesh> tiles = extractTileMeshes(f.mesh);
+  ASSERT_EQ(tiles.size(), 1u);
+  for (double tol : {0.005, 0.02}) {
+    TileMesh dec = tiles[0];
+    const DecimationStats st = decimateTileMesh(dec, tol);
+    const double dev = maxDeviation(tiles[0], dec);
+    std::printf("step, tolerance %.3f m: %zu -> %zu triangles, sampled deviation %.4f m (bound %.4f)\n",
+                tol, st.triangles_before, st.triangles_after, dev, st.max_deviation_m);
+    EXPECT_LT(st.triangles_after, st.triangles_before / 2);
+    EXPECT_LE(dev, tol + 1e-9);
+    EXPECT_LE(st.max_deviation_m, tol + 1e-9);
+    expectAttributesOfOriginals(tiles[0], dec);
+    // Both rows of the class boundary (last ground row x = 4.75 m, first roof row x = 5 m) are
+    // kept entirely: the wall is exactly where it was.
+    std::size_t foot = 0, top = 0;
+    for (const auto& p : dec.positions) {
+      foot += std::abs(p[0] - 4.75) < 1e-9;
+      top += std::abs(p[0] - 5.0) < 1e-9 && std::abs(p[2] - 3.0) < 1e-9;
+    }
+    EXPECT_EQ(foot, 41u);
+    EXPECT_EQ(top, 41u);
+  }
+}
+
+TEST(Decimation, HoleOutlinesStayExact) {
+  // A flat tile with a 2 m × 1.5 m hole (no data): the hole's straight edges lose their inner
+  // vertices, the outline keeps its place, so the mesh covers exactly the same area.
+  TerrainMeshParams p;
+  p.tile_vertices = 41;
+  p.cell_m = 0.25;
+  TerrainMesh mesh(p);
+  for (int i = 0; i <= 40; ++i)
+    for (int j = 0; j <= 40; ++j) {
+      const double x = 0.25 * i, y = 0.25 * j;
+      if (x > 3.1 && x < 5.1 && y > 4.1 && y < 5.6) continue;
+      mesh.addPoint({x, y, 0.2});
+    }
+  const std::vector<TileMesh> tiles = extractTileMeshes(mesh);
+  ASSERT_EQ(tiles.size(), 1u);
+  TileMesh dec = tiles[0];
+  const DecimationStats st = decimateTileMesh(dec, 0.01);
+  auto area = [](const TileMesh& m) {
+    double a = 0;
+    for (const auto& t : m.triangles) {
+      const auto &A = m.positions[t[0]], &B = m.positions[t[1]], &C = m.positions[t[2]];
+      a += 0.5 * ((B[0] - A[0]) * (C[1] - A[1]) - (B[1] - A[1]) * (C[0] - A[0]));
+    }
+    return a;
+  };
+  std::printf("tile with a hole: %zu -> %zu triangles, area %.4f -> %.4f m²\n", st.triangles_before,
+              st.triangles_after, area(tiles[0]), area(dec));
+  EXPECT_LT(st.triangles_after * 5, st.triangles_before);
+  EXPECT_NEAR(area(dec), area(tiles[0]), 1e-6);
+  EXPECT_LE(maxDeviation(tiles[0], dec), 1e-9);  // every original sample still covered
+}
+
+TEST(Decimation, AllFormatsExportTheDecimatedMesh) {
+  Scene s;  // the sloped, textured patch: planar, so it decimates strongly
+  test::TempDir dir;
+  const std::string full_dir = (dir.path() / "full").string(), dec_dir = (dir.path() / "dec").string();
+  const ExportStats full = exportMesh(s.mesh, full_dir, {});
+  ExportOptions o;
+  o.decimate = true;
+  o.flat_tolerance_m = 0.01;
+  const ExportStats st = exportMesh(s.mesh, dec_dir, o);
+  std::printf("export: %zu -> %zu triangles, %zu -> %zu vertices\n", full.triangles, st.triangles,
+              full.vertices, st.vertices);
+  EXPECT_EQ(st.triangles_before_decimation, full.triangles);
+  EXPECT_LT(st.triangles * 4, full.triangles);
+  EXPECT_EQ(st.tiles, full.tiles);
+  // OBJ (CGAL polygon soup), texture coordinates in [0, 1].
+  std::vector<Kernel::Point_3> pts;
+  std::vector<std::vector<std::size_t>> polys;
+  ASSERT_TRUE(CGAL::IO::read_OBJ(dec_dir + "/terrain.obj", pts, polys));
+  EXPECT_EQ(pts.size(), st.vertices);
+  EXPECT_EQ(polys.size(), st.triangles);
+  const std::string obj = readFile(dec_dir + "/terrain.obj");
+  EXPECT_EQ(countLines(obj, "vt "), st.vertices);
+  std::istringstream in(obj);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("vt ", 0) != 0) continue;
+    double u = -1, v = -1;
+    std::sscanf(line.c_str(), "vt %lf %lf", &u, &v);
+    ASSERT_TRUE(u >= 0 && u <= 1 && v >= 0 && v <= 1) << line;
+  }
+  // PLY (CGAL::Surface_mesh).
+  CGAL::Surface_mesh<Kernel::Point_3> sm;
+  std::ifstream ply(dec_dir + "/terrain.ply", std::ios::binary);
+  ASSERT_TRUE(CGAL::IO::read_PLY(ply, sm));
+  EXPECT_EQ(sm.number_of_faces(), st.triangles);
+  // glb (tinygltf).
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model model;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadBinaryFromFile(&model, &err, &warn, dec_dir + "/terrain.glb")) << err;
+  std::size_t nv = 0, ni = 0;
+  for (const auto& mesh : model.meshes) {
+    const auto& prim = mesh.primitives.at(0);
+    nv += model.accessors.at(prim.attributes.at("POSITION")).count;
+    ni += model.accessors.at(prim.indices).count;
+    const auto& acc = model.accessors.at(prim.attributes.at("TEXCOORD_0"));
+    const auto& bv = model.bufferViews.at(acc.bufferView);
+    const unsigned char* base = model.buffers.at(bv.buffer).data.data() + bv.byteOffset + acc.byteOffset;
+    for (std::size_t k = 0; k < acc.count * 2; ++k) {
+      float f;
+      std::memcpy(&f, base + 4 * k, 4);
+      ASSERT_TRUE(f >= 0.f && f <= 1.f) << f;
+    }
+  }
+  EXPECT_EQ(nv, st.vertices);
+  EXPECT_EQ(ni, 3 * st.triangles);
+}
+
+TEST(Decimation, NegativeToleranceIsRejected) {
+  TileMesh m;
+  EXPECT_THROW(decimateTileMesh(m, -0.1), std::invalid_argument);
 }
 
 }  // namespace

@@ -2,6 +2,8 @@
 // (meshing/mesh_builder.hpp) and exported at the end as OBJ+MTL+PNG, PLY and glTF (.glb), with a
 // report (counts, frames without images, cameras that saw no points, ground segmentation vs pixel
 // truth when the source has it).
+#include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <string>
@@ -41,9 +43,17 @@ class TexturedMeshOutput : public Output {
     d.add("max_sweeps", p_.ground.mrf.max_sweeps, "gibbs mode: sweeps at most").unit("1").range(1, 1000);
     d.add("mask_size", p_.mask.size, "s of eq. 13: masks are (2s+1)^2 vertices").unit("1").range(1, 20);
     d.add("mask_orientations", p_.mask.orientations, "line directions of the masks (paper: 4)").unit("1").range(1, 32);
-    d.add("mask_threshold", p_.mask.threshold, "U above this = building (normalised: 0..1)").unit("1").range(-1e3, 1e3);
-    d.add("mask_normalise", p_.mask.normalise, "divide U by the mean elevation on the line");
+    d.add("mask_threshold", p_.mask.threshold, "U above this = building (normalised: 0..1; else metres)").unit("1").range(-1e3, 1e3);
+    d.add("mask_normalise", p_.mask.normalise, "divide U by the elevation of a complete wall on the line (1 = filled straight line)");
+    d.add("mask_line_tolerance", p_.mask.line_tolerance, "t: grey-dilate the elevation by (2t+1)^2 vertices before masking, so sampled walls fill a straight line").unit("vertices").range(0, 5);
+    d.add("recovery_background_odds", p_.recovery.background_odds, "§3.3: a colour is background only where it is this many times more frequent far from LiDAR returns than at object returns").unit("1").range(0.01, 1e4);
+    d.add("recovery_stop_at_occluders", p_.recovery.stop_at_occluders, "§3.3: a column walk under a clearly nearer LiDAR surface gives only a lower bound");
     d.add("write_overlays", write_overlays_, "write <frame>_<camera>_segmentation.png per image");
+    d.add("decimate", decimate_, "collapse flat regions of the exported mesh (CGAL edge collapse; "
+          "tile borders, holes and class boundaries stay; texture coordinates stay exact)");
+    d.add("flat_tolerance_m", flat_tolerance_m_,
+          "decimate: largest vertical distance of an original vertex from the decimated surface")
+        .unit("m").range(0.001, 1.0);
   }
 
   void configure(const PluginContext& ctx) override {
@@ -51,6 +61,8 @@ class TexturedMeshOutput : public Output {
       throw ParamError("subdir", "'" + subdir_ + "' must be a non-empty folder relative to the run's output folder");
     if (formats_.empty()) throw ParamError("formats", "is empty; expected any of obj, ply, gltf");
     ex_ = ExportOptions{false, false, false};
+    ex_.decimate = decimate_;
+    ex_.flat_tolerance_m = flat_tolerance_m_;
     for (const auto& f : formats_) {
       if (f == "obj") ex_.obj = true;
       else if (f == "ply") ex_.ply = true;
@@ -104,6 +116,11 @@ class TexturedMeshOutput : public Output {
     writeFileAtomic((fs::path(dir) / "report.md").string(), report);
     std::cerr << "textured_mesh: " << es.tiles << " tile(s), " << es.vertices << " vertices, "
               << es.triangles << " triangles -> " << dir << "\n";
+    if (ex_.decimate)
+      std::fprintf(stderr, "textured_mesh: decimated %zu -> %zu triangles (%.1f %%), deviation <= %.3f m\n",
+                   es.triangles_before_decimation, es.triangles,
+                   100.0 * double(es.triangles) / double(std::max<std::size_t>(1, es.triangles_before_decimation)),
+                   es.max_deviation_m);
     const auto& s = builder_->summary();
     if (!s.frames_without_image.empty())
       std::cerr << "textured_mesh: " << s.frames_without_image.size()
@@ -118,6 +135,8 @@ class TexturedMeshOutput : public Output {
   std::vector<std::string> formats_{"obj", "ply", "gltf"};
   std::string mode_ = "flood_fill";
   bool write_overlays_ = false;
+  bool decimate_ = false;
+  double flat_tolerance_m_ = 0.05;
   MeshBuilderParams p_;
   ExportOptions ex_;
   std::string output_dir_ = ".";

@@ -31,7 +31,8 @@ struct GroundSegParams {
   /// span less than this in height (a car's sill or a wall's foot inside the band is no seed) [m]
   double seed_max_step_m = 0.2;
   double seed_cell_m = 0.5;       ///< [m]
-  /// Points below the band within this range are non-ground samples (ditches) [m]
+  /// Points below the band within this range are non-ground samples (ditches); within it, the
+  /// object test's ground reference ignores ditch floors (the rim is no object) [m]
   double below_sample_range_m = 20.0;
   /// Also seed points at the bottom of a flat neighbourhood outside the band (sloped terrain);
   /// the paper's rough segmentation uses the band only

@@ -34,10 +34,15 @@ struct ExportOptions {
   bool ply = true;
   bool gltf = true;
   std::string basename = "terrain";  ///< terrain.obj / .mtl / .ply / .glb
+  /// Collapse flat regions before writing (decimation.hpp); all formats get the same mesh.
+  bool decimate = false;
+  double flat_tolerance_m = 0.05;  ///< largest vertical deviation a collapse may cause [m]
 };
 
 struct ExportStats {
   std::size_t tiles = 0, vertices = 0, triangles = 0;
+  std::size_t triangles_before_decimation = 0;  ///< = triangles when not decimated
+  double max_deviation_m = 0;  ///< decimation: bound on the vertical deviation [m]
   std::vector<std::string> files;  ///< relative to the export folder
 };
 

@@ -6,6 +6,11 @@
 // line above it is followed up to the object's top boundary, and the ray from the camera centre
 // through that boundary pixel, intersected with the vertex's fixed horizontal position, gives the
 // object's height there.
+//
+// The background colours are sampled far from every LiDAR return, so they mix the sky with the
+// object parts above the LiDAR's reach (crowns, upper walls); `background_odds` keeps those colours
+// object (otherwise crowns become background and walks through them end early). A walk that
+// passes under a clearly nearer LiDAR surface (an occluder) gives only a lower bound.
 #include <cstdint>
 #include <vector>
 
@@ -21,12 +26,19 @@ struct SceneRecoveryParams {
   double depth_jump_m = 1.5;      ///< the walk stops where LiDAR sees a surface this much farther [m]
   double max_range_m = 60.0;      ///< vertices farther from the camera are not recovered [m]
   int background_clearance_px = 8;  ///< background colour samples keep this far from LiDAR pixels
+  /// End the walk with a lower bound where a clearly nearer LiDAR surface covers the column (the
+  /// boundary above would belong to the occluder, e.g. a crown in front of a wall).
+  bool stop_at_occluders = true;
+  /// A colour is background only where it is this many times more frequent among the background
+  /// samples than among the object seeds (the samples include object parts above the LiDAR) [1]
+  double background_odds = 16.0;
 };
 
 struct SceneRecoveryStats {
   std::size_t vertices_tried = 0;
   std::size_t estimates = 0;      ///< boundary found below the image top
-  std::size_t lower_bounds = 0;   ///< object continued past the image top
+  std::size_t lower_bounds = 0;   ///< object continued past the image top, or occluded
+  std::size_t occluded = 0;       ///< walks ended under a nearer surface (lower bounds)
   std::size_t raised = 0;         ///< estimates above the measured top
   std::vector<uint8_t> object_mask;  ///< per pixel, 1 = object (for overlays)
 };
