@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <sys/wait.h>
 
@@ -237,6 +238,39 @@ TEST(SweepsE2E, Rellis3dBeatsPatchwork) {
   EXPECT_GT(p, 0.879);
   EXPECT_GT(rc, 0.931);
   expectAlphaExpansionLowest(out.str());
+}
+
+// ---- shipped mesh configs -------------------------------------------------------------------
+namespace {
+void expectMeshExport(const std::string& dir) {
+  for (const char* f : {"terrain.obj", "terrain.mtl", "terrain.ply", "terrain.glb", "report.md"})
+    EXPECT_TRUE(std::filesystem::exists(dir + "/mesh/" + f)) << f;
+  EXPECT_FALSE(std::filesystem::is_empty(dir + "/mesh/textures"));
+}
+}  // namespace
+
+TEST(MeshConfigsE2E, KittiObjectAndRellisGiveTexturedMeshes) {
+  const std::pair<const char*, const char*> runs[] = {
+      {"mesh_kitti.yaml", "kitti_object_fusion/training"},
+      {"mesh_rellis.yaml", "rellis3d_example_000104"}};
+  for (const auto& [cfg, data] : runs) {
+    test::TempDir out;
+    const Result r = sh(test::cli() + " mesh " + test::sourceDir() + "/configs/" + cfg + " --data " +
+                        test::dataPath(data) + " --no-progress --out " + out.str());
+    ASSERT_EQ(r.status, 0) << cfg << "\n" << r.out;
+    expectMeshExport(out.str());
+  }
+}
+
+TEST(MeshConfigsE2E, DemoFirstFramesWithGroundTruthReport) {
+  test::TempDir out;
+  const Result r = sh(test::cli() + " mesh " + test::sourceDir() +
+                      "/configs/mesh_demo.yaml --limit 3 --no-progress --out " + out.str());
+  ASSERT_EQ(r.status, 0) << r.out;
+  expectMeshExport(out.str());
+  std::ifstream in(out.str() + "/mesh/report.md");
+  const std::string report((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(report.find("Ground pixels found"), std::string::npos) << report;
 }
 
 }  // namespace terramrf
