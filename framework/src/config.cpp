@@ -2,10 +2,12 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <set>
 #include <sstream>
 
+#include "config_internal.hpp"
 #include "param_yaml.hpp"
 
 namespace terramrf {
@@ -36,111 +38,89 @@ std::string joinDiags(const std::vector<Diagnostic>& d) {
 ConfigError::ConfigError(std::vector<Diagnostic> d)
     : std::runtime_error(joinDiags(d)), diags_(std::move(d)) {}
 
-namespace {
+namespace detail {
 
-struct Collector {
-  std::string file;
-  std::vector<Diagnostic> diags;
-  void add(const YAML::Mark& m, const std::string& stage, const std::string& type,
-           const std::string& msg) {
-    Diagnostic d;
-    d.file = file;
-    if (m.line >= 0 && m.pos >= 0) {
-      d.line = m.line + 1;
-      d.column = m.column + 1;
-    }
-    d.stage = stage;
-    d.type = type;
-    d.message = msg;
-    diags.push_back(std::move(d));
+void Diags::add(const YAML::Mark& m, const std::string& msg, const std::string& stage,
+                const std::string& type) {
+  Diagnostic d;
+  d.file = file;
+  if (m.line >= 0 && m.pos >= 0) {
+    d.line = m.line + 1;
+    d.column = m.column + 1;
   }
-};
+  d.stage = stage;
+  d.type = type;
+  d.message = msg;
+  list.push_back(std::move(d));
+}
 
-const std::vector<std::string> kTopKeys = {"version", "plugin_path", "grid", "labels", "split",
-                                           "source", "stages", "outputs", "output_dir"};
-const std::vector<std::string> kStageKeys = {"name", "type", "params"};
+void Diags::throwIfAny() const {
+  if (!list.empty()) throw ConfigError(list);
+}
 
-void checkKeys(Collector& c, const YAML::Node& map, const std::vector<std::string>& allowed,
-               const std::string& what, const std::string& stage = "",
-               const std::string& type = "") {
+void checkKeys(Diags& d, const YAML::Node& map, const std::vector<std::string>& allowed,
+               const std::string& what, KeyHint hint, const std::string& stage,
+               const std::string& type) {
   for (auto it = map.begin(); it != map.end(); ++it) {
-    const std::string k = it->first.as<std::string>();
+    const std::string k = it->first.Scalar();
     if (std::find(allowed.begin(), allowed.end(), k) != allowed.end()) continue;
     std::string m = "unknown key '" + k + "' in " + what;
-    const std::string dym = detail::didYouMean(k, allowed);
-    if (!dym.empty()) m += " (did you mean '" + dym + "'?)";
-    c.add(it->first.Mark(), stage, type, m);
+    const std::string dym = didYouMean(k, allowed);
+    if (!dym.empty()) {
+      m += " (did you mean '" + dym + "'?)";
+    } else if (hint == KeyHint::kNearestOrAll) {
+      m += " (expected one of: ";
+      for (std::size_t i = 0; i < allowed.size(); ++i) m += (i ? ", " : "") + allowed[i];
+      m += ")";
+    }
+    d.add(it->first.Mark(), m, stage, type);
   }
 }
 
-bool isStageKind(PluginKind k) {
-  return k == PluginKind::kEgomotion || k == PluginKind::kFeature || k == PluginKind::kEnergy ||
-         k == PluginKind::kOptimiser;
-}
-
-std::string kindList(const std::vector<PluginKind>& ks) {
-  std::string s;
-  for (auto k : ks) s += (s.empty() ? "" : "/") + std::string(toString(k));
-  return s;
-}
-
-}  // namespace
-
-Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options,
-                      PluginRegistry& registry) {
-  Collector c;
-  c.file = config_path;
-  YAML::Node root;
+YAML::Node loadYamlFile(const std::string& path, Diags& d, const std::string& what) {
+  if (!fs::exists(path)) {
+    d.add(YAML::Mark::null_mark(), what + " does not exist");
+    d.throwIfAny();
+  }
   try {
-    if (!fs::exists(config_path)) {
-      c.add(YAML::Mark::null_mark(), "", "", "config file does not exist");
-      throw ConfigError(c.diags);
-    }
-    root = YAML::LoadFile(config_path);
+    return YAML::LoadFile(path);
   } catch (const YAML::Exception& e) {
-    c.add(e.mark, "", "", "YAML syntax error: " + e.msg);
-    throw ConfigError(c.diags);
+    d.add(e.mark, "YAML syntax error: " + e.msg);
+    d.throwIfAny();
   }
-  if (!root.IsMap()) {
-    c.add(root.Mark(), "", "", "expected a map with keys version, grid, source, stages, outputs");
-    throw ConfigError(c.diags);
-  }
-  checkKeys(c, root, kTopKeys, "the config");
+  return {};
+}
 
-  Pipeline p;
-  p.config_path = config_path;
-  const std::string config_dir = fs::absolute(config_path).parent_path().string();
-
-  // version
+void checkVersion(const YAML::Node& root, Diags& d) {
   if (!root["version"]) {
-    c.add(root.Mark(), "", "", "missing key 'version' (expected 'version: 1')");
+    d.add(root.Mark(), "missing key 'version' (expected 'version: 1')");
   } else if (root["version"].Scalar() != "1") {
-    c.add(root["version"].Mark(), "", "", "unsupported version '" + root["version"].Scalar() +
-                                            "' (this build reads version 1)");
+    d.add(root["version"].Mark(),
+          "unsupported version '" + root["version"].Scalar() + "' (this build reads version 1)");
   }
+}
 
-  // plugin_path
-  if (const auto pp = root["plugin_path"]) {
-    std::vector<std::string> dirs;
+CommonKeys readCommonKeys(const YAML::Node& root, const std::string& base_dir,
+                          PluginRegistry& reg, Diags& d, KeyHint hint) {
+  CommonKeys k;
+  if (const YAML::Node pp = root["plugin_path"]) {
     if (!pp.IsSequence()) {
-      c.add(pp.Mark(), "", "", "'plugin_path' must be a list of folders");
+      d.add(pp.Mark(), "'plugin_path' must be a list of folders");
     } else {
-      for (const auto& d : pp) {
-        const std::string dir = (fs::path(config_dir) / d.Scalar()).lexically_normal().string();
+      for (const auto& e : pp) {
+        const std::string dir = (fs::path(base_dir) / e.Scalar()).lexically_normal().string();
         if (!fs::is_directory(dir))
-          c.add(d.Mark(), "", "", "plugin_path entry '" + dir + "' is not a folder");
-        dirs.push_back(dir);
+          d.add(e.Mark(), "plugin_path entry '" + dir + "' is not a folder");
+        k.plugin_dirs.push_back(dir);
       }
+      if (!k.plugin_dirs.empty()) reg.prependDirs(k.plugin_dirs);
     }
-    if (!dirs.empty()) registry.prependDirs(dirs);
   }
-
-  // grid
-  if (const auto g = root["grid"]) {
+  if (const YAML::Node g = root["grid"]) {
     if (!g.IsMap()) {
-      c.add(g.Mark(), "", "", "'grid' must be a map {size_m, cell_m}");
+      d.add(g.Mark(), "'grid' must be a map {size_m, cell_m}");
     } else {
-      checkKeys(c, g, {"size_m", "cell_m"}, "grid");
+      checkKeys(d, g, {"size_m", "cell_m"}, "grid", hint);
       auto num = [&](const char* key, double lo, double hi, double& out) {
         if (!g[key]) return;
         try {
@@ -149,22 +129,20 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
             std::ostringstream o;
             o << "grid." << key << " = " << v << " out of range: expected [" << lo << ", " << hi
               << "] m";
-            c.add(g[key].Mark(), "", "", o.str());
+            d.add(g[key].Mark(), o.str());
           } else {
             out = v;
           }
         } catch (const YAML::Exception&) {
-          c.add(g[key].Mark(), "", "", std::string("grid.") + key + ": expected a number in metres");
+          d.add(g[key].Mark(), std::string("grid.") + key + ": expected a number in metres");
         }
       };
-      num("size_m", 20, 100, p.grid.size_m);
-      num("cell_m", 0.05, 5, p.grid.cell_m);
+      num("size_m", 20, 100, k.grid.size_m);
+      num("cell_m", 0.05, 5, k.grid.cell_m);
     }
   }
-
   // labels (optional): list of {name, color: [r,g,b]} starting with unknown
-  p.labels = std::make_shared<LabelSet>(LabelSet::defaults());
-  if (const auto l = root["labels"]) {
+  if (const YAML::Node l = root["labels"]) {
     try {
       std::vector<LabelInfo> infos;
       for (const auto& e : l) {
@@ -172,16 +150,114 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
         li.name = e["name"].as<std::string>();
         const auto col = e["color"].as<std::vector<int>>();
         if (col.size() != 3) throw std::runtime_error("color must be [r, g, b]");
-        for (int k = 0; k < 3; ++k) li.rgb[k] = static_cast<uint8_t>(col[k]);
+        for (int c = 0; c < 3; ++c) li.rgb[c] = static_cast<uint8_t>(col[c]);
         infos.push_back(li);
       }
-      p.labels = std::make_shared<LabelSet>(infos);
+      k.labels = std::make_shared<LabelSet>(infos);
+      k.custom_labels = true;
     } catch (const std::exception& e) {
-      c.add(l.Mark(), "", "",
-            std::string("labels: expected a list of {name, color: [r, g, b]} starting with "
-                        "'unknown': ") + e.what());
+      d.add(l.Mark(), std::string("labels: expected a list of {name, color: [r, g, b]} starting "
+                                  "with 'unknown': ") +
+                          e.what());
     }
   }
+  return k;
+}
+
+const std::vector<std::string> kEntryKeys = {"name", "type", "params"};
+
+std::string kindList(const std::vector<PluginKind>& kinds) {
+  std::string s;
+  for (auto k : kinds) s += (s.empty() ? "" : "/") + std::string(toString(k));
+  return s;
+}
+
+EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const std::string& section,
+                              const std::vector<PluginKind>& kinds, Diags& d,
+                              const EntryChecks& checks) {
+  EntryPlugin ep;
+  if (!e.IsMap()) {
+    d.add(e.Mark(), section + " entries must be maps {name, type, params}");
+    return ep;
+  }
+  ep.type = e["type"] ? e["type"].Scalar() : "";
+  ep.name = e["name"] ? e["name"].Scalar() : ep.type;
+  if (checks.key_errors_name_the_stage) {
+    checkKeys(d, e, kEntryKeys, section + " entry", checks.key_hint,
+              e["name"] ? e["name"].Scalar() : "", ep.type);
+  } else {
+    checkKeys(d, e, kEntryKeys, section + " entry", checks.key_hint);
+  }
+  const std::string& name = ep.name;
+  const std::string& type = ep.type;
+  if (type.empty()) {
+    d.add(e.Mark(), "missing key 'type' (the plugin type name)", name);
+    return ep;
+  }
+  if (checks.unique_names && !checks.unique_names->insert(name).second)
+    d.add(e.Mark(), "duplicate stage name '" + name + "' (give each a unique name:)", name, type);
+  const PluginInfo* info = reg.find(type);
+  if (!info) {
+    ep.unknown_type = true;
+    ep.suggestion = didYouMean(type, reg.types());
+    return ep;
+  }
+  if (std::find(kinds.begin(), kinds.end(), info->kind) == kinds.end()) {
+    d.add(e["type"].Mark(),
+          "'" + type + "' is a " + toString(info->kind) + " plugin, but " + section + " takes " +
+              kindList(kinds) + " plugins",
+          name, type);
+    return ep;
+  }
+  ep.kind = info->kind;
+  std::unique_ptr<Plugin> plugin;
+  try {
+    plugin = reg.create(type);
+  } catch (const std::exception& ex) {
+    d.add(e["type"].Mark(), ex.what(), name, type);
+    return ep;
+  }
+  plugin->setIdentity(name, type);
+  ep.plugin = std::move(plugin);
+  return ep;
+}
+
+bool applyEntryParams(Plugin& plugin, const YAML::Node& e, const PluginContext& ctx, Diags& d,
+                      const std::vector<std::pair<std::string, std::string>>& overrides) {
+  const auto issues = applyParams(plugin, e["params"], ctx, e.Mark(), overrides);
+  for (const auto& i : issues)
+    d.add(i.mark.line >= 0 ? i.mark : e.Mark(), i.message, plugin.name(), plugin.type());
+  return issues.empty();
+}
+
+}  // namespace detail
+
+namespace {
+
+const std::vector<std::string> kTopKeys = {"version", "plugin_path", "grid", "labels", "split",
+                                           "source", "stages", "outputs", "output_dir"};
+
+}  // namespace
+
+Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options,
+                      PluginRegistry& registry) {
+  detail::Diags c;
+  c.file = config_path;
+  const YAML::Node root = detail::loadYamlFile(config_path, c, "config file");
+  if (!root.IsMap()) {
+    c.add(root.Mark(), "expected a map with keys version, grid, source, stages, outputs");
+    c.throwIfAny();
+  }
+  detail::checkKeys(c, root, kTopKeys, "the config");
+
+  Pipeline p;
+  p.config_path = config_path;
+  const std::string config_dir = fs::absolute(config_path).parent_path().string();
+
+  detail::checkVersion(root, c);
+  detail::CommonKeys common = detail::readCommonKeys(root, config_dir, registry, c);
+  p.grid = common.grid;
+  p.labels = common.labels;
 
   // output dir
   p.output_dir = options.output_dir;
@@ -207,56 +283,27 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
                   const std::vector<PluginKind>& kinds, PluginKind* kind_out,
                   const std::vector<std::pair<std::string, std::string>>& overrides,
                   YAML::Node resolved_entry) -> std::unique_ptr<Plugin> {
-    if (!e.IsMap()) {
-      c.add(e.Mark(), "", "", section + " entries must be maps {name, type, params}");
-      return nullptr;
-    }
-    checkKeys(c, e, kStageKeys, section + " entry", e["name"] ? e["name"].Scalar() : "",
-              e["type"] ? e["type"].Scalar() : "");
-    if (!e["type"]) {
-      c.add(e.Mark(), e["name"] ? e["name"].Scalar() : "", "",
-            "missing key 'type' (the plugin type name)");
-      return nullptr;
-    }
-    const std::string type = e["type"].Scalar();
-    const std::string name = e["name"] ? e["name"].Scalar() : type;
-    if (!names.insert(name).second)
-      c.add(e.Mark(), name, type, "duplicate stage name '" + name + "' (give each a unique name:)");
-    const PluginInfo* info = registry.find(type);
-    if (!info) {
-      std::string m = "unknown plugin type '" + type + "'";
-      const std::string dym = detail::didYouMean(type, registry.types());
-      if (!dym.empty()) m += " (did you mean '" + dym + "'?)";
+    detail::EntryChecks checks;
+    checks.unique_names = &names;
+    detail::EntryPlugin ep = detail::createEntryPlugin(registry, e, section, kinds, c, checks);
+    if (ep.unknown_type) {
+      std::string m = "unknown plugin type '" + ep.type + "'";
+      if (!ep.suggestion.empty()) m += " (did you mean '" + ep.suggestion + "'?)";
       m += "; run 'terramrf plugins' for the list";
-      c.add(e["type"].Mark(), name, type, m);
+      c.add(e["type"].Mark(), m, ep.name, ep.type);
       return nullptr;
     }
-    if (std::find(kinds.begin(), kinds.end(), info->kind) == kinds.end()) {
-      c.add(e["type"].Mark(), name, type,
-            "'" + type + "' is a " + toString(info->kind) + " plugin, but " + section +
-                " takes " + kindList(kinds) + " plugins");
-      return nullptr;
-    }
-    std::unique_ptr<Plugin> plugin;
-    try {
-      plugin = registry.create(type);
-    } catch (const std::exception& ex) {
-      c.add(e["type"].Mark(), name, type, ex.what());
-      return nullptr;
-    }
-    plugin->setIdentity(name, type);
-    if (kind_out) *kind_out = info->kind;
-    const auto issues = detail::applyParams(*plugin, e["params"], ctx, e.Mark(), overrides);
-    for (const auto& i : issues) c.add(i.mark, name, type, i.message);
-    if (!issues.empty()) return nullptr;
-    resolved_entry["name"] = name;
-    resolved_entry["params"] = detail::currentParams(*plugin);
-    return plugin;
+    if (!ep.plugin) return nullptr;
+    if (kind_out) *kind_out = ep.kind;
+    if (!detail::applyEntryParams(*ep.plugin, e, ctx, c, overrides)) return nullptr;
+    resolved_entry["name"] = ep.name;
+    resolved_entry["params"] = detail::currentParams(*ep.plugin);
+    return std::move(ep.plugin);
   };
 
   // source
   if (!root["source"]) {
-    c.add(root.Mark(), "", "", "missing key 'source' (where frames come from, e.g. {type: simulator})");
+    c.add(root.Mark(), "missing key 'source' (where frames come from, e.g. {type: simulator})");
   } else {
     std::vector<std::pair<std::string, std::string>> ov;
     if (!options.data_override.empty())
@@ -273,8 +320,8 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
       if (available.count(r)) continue;
       std::string have;
       for (const auto& a : available_order) have += (have.empty() ? "" : ", ") + a;
-      c.add(e.Mark(), pl.name(), pl.type(),
-            "reads '" + r + "', which no earlier stage writes (available here: " + have + ")");
+      c.add(e.Mark(), "reads '" + r + "', which no earlier stage writes (available here: " + have + ")",
+            pl.name(), pl.type());
     }
   };
   auto addWrites = [&](Plugin& pl) {
@@ -283,7 +330,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
   };
   if (const auto st = root["stages"]) {
     if (!st.IsSequence()) {
-      c.add(st.Mark(), "", "", "'stages' must be a list");
+      c.add(st.Mark(), "'stages' must be a list");
     } else {
       bool seen_non_ego = false;
       for (std::size_t i = 0; i < st.size(); ++i) {
@@ -294,9 +341,10 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
                        &kind, {}, resolved["stages"][i]);
         if (!pl) continue;
         if (kind == PluginKind::kEgomotion && seen_non_ego)
-          c.add(st[i].Mark(), pl->name(), pl->type(),
+          c.add(st[i].Mark(),
                 "egomotion stages must come before feature/energy/optimiser stages (the grid is "
-                "built after the pose is known)");
+                "built after the pose is known)",
+                pl->name(), pl->type());
         if (kind != PluginKind::kEgomotion) seen_non_ego = true;
         checkReads(*pl, st[i]);
         addWrites(*pl);
@@ -305,12 +353,12 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
       }
     }
   } else {
-    c.add(root.Mark(), "", "", "missing key 'stages' (features, energy, optimiser)");
+    c.add(root.Mark(), "missing key 'stages' (features, energy, optimiser)");
   }
 
   if (const auto out = root["outputs"]) {
     if (!out.IsSequence()) {
-      c.add(out.Mark(), "", "", "'outputs' must be a list");
+      c.add(out.Mark(), "'outputs' must be a list");
     } else {
       for (std::size_t i = 0; i < out.size(); ++i) {
         auto pl = make(out[i], "outputs", {PluginKind::kOutput}, nullptr, {}, resolved["outputs"][i]);
@@ -321,7 +369,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
     }
   }
 
-  if (!c.diags.empty()) throw ConfigError(c.diags);
+  c.throwIfAny();
   YAML::Emitter em;
   em << resolved;
   p.resolved_yaml = std::string("# Resolved config: every parameter with its value (defaults filled "

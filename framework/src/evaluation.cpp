@@ -111,6 +111,39 @@ EvalCounts& EvalCounts::operator+=(const EvalCounts& o) {
   return *this;
 }
 
+// ---- cell truth -----------------------------------------------------------------------------
+
+CellTruth cellTruth(const std::vector<uint64_t>& per_class, int obstacle_id, LabelId predicted) {
+  CellTruth t;
+  const std::size_t k = per_class.size();
+  uint64_t largest = 0;  // from class 1 on: unknown truth is not scored
+  for (std::size_t c = 1; c < k; ++c) {
+    t.labelled += per_class[c];
+    largest = std::max(largest, per_class[c]);
+  }
+  if (t.labelled == 0) return t;
+  // Obstacle-any: the planner must avoid a cell with any obstacle point in it.
+  if (obstacle_id > 0 && static_cast<std::size_t>(obstacle_id) < k && per_class[obstacle_id] > 0) {
+    t.label = static_cast<LabelId>(obstacle_id);
+    t.obstacle_rule = per_class[obstacle_id] < largest;
+    return t;
+  }
+  // Majority; among tied classes the predicted one (kTieRule), else the highest id.
+  int n_tied = 0;
+  bool pred_tied = false;
+  for (std::size_t c = 1; c < k; ++c) {
+    if (per_class[c] != largest) continue;
+    ++n_tied;
+    t.label = static_cast<LabelId>(c);
+    if (c == predicted) pred_tied = true;
+  }
+  if (n_tied > 1) {
+    t.tied = true;
+    if (pred_tied) t.label = predicted;
+  }
+  return t;
+}
+
 // ---- Evaluator ------------------------------------------------------------------------------
 
 Evaluator::Evaluator(const LabelSet& labels, EvalRules rules)
@@ -177,7 +210,6 @@ EvalCounts Evaluator::addFrame(const TerrainGrid& grid, const Frame& frame) {
   }
 
   std::vector<uint64_t> per_class(k);
-  std::vector<LabelId> tied;
   const int cells = static_cast<int>(grid.cells());
   for (int cell = 0; cell < cells; ++cell) {
     const uint32_t in_cell = grid.count(cell);
@@ -189,34 +221,14 @@ EvalCounts Evaluator::addFrame(const TerrainGrid& grid, const Frame& frame) {
     for (const uint32_t* p = grid.pointsBegin(cell); p != grid.pointsEnd(cell); ++p) {
       ++per_class[truth[*p]];
     }
-    uint64_t labelled = 0, largest = 0;  // from class 1 on: unknown truth is not scored
-    for (std::size_t c = 1; c < k; ++c) {
-      labelled += per_class[c];
-      largest = std::max(largest, per_class[c]);
-    }
-    if (labelled == 0) continue;  // nothing to compare with: cell not scored
-
-    // Cell truth: obstacle-any (the planner must avoid the cell), else majority with tie rule.
+    const CellTruth cell_truth = cellTruth(per_class, obstacle_id, pred);
+    if (cell_truth.label == labels::kUnknown) continue;  // nothing to compare with: not scored
+    const uint64_t labelled = cell_truth.labelled;
     const bool holds_obstacle = obstacle_id > 0 && per_class[obstacle_id] > 0;
-    LabelId cell_truth = labels::kUnknown;
-    if (holds_obstacle) {
-      cell_truth = static_cast<LabelId>(obstacle_id);
-      if (per_class[obstacle_id] < largest) ++f.cells_obstacle_rule;
-    } else {
-      tied.clear();
-      for (std::size_t c = 1; c < k; ++c) {
-        if (per_class[c] == largest) tied.push_back(static_cast<LabelId>(c));
-      }
-      if (tied.size() == 1) {
-        cell_truth = tied.front();
-      } else {
-        ++f.cells_tied;
-        const bool pred_tied = std::find(tied.begin(), tied.end(), pred) != tied.end();
-        cell_truth = pred_tied ? pred : tied.back();
-      }
-    }
+    f.cells_obstacle_rule += cell_truth.obstacle_rule;
+    f.cells_tied += cell_truth.tied;
     ++f.cells_scored;
-    f.cell_wise.add(cell_truth, pred);
+    f.cell_wise.add(cell_truth.label, pred);
     if (pred == labels::kUnknown) {
       ++f.cells_labelled_unclassified;
       f.labelled_points_unclassified += labelled;

@@ -75,33 +75,6 @@ const char* toString(ScoreSource s) {
   return "?";
 }
 
-// Kept identical to the cell rule in evaluation.cpp (Evaluator::addFrame); docs/evaluation.md.
-LabelId cellTruth(const std::vector<uint64_t>& per_class, int obstacle_id, LabelId predicted,
-                  bool* tied) {
-  if (tied) *tied = false;
-  const std::size_t k = per_class.size();
-  uint64_t largest = 0, labelled = 0;
-  for (std::size_t c = 1; c < k; ++c) {
-    labelled += per_class[c];
-    largest = std::max(largest, per_class[c]);
-  }
-  if (labelled == 0) return labels::kUnknown;
-  if (obstacle_id > 0 && static_cast<std::size_t>(obstacle_id) < k && per_class[obstacle_id] > 0)
-    return static_cast<LabelId>(obstacle_id);
-  LabelId last = labels::kUnknown;
-  int n_tied = 0;
-  bool pred_tied = false;
-  for (std::size_t c = 1; c < k; ++c) {
-    if (per_class[c] != largest) continue;
-    ++n_tied;
-    last = static_cast<LabelId>(c);
-    if (c == predicted) pred_tied = true;
-  }
-  if (n_tied == 1) return last;
-  if (tied) *tied = true;
-  return pred_tied ? predicted : last;
-}
-
 std::vector<const Layer*> scoreLayers(const TerrainGrid& grid, const LabelSet& labels) {
   std::vector<const Layer*> out(labels.size(), nullptr);
   for (std::size_t c = 1; c < labels.size(); ++c) {
@@ -208,7 +181,7 @@ RocFrameStats RocAccumulator::addFrame(const TerrainGrid& grid, const Frame& fra
     std::fill(per_class.begin(), per_class.end(), 0);
     for (const uint32_t* p = grid.pointsBegin(cell); p != grid.pointsEnd(cell); ++p)
       if (truth[*p] < k) ++per_class[truth[*p]];
-    const LabelId t = cellTruth(per_class, obstacle, predicted[cell]);
+    const LabelId t = cellTruth(per_class, obstacle, predicted[cell]).label;
     if (t == labels::kUnknown) continue;
     ++st.cells_scored;
     bool scored = false;

@@ -67,6 +67,21 @@ inline constexpr const char* kTieRule =
     "correct when >= 50% of its points share its class); otherwise the tied class with the "
     "highest id (default ids are ordered by caution: rough over road)";
 
+/// The true class of one cell and how it was decided.
+struct CellTruth {
+  LabelId label = labels::kUnknown;  ///< kUnknown: no labelled point, the cell is not scored
+  uint64_t labelled = 0;             ///< points in the cell whose truth is not unknown
+  bool tied = false;                 ///< no obstacle point, and kTieRule chose among the largest
+  bool obstacle_rule = false;        ///< obstacle by one GT obstacle point although obstacle
+                                     ///< points were not the majority
+};
+
+/// True class of one cell (paper 001 §VI-B) from the counts of its points per true class (index =
+/// LabelId; index 0, unknown truth, is ignored): obstacle if `obstacle_id` > 0 and the cell holds
+/// one such point, else the majority; among tied classes `predicted` if it is tied, else the
+/// highest id (kTieRule). The one rule of the cell-wise evaluation and of the ROC curves.
+CellTruth cellTruth(const std::vector<uint64_t>& per_class, int obstacle_id, LabelId predicted);
+
 /// Everything an evaluation counts. Sums over frames with +=.
 struct EvalCounts {
   explicit EvalCounts(std::size_t labels = 0) : point_wise(labels), cell_wise(labels) {}

@@ -3,29 +3,23 @@
 // contributes its score for c (an optimiser's `score.<c>` layer, higher = more confident) and
 // whether its true class is c. Sweeping a threshold over the scores gives (FPR, TPR) pairs.
 //
-// The cells and their truth are those of the cell-wise evaluation (paper 001 §VI-B rules, as in
-// evaluation.hpp): a cell is scored if it holds a labelled point; its true class is obstacle if it
-// holds a ground-truth obstacle point, else the majority class, ties by the evaluation's tie rule.
-// So the hard labelling's (FPR, TPR) — the "operating point" — is the cell-wise TPR/FPR of the
-// evaluation restricted to cells that carry a score. Rules and file formats: docs/compare.md.
+// The cells and their truth are those of the cell-wise evaluation (paper 001 §VI-B rules,
+// cellTruth in evaluation.hpp): a cell is scored if it holds a labelled point; its true class is
+// obstacle if it holds a ground-truth obstacle point, else the majority class, ties by the
+// evaluation's tie rule. So the hard labelling's (FPR, TPR) — the "operating point" — is the
+// cell-wise TPR/FPR of the evaluation restricted to cells that carry a score. Rules and file
+// formats: docs/compare.md.
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "terramrf/energy_model.hpp"
+#include "terramrf/evaluation.hpp"
 #include "terramrf/frame.hpp"
 #include "terramrf/label_set.hpp"
 #include "terramrf/terrain_grid.hpp"
 
 namespace terramrf {
-
-/// True class of one cell from the counts of its labelled points per class (index = LabelId,
-/// index 0 = unknown truth, ignored), with the paper 001 rules of the evaluation: obstacle if
-/// `obstacle_id` > 0 and the cell holds one such point, else the majority; among tied classes the
-/// predicted one if it is tied, else the highest id. Returns labels::kUnknown if no labelled
-/// point. `tied` (optional) is set when the tie rule decided.
-LabelId cellTruth(const std::vector<uint64_t>& per_class, int obstacle_id, LabelId predicted,
-                  bool* tied = nullptr);
 
 /// One threshold of a curve: cells with score ≥ threshold are called class c.
 struct RocPoint {

@@ -95,6 +95,45 @@ TEST(ConfusionMatrix, OneVsRestCounts) {
 
 // Cell 0: 1 obstacle + 3 road points, predicted obstacle.
 // Cell 1: 1 obstacle + 3 road points, predicted road.
+// cellTruth on hand-made per-class counts (index = LabelId: unknown, road, rough, obstacle).
+TEST(CellTruth, KnownAnswers) {
+  const int obst = kObstacle;
+  // No labelled point (unknown truth only): not scored.
+  CellTruth t = cellTruth({5, 0, 0, 0}, obst, kRoad);
+  EXPECT_EQ(t.label, kUnknown);
+  EXPECT_EQ(t.labelled, 0u);
+  // Majority; unknown-truth points neither count nor win.
+  t = cellTruth({9, 1, 3, 0}, obst, kRoad);
+  EXPECT_EQ(t.label, kRough);
+  EXPECT_EQ(t.labelled, 4u);
+  EXPECT_FALSE(t.tied);
+  EXPECT_FALSE(t.obstacle_rule);
+  // One obstacle point makes the cell obstacle, whatever is predicted; counted as the rule.
+  t = cellTruth({0, 5, 0, 1}, obst, kRoad);
+  EXPECT_EQ(t.label, kObstacle);
+  EXPECT_TRUE(t.obstacle_rule);
+  EXPECT_FALSE(t.tied);
+  // Obstacle tied for the majority: obstacle, but neither the rule nor the tie decided.
+  t = cellTruth({0, 2, 0, 2}, obst, kRoad);
+  EXPECT_EQ(t.label, kObstacle);
+  EXPECT_FALSE(t.obstacle_rule);
+  EXPECT_FALSE(t.tied);
+  // Tie without obstacle points: the predicted class if it is tied...
+  t = cellTruth({0, 2, 2, 0}, obst, kRoad);
+  EXPECT_EQ(t.label, kRoad);
+  EXPECT_TRUE(t.tied);
+  // ...else the tied class with the highest id.
+  t = cellTruth({0, 2, 2, 0}, obst, kObstacle);
+  EXPECT_EQ(t.label, kRough);
+  EXPECT_TRUE(t.tied);
+  t = cellTruth({0, 2, 2, 0}, obst, kUnknown);
+  EXPECT_EQ(t.label, kRough);
+  // Without an obstacle class (-1) an obstacle-id point is just a vote.
+  t = cellTruth({0, 5, 0, 1}, -1, kRoad);
+  EXPECT_EQ(t.label, kRoad);
+  EXPECT_FALSE(t.obstacle_rule);
+}
+
 TEST(Evaluator, ObstacleAnyRuleAndExcusedPoints) {
   Scene s;
   s.add(0, kObstacle);

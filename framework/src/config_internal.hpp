@@ -1,0 +1,95 @@
+#pragma once
+// Internal to the framework (not installed): the parts of config loading that the other readers of
+// pipeline-like files (train configs and sweeps, sweep_*.cpp) share with loadPipeline, so that
+// they check entries the same way and word problems alike.
+#include <yaml-cpp/yaml.h>
+
+#include <memory>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "terramrf/config.hpp"
+#include "terramrf/plugin.hpp"
+#include "terramrf/registry.hpp"
+
+namespace terramrf::detail {
+
+/// Problems found in one file, reported all at once as a ConfigError.
+struct Diags {
+  std::string file;
+  std::vector<Diagnostic> list;
+  /// `stage` and `type` name the plugin entry the problem is in ("" = none).
+  void add(const YAML::Mark& m, const std::string& msg, const std::string& stage = "",
+           const std::string& type = "");
+  void throwIfAny() const;
+};
+
+/// What an unknown-key diagnostic suggests.
+enum class KeyHint {
+  kNearest,       ///< "(did you mean 'x'?)" when an allowed key is close
+  kNearestOrAll,  ///< that, else "(expected one of: a, b, c)"
+};
+
+/// Reports every key of `map` that is not in `allowed` ("unknown key 'k' in <what>").
+void checkKeys(Diags& d, const YAML::Node& map, const std::vector<std::string>& allowed,
+               const std::string& what, KeyHint hint = KeyHint::kNearest,
+               const std::string& stage = "", const std::string& type = "");
+
+/// The YAML of `path`; a missing file ("<what> does not exist") or a syntax error throws
+/// ConfigError.
+YAML::Node loadYamlFile(const std::string& path, Diags& d, const std::string& what);
+
+/// `version: 1` is required.
+void checkVersion(const YAML::Node& root, Diags& d);
+
+/// Keys every pipeline-like file has: plugin_path, grid, labels.
+struct CommonKeys {
+  GridGeometry grid;
+  std::shared_ptr<LabelSet> labels = std::make_shared<LabelSet>(LabelSet::defaults());
+  bool custom_labels = false;            ///< `labels:` given and valid
+  std::vector<std::string> plugin_dirs;  ///< absolute; already prepended to the registry
+};
+
+/// Reads plugin_path (folders relative to `base_dir`, prepended to `reg`), grid and labels;
+/// `hint` for unknown keys of `grid`.
+CommonKeys readCommonKeys(const YAML::Node& root, const std::string& base_dir,
+                          PluginRegistry& reg, Diags& d, KeyHint hint = KeyHint::kNearest);
+
+/// Keys of a plugin entry.
+extern const std::vector<std::string> kEntryKeys;  // name, type, params
+
+/// "feature/energy" for messages.
+std::string kindList(const std::vector<PluginKind>& kinds);
+
+/// How createEntryPlugin checks an entry beyond its shape and type.
+struct EntryChecks {
+  KeyHint key_hint = KeyHint::kNearest;  ///< for unknown keys of the entry
+  bool key_errors_name_the_stage = true;  ///< unknown keys are reported against the entry's name
+  std::set<std::string>* unique_names = nullptr;  ///< reports a name already in it, then adds it
+};
+
+/// A plugin entry `{name, type, params}`, its plugin created but not yet parameterised.
+struct EntryPlugin {
+  std::unique_ptr<Plugin> plugin;  ///< identity set; null if there was a problem
+  std::string name, type;          ///< the name defaults to the type
+  PluginKind kind = PluginKind::kFeature;
+  /// The type is not installed. Not reported: a config must have it, a sweep may skip the runs
+  /// that need it, so the caller words it. `suggestion` is the nearest installed type, if any.
+  bool unknown_type = false;
+  std::string suggestion;
+};
+
+/// Checks entry `e` of `section` (a map with known keys and a type of one of `kinds`) and creates
+/// its plugin. Every problem except an unknown type becomes a diagnostic at the entry.
+EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const std::string& section,
+                              const std::vector<PluginKind>& kinds, Diags& d,
+                              const EntryChecks& checks = {});
+
+/// Sets the plugin's parameters from the entry's `params` (then `overrides`) and configures it;
+/// problems become diagnostics against the plugin. Returns true if there were none.
+bool applyEntryParams(Plugin& plugin, const YAML::Node& e, const PluginContext& ctx, Diags& d,
+                      const std::vector<std::pair<std::string, std::string>>& overrides = {});
+
+}  // namespace terramrf::detail

@@ -1,0 +1,272 @@
+#pragma once
+// Internal to the framework (not installed): what the files implementing sweep.hpp share.
+//   sweep_load.cpp      parsing and validating sweep files (and what train configs share with them)
+//   sweep_split.cpp     split items: parsing, data identity, the disjointness check, their sources
+//   sweep_pipeline.cpp  plugins from YAML entries, pipelines assembled from them
+//   sweep_training.cpp  learning a model with feature_stats (`terramrf train`)
+//   sweep_run.cpp       running the grid of a sweep (`terramrf compare`)
+//   sweep_report.cpp    Markdown/CSV/JSON/SVG reports
+//
+// Pipelines are assembled from YAML snippets of the train config / sweep file (so errors point at
+// that file) instead of going through loadPipeline: a sweep combines pieces from several places,
+// and training must not configure energy/optimiser stages whose model file does not exist yet.
+//
+// yaml-cpp: assigning one Node variable to another that already refers to a node overwrites the
+// shared node (every handle sees it); rebinding a variable is Node::reset.
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <memory>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "config_internal.hpp"
+#include "terramrf/config.hpp"
+#include "terramrf/pipeline.hpp"
+#include "terramrf/registry.hpp"
+#include "terramrf/sweep.hpp"
+
+namespace terramrf::sweep_detail {
+
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// ---- diagnostics, paths, names (config.cpp, sweep_load.cpp, sweep_report.cpp) ------------------
+
+using detail::Diags;
+
+/// Sweep and train files list the allowed keys when none is close to an unknown one.
+inline constexpr detail::KeyHint kKeyHint = detail::KeyHint::kNearestOrAll;
+
+/// The output plugin that learns feature models.
+inline constexpr const char* kStatsPlugin = "feature_stats";
+
+/// `p` relative to `base_dir` unless absolute, lexically normalised.
+std::string absPath(const std::string& base_dir, const std::string& p);
+/// `s` usable as a file name: anything but letters, digits and + - . _ becomes '_'.
+std::string sanitize(const std::string& s);
+/// Current UTC time, ISO 8601.
+std::string utcNow();
+
+// ---- progress bar -------------------------------------------------------------------------------
+
+class Progress {
+ public:
+  explicit Progress(bool enabled) : enabled_(enabled), tty_(::isatty(2) != 0) {}
+  void setTotal(std::size_t n) { total_ = n; }
+  void tick(const std::string& what) { advanceTo(done_ + 1, what); }
+  void advanceTo(std::size_t done, const std::string& what) {
+    done_ = std::min(std::max(done, done_), std::max(total_, done));
+    if (!enabled_ || total_ == 0) return;
+    const std::size_t step = std::max<std::size_t>(1, total_ / 20);
+    if (!tty_ && (done_ == printed_ || (done_ != total_ && done_ / step == printed_ / step)))
+      return;
+    printed_ = done_;
+    const int width = 30;
+    const int filled = static_cast<int>(width * std::min(done_, total_) / total_);
+    std::fprintf(stderr, "%s[%s%s] %zu/%zu scans  %s%s", tty_ ? "\r" : "",
+                 std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), done_,
+                 total_, what.c_str(), tty_ ? "\033[K" : "\n");
+    std::fflush(stderr);
+  }
+  /// Ends the bar's line so log messages start on a fresh one.
+  void breakLine() {
+    if (enabled_ && tty_ && total_ > 0) std::fprintf(stderr, "\n");
+  }
+  void finish() {
+    if (enabled_ && tty_ && total_ > 0) std::fprintf(stderr, "\n");
+  }
+
+ private:
+  bool enabled_, tty_;
+  std::size_t total_ = 0, done_ = 0, printed_ = 0;
+};
+
+// ---- plugins from snippets (sweep_pipeline.cpp) -------------------------------------------------
+
+/// Outcome of instantiating one `{name, type, params}` entry.
+struct Made {
+  std::unique_ptr<Plugin> plugin;
+  std::string not_installed;  ///< set when the type is unknown and the caller tolerates that
+  PluginKind kind = PluginKind::kFeature;
+  bool ok() const { return plugin != nullptr; }
+};
+
+/// Creates, parameterises and configures the plugin of entry `e`. Problems become diagnostics at
+/// the entry's position in `d.file`; an unknown type only sets `not_installed` when
+/// `tolerate_missing`. With `configure` false only the parameter names are checked (the energy
+/// entry of a sweep, whose model is trained later). The entry is checked by
+/// detail::createEntryPlugin, as in loadPipeline.
+Made makePlugin(PluginRegistry& reg, const YAML::Node& e, const std::string& section,
+                const std::vector<PluginKind>& kinds, const PluginContext& ctx, Diags& d,
+                bool tolerate_missing, bool configure = true);
+
+// ---- the common part of every pipeline (sweep_load.cpp) -----------------------------------------
+
+/// What a train config or sweep file says about every pipeline it makes: grid, labels, plugin
+/// folders, where relative paths start.
+struct Frame0 {
+  std::string file;      ///< the train config / sweep file (diagnostics)
+  std::string base_dir;  ///< its folder
+  GridGeometry grid;
+  std::shared_ptr<LabelSet> labels = std::make_shared<LabelSet>(LabelSet::defaults());
+  bool custom_labels = false;
+  YAML::Node labels_node;
+  std::vector<std::string> plugin_dirs;  ///< absolute, from the file's plugin_path
+
+  PluginContext context(const std::string& output_dir) const {
+    PluginContext ctx;
+    ctx.config_dir = base_dir;
+    ctx.output_dir = output_dir;
+    ctx.grid = grid;
+    ctx.labels = labels.get();
+    return ctx;
+  }
+};
+
+/// Reads grid, labels and plugin_path as loadPipeline does (detail::readCommonKeys).
+void readFrame0(const YAML::Node& root, Frame0& f0, Diags& d, PluginRegistry& reg);
+/// A scalar or a list of scalars as strings; empty if `n` is not defined.
+std::vector<std::string> stringList(const YAML::Node& n);
+
+// ---- split items (sweep_split.cpp) --------------------------------------------------------------
+
+/// One element of a split: a source entry (with the item's overrides applied) and frames.
+struct Item {
+  std::string dataset;  ///< sweep dataset name ("" in train configs)
+  std::string label;    ///< unique display name
+  YAML::Node source;    ///< {name, type, params} after overrides
+  std::string type;
+  FrameRange frames;
+  YAML::Mark mark;
+  bool range_given = false;
+  // Identity of the data, for the overlap check.
+  std::string path;      ///< canonical data folder, if the source reads one
+  std::string identity;  ///< type + distinguishing parameters, when there is no path
+  std::string identity_text;
+  // Filled when prepared.
+  std::unique_ptr<Source> src;
+  std::string unavailable;           ///< why the source cannot be made (type not installed)
+  std::size_t size = 0;              ///< frames of the source
+  std::size_t first = 0, count = 0;  ///< frames to run after range and limit
+};
+
+/// Fills the item's data identity: the canonical `path` if the source has one; else the type and
+/// its `seed` if it has one; else the type with every parameter except `frames` (a count, not a
+/// selection). Defaults are filled in when the plugin is installed, so `seed: 1` and an omitted
+/// default seed compare equal.
+void identify(Item& it, const std::string& base_dir, PluginRegistry& reg);
+/// Parses one split item. `datasets` (sweeps) maps names to source entries; `base_source`
+/// (train configs) is the config's source. A scalar is a dataset name (sweep) or a data folder
+/// (train config); a map has keys dataset, path, params, frames.
+bool parseItem(const YAML::Node& n, const std::map<std::string, YAML::Node>* datasets,
+               const YAML::Node& base_source, const std::string& base_dir, Diags& d, Item& it);
+/// Train and test items must not share data: same folder (or one inside the other) or same
+/// parameters without a path, with intersecting frame ranges. Diagnostics at the test item.
+void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& test, Diags& d);
+/// Instantiates and configures the item's source (unless its type is not installed); checks
+/// the frame range against the source's size and applies `limit`.
+void prepareItem(Item& it, PluginRegistry& reg, const Frame0& f0, const std::string& out_dir,
+                 std::size_t limit, Diags& d, bool tolerate_missing);
+/// Parses split.train / split.test lists.
+void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>* datasets,
+                const YAML::Node& base_source, const std::string& base_dir, Diags& d,
+                std::vector<std::unique_ptr<Item>>& train, std::vector<std::unique_ptr<Item>>& test,
+                bool need_both);
+/// Unique labels: an item named like another gets its frame range appended.
+void uniqueLabels(std::vector<std::unique_ptr<Item>>& items);
+
+/// Gives an item's configured source to a pipeline for one run and takes it back afterwards,
+/// also when the run throws.
+class SourceLoan {
+ public:
+  SourceLoan(Item& it, Pipeline& p) : it_(it), p_(p) { p_.source = std::move(it_.src); }
+  ~SourceLoan() { it_.src = std::move(p_.source); }
+
+ private:
+  Item& it_;
+  Pipeline& p_;
+};
+
+// ---- pipelines (sweep_pipeline.cpp) -------------------------------------------------------------
+
+/// Assembles a Pipeline from entries (already validated against `d.file`); the source is lent by
+/// the caller. Re-checks the read/write order like loadPipeline; throws ConfigError.
+Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
+                  const std::vector<YAML::Node>& stage_entries,
+                  const std::vector<YAML::Node>& output_entries,
+                  std::vector<std::unique_ptr<Output>> extra_outputs, const std::string& run_dir);
+/// Runs the item's frames (after range and limit) without a progress bar of the runner's own.
+RunOptions runOptions(const Item& it, std::ostream* log);
+/// `given`, or the registry's default folders when empty.
+std::vector<std::string> pluginDirs(const std::vector<std::string>& given);
+
+// ---- training (sweep_training.cpp) --------------------------------------------------------------
+
+struct TrainJob {
+  const Frame0* f0 = nullptr;
+  std::vector<YAML::Node> stages;  ///< egomotion + feature entries
+  std::vector<Item*> items;
+  std::vector<std::string> features;
+  YAML::Node stats_params;  ///< extra feature_stats params (min_sigma, min_purity, …)
+  YAML::Mark features_mark;
+  std::string model_path;
+  std::string run_root;  ///< per-item run folders (resolved_config.yaml) and scratch files
+  std::string origin;    ///< "config <path>" / "sweep <path>, feature set L"
+  std::vector<std::string> held_out;  ///< test items, for the provenance
+  std::string what;                   ///< progress prefix
+};
+
+/// Runs the job's stages over its items, learns with feature_stats and writes the model with our
+/// provenance. Throws ConfigError for bad training parameters, std::runtime_error otherwise.
+TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, std::ostream& log);
+
+// ---- sweep files (sweep_load.cpp) ---------------------------------------------------------------
+
+struct FeatureSet {
+  std::string name;
+  std::vector<YAML::Node> stages;
+  std::vector<std::string> features;
+  YAML::Mark features_mark, mark;
+  YAML::Node min_sigma;
+  std::string model;        ///< given model (absolute), or "" = train
+  std::string unavailable;  ///< a stage type is not installed
+  int train_group = -1;     ///< index into Sweep::train_groups, -1 = split.train
+};
+
+struct OptimiserDef {
+  std::string name;
+  YAML::Node entry;
+  std::string unavailable;
+};
+
+struct Sweep {
+  std::string file, name, output_dir;
+  Frame0 f0;
+  std::map<std::string, YAML::Node> datasets;
+  std::vector<std::unique_ptr<Item>> train, test;
+  /// Feature-set specific training items (`train:` of a feature set), overriding split.train.
+  std::vector<std::vector<std::unique_ptr<Item>>> train_groups;
+  std::vector<YAML::Node> common_stages;
+  std::string common_unavailable;
+  std::vector<FeatureSet> feature_sets;
+  std::vector<OptimiserDef> optimisers;
+  YAML::Node energy;
+  std::string energy_unavailable;
+  YAML::Node training;  ///< feature_stats params
+  YAML::Mark training_mark;
+  std::vector<YAML::Node> outputs;
+  std::size_t roc_max_points = 500;
+  std::string roc_fallback = "local_energy";
+  std::vector<std::string> notes;
+};
+
+/// Parses and validates everything; sources of split items are configured (kept for the runs).
+std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
+                                 const std::string& output_dir, std::size_t limit);
+
+}  // namespace terramrf::sweep_detail

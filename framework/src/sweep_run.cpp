@@ -1,0 +1,402 @@
+// `terramrf compare`: one model per feature set, then every test item x feature set x optimiser,
+// each run scored by the evaluation and ROC accumulators.
+#include "terramrf/sweep.hpp"
+
+#include <filesystem>
+#include <iostream>
+#include <set>
+#include <sstream>
+
+#include "sweep_internal.hpp"
+#include "terramrf/atomic_file.hpp"
+
+namespace terramrf {
+namespace fs = std::filesystem;
+
+namespace sweep_detail {
+namespace {
+
+/// The items a feature set trains on.
+const std::vector<std::unique_ptr<Item>>& trainItems(const Sweep& s, const FeatureSet& f) {
+  return f.train_group >= 0 ? s.train_groups[f.train_group] : s.train;
+}
+
+std::string trainUnavailable(const Sweep& s, const FeatureSet& f) {
+  if (!f.model.empty()) return "";
+  for (const auto& it : trainItems(s, f))
+    if (!it->unavailable.empty()) return "train item '" + it->label + "': " + it->unavailable;
+  return "";
+}
+
+/// Why a run cannot be made ("" = it can).
+std::string skipReason(const Sweep& s, const Item& test, const FeatureSet& f,
+                       const OptimiserDef& o) {
+  if (!test.unavailable.empty()) return "dataset '" + test.label + "': " + test.unavailable;
+  if (!s.common_unavailable.empty()) return "common stages: " + s.common_unavailable;
+  if (!f.unavailable.empty()) return "feature set '" + f.name + "': " + f.unavailable;
+  if (!s.energy_unavailable.empty()) return "energy: " + s.energy_unavailable;
+  if (!o.unavailable.empty()) return "optimiser '" + o.name + "': " + o.unavailable;
+  const std::string t = trainUnavailable(s, f);
+  if (!t.empty()) return "no model for feature set '" + f.name + "': " + t;
+  return "";
+}
+
+/// Collects evaluation, ROC samples, energies of one run; ticks the progress bar.
+class RunCollector final : public Output {
+ public:
+  RunCollector(const LabelSet& labels, bool energy_fallback, RunRecord& rec, Progress& progress,
+               std::string what)
+      : evaluator_(labels),
+        roc_(labels),
+        energy_fallback_(energy_fallback),
+        rec_(rec),
+        progress_(progress),
+        what_(std::move(what)) {
+    setIdentity("compare_collector", "compare_collector");
+  }
+  std::vector<std::string> reads() const override {
+    return {artefacts::kPoints, artefacts::kLabels};
+  }
+  void write(const FrameContext& ctx) override {
+    const TerrainGrid& g = *ctx.grid;
+    const Frame& fr = *ctx.frame;
+    const EvalCounts frame_counts = evaluator_.addFrame(g, fr);
+    if (frame_counts.scans) rec_.per_scan.emplace_back(fr.id, frame_counts);
+    const RocFrameStats st = roc_.addFrame(
+        g, fr, energy_fallback_ ? &ctx.energy : static_cast<const EnergyModel*>(nullptr));
+    if (st.source != ScoreSource::kNone) sources_.insert(st.source);
+    FrameEnergy e;
+    e.frame = fr.id;
+    e.initial = ctx.optimiser.initial_energy;
+    e.reported = ctx.optimiser.final_energy;
+    e.iterations = ctx.optimiser.iterations;
+    e.converged = ctx.optimiser.converged;
+    e.recomputed = recompute(ctx.energy, g.labels());
+    rec_.energies.push_back(e);
+    progress_.tick(what_ + " " + fr.id);
+  }
+  void end(const RunSummary&) override {
+    rec_.counts = evaluator_.total();
+    rec_.roc = roc_.curves(max_points_);
+    if (sources_.count(ScoreSource::kScoreLayers))
+      rec_.score_source = ScoreSource::kScoreLayers;
+    else if (sources_.count(ScoreSource::kLocalEnergy))
+      rec_.score_source = ScoreSource::kLocalEnergy;
+    std::ostringstream note;
+    if (rec_.counts.scans == 0) {
+      note << "no frame with per-point ground truth: nothing to score";
+    } else if (sources_.empty()) {
+      note << "no ROC: the optimiser wrote no score layers"
+           << (energy_fallback_ ? " and there was no energy model" : " (roc.fallback: skip)");
+    } else {
+      if (roc_.frames_with_layers)
+        note << roc_.frames_with_layers << " frame(s) scored from score layers";
+      if (roc_.frames_with_energy_fallback)
+        note << (roc_.frames_with_layers ? "; " : "") << roc_.frames_with_energy_fallback
+             << " frame(s) from the local energy margin (the optimiser wrote no score layers)";
+      if (roc_.frames_without_scores)
+        note << "; " << roc_.frames_without_scores << " frame(s) without scores";
+      if (roc_.cells_without_score)
+        note << "; " << roc_.cells_without_score << " of " << roc_.cells_scored
+             << " scored cells had no score";
+    }
+    rec_.roc_note = note.str();
+  }
+  void setMaxPoints(std::size_t n) { max_points_ = n; }
+
+ private:
+  static double recompute(const EnergyModel& em, const std::vector<LabelId>& labels) {
+    if (em.empty() || em.cells() != labels.size()) return kNaN;
+    std::vector<int> index_of(256, -1);
+    for (int k = 0; k < em.numLabels(); ++k) index_of[em.active[k]] = k;
+    std::vector<uint8_t> lab(em.cells(), 0);
+    for (std::size_t i = 0; i < em.cells(); ++i) {
+      if (em.fixed[i]) continue;
+      const int k = index_of[labels[i]];
+      if (k < 0) return kNaN;  // a label the model cannot express
+      lab[i] = static_cast<uint8_t>(k);
+    }
+    return em.energy(lab);
+  }
+
+  Evaluator evaluator_;
+  RocAccumulator roc_;
+  bool energy_fallback_;
+  RunRecord& rec_;
+  Progress& progress_;
+  std::string what_;
+  std::set<ScoreSource> sources_;
+  std::size_t max_points_ = 500;
+};
+
+RunTimes runTimes(const RunResult& r, const Pipeline& p) {
+  std::set<std::string> mrf, feature;
+  for (std::size_t i = 0; i < p.stages.size(); ++i) {
+    const PluginKind k = p.stage_kinds[i];
+    (k == PluginKind::kEnergy || k == PluginKind::kOptimiser ? mrf : feature)
+        .insert(p.stages[i]->name());
+  }
+  RunTimes t;
+  std::size_t n = 0;
+  for (const auto& s : r.timings) n = std::max(n, s.ms.size());
+  t.processing.assign(n, 0);
+  t.features.assign(n, 0);
+  t.mrf.assign(n, 0);
+  t.total.assign(n, 0);
+  for (const auto& s : r.timings) {
+    if (s.ms.size() != n) continue;
+    const bool is_total = s.name == "total";
+    const bool is_io = s.name == "read" || s.name.rfind("output:", 0) == 0;
+    for (std::size_t f = 0; f < n; ++f) {
+      if (is_total) {
+        t.total[f] = s.ms[f];
+        continue;
+      }
+      if (is_io) continue;
+      t.processing[f] += s.ms[f];
+      if (mrf.count(s.name))
+        t.mrf[f] += s.ms[f];
+      else
+        t.features[f] += s.ms[f];  // grid + egomotion + features
+    }
+  }
+  return t;
+}
+
+}  // namespace
+}  // namespace sweep_detail
+
+using sweep_detail::FeatureSet;
+using sweep_detail::Item;
+using sweep_detail::Progress;
+using sweep_detail::RunCollector;
+using sweep_detail::SourceLoan;
+using sweep_detail::TrainJob;
+using sweep_detail::assemble;
+using sweep_detail::loadSweep;
+using sweep_detail::pluginDirs;
+using sweep_detail::runOptions;
+using sweep_detail::runTimes;
+using sweep_detail::runTraining;
+using sweep_detail::sanitize;
+using sweep_detail::skipReason;
+using sweep_detail::trainItems;
+using sweep_detail::trainUnavailable;
+
+SweepPlan planSweep(const std::string& sweep_path, const std::vector<std::string>& plugin_dirs) {
+  PluginRegistry reg(pluginDirs(plugin_dirs));
+  auto s = loadSweep(sweep_path, reg, "", 0);
+  SweepPlan plan;
+  plan.name = s->name;
+  for (const auto& t : s->test)
+    for (const auto& f : s->feature_sets)
+      for (const auto& o : s->optimisers) {
+        const std::string run = t->label + " × " + f.name + " × " + o.name;
+        const std::string why = skipReason(*s, *t, f, o);
+        if (why.empty())
+          plan.runs.push_back(run);
+        else
+          plan.skipped.push_back({run, why});
+      }
+  return plan;
+}
+
+const RunRecord* SweepResult::find(const std::string& dataset, const std::string& feature_set,
+                                   const std::string& optimiser) const {
+  for (const auto& r : runs)
+    if (r.dataset == dataset && r.feature_set == feature_set && r.optimiser == optimiser) return &r;
+  return nullptr;
+}
+
+int SweepResult::exitCode() const {
+  for (const auto& r : runs)
+    if (r.status == RunRecord::Status::kFailed || !r.failed.empty()) return 3;
+  return 0;
+}
+
+SweepResult runSweep(const CompareOptions& o) {
+  std::ostream& log = o.log ? *o.log : std::cerr;
+  PluginRegistry reg(pluginDirs(o.plugin_dirs));
+  auto s = loadSweep(o.sweep_path, reg, o.output_dir, o.limit);
+  for (const auto& n : s->notes) log << "note: " << n << "\n";
+  SweepResult res;
+  res.name = s->name;
+  res.sweep_path = fs::absolute(o.sweep_path).lexically_normal().string();
+  res.output_dir = s->output_dir;
+  res.labels = *s->f0.labels;
+  res.limit = o.limit;
+  for (const auto& t : s->test) res.datasets.push_back(t->label);
+  for (const auto& f : s->feature_sets) res.feature_sets.push_back(f.name);
+  for (const auto& op : s->optimisers) res.optimisers.push_back(op.name);
+  for (const auto& t : s->train) res.train_items.push_back(t->label + " (" + t->frames.str() + ")");
+  fs::create_directories(s->output_dir);
+  writeFileAtomic(s->output_dir + "/sweep.yaml", readFile(o.sweep_path));
+
+  // Progress total: training frames of every feature set that trains, test frames of every run.
+  Progress progress(o.progress);
+  std::size_t total = 0;
+  std::vector<std::string> fs_train_reason(s->feature_sets.size());
+  for (std::size_t i = 0; i < s->feature_sets.size(); ++i) {
+    const auto& f = s->feature_sets[i];
+    if (!f.model.empty()) continue;
+    std::string why = trainUnavailable(*s, f);
+    if (why.empty() && !f.unavailable.empty()) why = f.unavailable;
+    if (why.empty() && !s->common_unavailable.empty()) why = s->common_unavailable;
+    fs_train_reason[i] = why;
+    if (why.empty())
+      for (const auto& t : trainItems(*s, f)) total += t->count;
+  }
+  for (const auto& t : s->test)
+    for (const auto& f : s->feature_sets)
+      for (const auto& op : s->optimisers)
+        if (skipReason(*s, *t, f, op).empty()) total += t->count;
+  progress.setTotal(total);
+  std::size_t done = 0;
+
+  // 1. One model per feature set.
+  std::vector<std::string> model_of(s->feature_sets.size());
+  std::vector<bool> train_failed(s->feature_sets.size(), false);
+  for (std::size_t i = 0; i < s->feature_sets.size(); ++i) {
+    const FeatureSet& f = s->feature_sets[i];
+    ModelRecord mr;
+    mr.feature_set = f.name;
+    if (!f.model.empty()) {
+      mr.path = f.model;
+      mr.reason = "given in the sweep";
+    } else if (!fs_train_reason[i].empty()) {
+      mr.reason = "not trained: " + fs_train_reason[i];
+    } else {
+      TrainJob job;
+      job.f0 = &s->f0;
+      job.stages = s->common_stages;
+      job.stages.insert(job.stages.end(), f.stages.begin(), f.stages.end());
+      for (auto& t : trainItems(*s, f)) {
+        job.items.push_back(t.get());
+        mr.train_items.push_back(t->label + " (" + t->frames.str() + ")");
+      }
+      job.features = f.features;
+      job.features_mark = f.features_mark;
+      job.stats_params = s->training ? YAML::Clone(s->training) : YAML::Node(YAML::NodeType::Map);
+      if (f.min_sigma) job.stats_params["min_sigma"] = f.min_sigma;
+      job.model_path = s->output_dir + "/models/" + sanitize(f.name) + ".yaml";
+      job.run_root = s->output_dir + "/models/" + sanitize(f.name) + ".train";
+      job.origin = "sweep " + res.sweep_path + ", feature set " + f.name;
+      for (const auto& t : s->test) job.held_out.push_back(t->label + " (" + t->frames.str() + ")");
+      job.what = "train " + f.name + ": ";
+      try {
+        const TrainResult tr = runTraining(job, reg, progress, log);
+        mr.path = tr.model_path;
+        mr.trained = true;
+        mr.frames = tr.frames;
+        mr.labelled_frames = tr.labelled_frames;
+        mr.missing = tr.missing;
+        if (!tr.missing.empty()) {
+          progress.breakLine();
+          log << "note: feature set " << f.name << ": no statistics for";
+          for (const auto& m : tr.missing) log << " " << m;
+          log << " (fewer than two training cells)\n";
+        }
+      } catch (const ConfigError&) {
+        throw;
+      } catch (const std::exception& e) {
+        mr.reason = std::string("training failed: ") + e.what();
+        train_failed[i] = true;
+        progress.breakLine();
+        log << "feature set " << f.name << ": " << mr.reason << "\n";
+      }
+      for (const auto& t : trainItems(*s, f)) done += t->count;
+      progress.advanceTo(done, "trained " + f.name);
+    }
+    model_of[i] = mr.path;
+    res.models.push_back(mr);
+  }
+
+  // 2. Every test item × feature set × optimiser.
+  for (auto& tptr : s->test) {
+    Item& t = *tptr;
+    for (std::size_t fi = 0; fi < s->feature_sets.size(); ++fi) {
+      const FeatureSet& f = s->feature_sets[fi];
+      for (const auto& op : s->optimisers) {
+        RunRecord rec;
+        rec.dataset = t.label;
+        rec.feature_set = f.name;
+        rec.optimiser = op.name;
+        rec.frames = t.count;
+        rec.counts = EvalCounts(res.labels.size());
+        rec.reason = skipReason(*s, t, f, op);
+        if (!rec.reason.empty()) {
+          rec.status = RunRecord::Status::kSkipped;
+          res.runs.push_back(std::move(rec));
+          continue;
+        }
+        if (model_of[fi].empty()) {
+          rec.status = train_failed[fi] ? RunRecord::Status::kFailed : RunRecord::Status::kSkipped;
+          rec.reason = "no model for feature set '" + f.name + "': " + res.models[fi].reason;
+          res.runs.push_back(std::move(rec));
+          continue;
+        }
+        rec.output_dir = s->output_dir + "/runs/" + sanitize(rec.key());
+        const std::string what = t.label + " × " + f.name + " × " + op.name + ":";
+        try {
+          std::vector<YAML::Node> stages = s->common_stages;
+          stages.insert(stages.end(), f.stages.begin(), f.stages.end());
+          YAML::Node energy = YAML::Clone(s->energy);
+          if (!energy["params"] || energy["params"].IsNull())
+            energy["params"] = YAML::Node(YAML::NodeType::Map);
+          energy["params"]["model"] = model_of[fi];
+          for (const auto& feat : f.features) energy["params"]["features"].push_back(feat);
+          stages.push_back(energy);
+          stages.push_back(op.entry);
+          std::vector<std::unique_ptr<Output>> extra;
+          auto collector = std::make_unique<RunCollector>(
+              res.labels, s->roc_fallback == "local_energy", rec, progress, what);
+          collector->setMaxPoints(s->roc_max_points);
+          extra.push_back(std::move(collector));
+          Pipeline p =
+              assemble(reg, s->f0, t, stages, s->outputs, std::move(extra), rec.output_dir);
+          RunResult rr;
+          {
+            SourceLoan loan(t, p);
+            rr = runPipeline(p, runOptions(t, &log));
+          }
+          rec.frames_ok = rr.summary.frames_ok;
+          rec.failed = rr.summary.failed;
+          rec.times = runTimes(rr, p);
+          writeFileAtomic(rec.output_dir + "/timing.md", timingTable(rr));
+          if (rr.frames_total > 0 && rr.summary.frames_ok == 0) {
+            rec.status = RunRecord::Status::kFailed;
+            rec.reason = "every frame failed";
+            if (!rr.summary.failed.empty())
+              rec.reason += " (first: " + rr.summary.failed[0].second + ")";
+          }
+          for (const auto& e : rr.output_errors) {
+            rec.status = RunRecord::Status::kFailed;
+            rec.reason += (rec.reason.empty() ? "" : "; ") + e;
+          }
+          if (!rec.failed.empty()) {
+            progress.breakLine();
+            log << what << " " << rec.failed.size() << " frame(s) failed and were skipped\n";
+          }
+        } catch (const ConfigError& e) {
+          rec.status = RunRecord::Status::kFailed;
+          rec.reason = e.what();
+        } catch (const std::exception& e) {
+          rec.status = RunRecord::Status::kFailed;
+          rec.reason = e.what();
+        }
+        if (rec.status == RunRecord::Status::kFailed) {
+          progress.breakLine();
+          log << what << " failed: " << rec.reason << "\n";
+        }
+        done += t.count;
+        progress.advanceTo(done, what + " done");
+        res.runs.push_back(std::move(rec));
+      }
+    }
+  }
+  progress.finish();
+  writeSweepReport(res, s->output_dir);
+  return res;
+}
+
+}  // namespace terramrf

@@ -1,0 +1,296 @@
+// Split items of train configs and sweeps: parsing, the identity of their data, the check that
+// train and test sets are disjoint, and configuring their sources.
+#include "terramrf/sweep.hpp"
+
+#include <filesystem>
+#include <map>
+#include <set>
+
+#include "param_yaml.hpp"
+#include "config_internal.hpp"
+#include "sweep_internal.hpp"
+#include "terramrf/param_values.hpp"
+
+namespace terramrf {
+namespace fs = std::filesystem;
+
+std::string FrameRange::str() const {
+  if (all()) return "all frames";
+  if (first == last) return "frame " + std::to_string(first);
+  if (last == npos) return "frames " + std::to_string(first) + "-end";
+  return "frames " + std::to_string(first) + "-" + std::to_string(last);
+}
+
+namespace sweep_detail {
+namespace {
+
+std::string canonicalPath(const std::string& p) {
+  std::error_code ec;
+  fs::path c = fs::weakly_canonical(p, ec);
+  if (ec) c = fs::path(p).lexically_normal();
+  std::string s = c.string();
+  while (s.size() > 1 && s.back() == '/') s.pop_back();
+  return s;
+}
+
+/// True if `inner` is `outer` or lies inside it.
+bool pathWithin(const std::string& inner, const std::string& outer) {
+  if (inner == outer) return true;
+  return inner.size() > outer.size() && inner.compare(0, outer.size(), outer) == 0 &&
+         inner[outer.size()] == '/';
+}
+
+/// Parses `frames: [first, last]` (inclusive) or `frames: N` (one frame).
+bool parseFrames(const YAML::Node& n, FrameRange& r, Diags& d) {
+  auto idx = [&](const YAML::Node& x, std::size_t& out) {
+    try {
+      const long long v = x.as<long long>();
+      if (v < 0) throw YAML::Exception(x.Mark(), "negative");
+      out = static_cast<std::size_t>(v);
+      return true;
+    } catch (const YAML::Exception&) {
+      d.add(x.Mark(), "frames: expected a frame index >= 0, got '" + x.Scalar() + "'");
+      return false;
+    }
+  };
+  if (n.IsScalar()) {
+    if (!idx(n, r.first)) return false;
+    r.last = r.first;
+    return true;
+  }
+  if (!n.IsSequence() || n.size() != 2) {
+    d.add(n.Mark(), "frames: expected [first, last] (inclusive frame indices) or one index");
+    return false;
+  }
+  if (!idx(n[0], r.first) || !idx(n[1], r.last)) return false;
+  if (r.last < r.first) {
+    d.add(n.Mark(), "frames: last (" + std::to_string(r.last) + ") is before first (" +
+                        std::to_string(r.first) + ")");
+    return false;
+  }
+  return true;
+}
+
+std::string itemText(const Item& it) {
+  return "'" + it.label + "' (" + it.frames.str() + " of " + it.identity_text + ")";
+}
+
+}  // namespace
+}  // namespace sweep_detail
+
+namespace sweep_detail {
+
+void identify(Item& it, const std::string& base_dir, PluginRegistry& reg) {
+  const YAML::Node params = it.source["params"];
+  if (params && params.IsMap() && params["path"] && params["path"].IsScalar()) {
+    it.path = canonicalPath(absPath(base_dir, params["path"].Scalar()));
+    it.identity_text = it.path;
+    return;
+  }
+  std::map<std::string, std::string> kv;
+  if (const PluginInfo* info = reg.find(it.type)) {
+    (void)info;
+    try {
+      auto p = reg.create(it.type);
+      for (const auto& s : declaredParams(*p)) kv[s.name] = toYaml(s.default_value);
+    } catch (const std::exception&) {
+    }
+  }
+  if (params && params.IsMap()) {
+    for (auto p = params.begin(); p != params.end(); ++p) {
+      YAML::Emitter em;
+      em << YAML::Flow << p->second;
+      kv[p->first.Scalar()] = em.c_str();
+    }
+  }
+  kv.erase("frames");
+  if (kv.count("seed")) {
+    // A seed names a generated world: the same seed with other parameters (noise, speed) is
+    // still the same terrain and objects, so it must not be on both sides of a split.
+    kv = {{"seed", kv["seed"]}};
+  }
+  it.identity = it.type + "{";
+  for (const auto& [k, v] : kv) it.identity += k + ":" + v + ";";
+  it.identity += "}";
+  it.identity_text = it.type;
+  if (kv.count("seed")) it.identity_text += " seed " + kv["seed"];
+}
+
+bool parseItem(const YAML::Node& n, const std::map<std::string, YAML::Node>* datasets,
+               const YAML::Node& base_source, const std::string& base_dir, Diags& d, Item& it) {
+  it.mark = n.Mark();
+  YAML::Node base = base_source;
+  std::string path_override;
+  YAML::Node params_override;
+  if (n.IsScalar()) {
+    if (datasets) {
+      it.dataset = n.Scalar();
+    } else {
+      path_override = n.Scalar();
+    }
+  } else if (n.IsMap()) {
+    std::vector<std::string> keys = {"path", "params", "frames"};
+    if (datasets) keys.insert(keys.begin(), "dataset");
+    detail::checkKeys(d, n, keys, "split item", kKeyHint);
+    if (datasets && n["dataset"]) it.dataset = n["dataset"].Scalar();
+    if (n["path"]) path_override = n["path"].Scalar();
+    if (n["params"]) {
+      params_override = n["params"];
+      if (!params_override.IsMap()) {
+        d.add(params_override.Mark(), "split item 'params' must be a map of source parameters");
+        return false;
+      }
+    }
+    if (n["frames"]) {
+      if (!parseFrames(n["frames"], it.frames, d)) return false;
+      it.range_given = true;
+    }
+  } else {
+    d.add(n.Mark(), datasets ? "split item: expected a dataset name or {dataset, frames, params}"
+                             : "split item: expected a data folder or {path, frames, params}");
+    return false;
+  }
+  if (datasets) {
+    if (it.dataset.empty()) {
+      d.add(n.Mark(), "split item needs 'dataset: <name>' (one of the datasets section)");
+      return false;
+    }
+    auto f = datasets->find(it.dataset);
+    if (f == datasets->end()) {
+      std::vector<std::string> names;
+      for (const auto& [k, v] : *datasets) names.push_back(k);
+      std::string m = "unknown dataset '" + it.dataset + "'";
+      const std::string dym = detail::didYouMean(it.dataset, names);
+      if (!dym.empty()) m += " (did you mean '" + dym + "'?)";
+      d.add(n.Mark(), m);
+      return false;
+    }
+    base.reset(f->second);  // reset: operator= would overwrite the shared node
+  }
+  if (!base || !base.IsMap()) return false;
+  it.source = YAML::Clone(base);
+  if (!it.source["params"] || it.source["params"].IsNull())
+    it.source["params"] = YAML::Node(YAML::NodeType::Map);
+  if (params_override)
+    for (auto p = params_override.begin(); p != params_override.end(); ++p)
+      it.source["params"][p->first.Scalar()] = p->second;
+  if (!path_override.empty()) {
+    const std::string abs = absPath(base_dir, path_override);
+    if (!fs::exists(abs)) {
+      d.add(n.Mark(), "data folder '" + abs + "' does not exist");
+      return false;
+    }
+    it.source["params"]["path"] = abs;
+  }
+  it.type = it.source["type"] ? it.source["type"].Scalar() : "";
+  // Display name.
+  if (!it.dataset.empty()) {
+    it.label = it.dataset;
+  } else if (!path_override.empty()) {
+    it.label = fs::path(path_override).lexically_normal().string();
+  } else {
+    it.label = it.type;
+    if (params_override)
+      for (auto p = params_override.begin(); p != params_override.end(); ++p)
+        it.label +=
+            " " + p->first.Scalar() + "=" + (p->second.IsScalar() ? p->second.Scalar() : "…");
+  }
+  return true;
+}
+
+void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& test, Diags& d) {
+  for (const Item* t : test) {
+    for (const Item* r : train) {
+      std::string why;
+      if (!t->path.empty() && !r->path.empty()) {
+        if (t->path == r->path) {
+          if (t->frames.overlaps(r->frames)) {
+            const std::size_t a = std::max(t->frames.first, r->frames.first);
+            const std::size_t b = std::min(t->frames.last, r->frames.last);
+            why = "both read " + t->path + ", " + FrameRange{a, b}.str() + " in both";
+          }
+        } else if (pathWithin(t->path, r->path) || pathWithin(r->path, t->path)) {
+          why = "one data folder contains the other (" + r->path + " / " + t->path + ")";
+        }
+      } else if (t->path.empty() && r->path.empty() && t->identity == r->identity &&
+                 t->frames.overlaps(r->frames)) {
+        const std::size_t a = std::max(t->frames.first, r->frames.first);
+        const std::size_t b = std::min(t->frames.last, r->frames.last);
+        why = "same source and parameters (" + t->identity_text + "), " + FrameRange{a, b}.str() +
+              " in both";
+      }
+      if (why.empty()) continue;
+      std::string where;
+      if (r->mark.line >= 0) where = " at line " + std::to_string(r->mark.line + 1);
+      d.add(t->mark, "split: test item " + itemText(*t) + " overlaps train item " + itemText(*r) +
+                         where + ": " + why + "; train and test sets must be disjoint");
+    }
+  }
+}
+
+void prepareItem(Item& it, PluginRegistry& reg, const Frame0& f0, const std::string& out_dir,
+                 std::size_t limit, Diags& d, bool tolerate_missing) {
+  Made m = makePlugin(reg, it.source, "source", {PluginKind::kSource}, f0.context(out_dir), d,
+                      tolerate_missing);
+  if (!m.ok()) {
+    it.unavailable = m.not_installed;
+    return;
+  }
+  it.src.reset(static_cast<Source*>(m.plugin.release()));
+  it.size = it.src->size();
+  if (it.frames.first >= it.size) {
+    d.add(it.mark, "split item '" + it.label + "' asks for " + it.frames.str() +
+                       " but the source has " + std::to_string(it.size) + " frame(s)");
+    it.src.reset();
+    return;
+  }
+  const std::size_t last = std::min(it.frames.last, it.size - 1);
+  it.first = it.frames.first;
+  it.count = last - it.first + 1;
+  if (limit > 0) it.count = std::min(it.count, limit);
+}
+
+void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>* datasets,
+                const YAML::Node& base_source, const std::string& base_dir, Diags& d,
+                std::vector<std::unique_ptr<Item>>& train, std::vector<std::unique_ptr<Item>>& test,
+                bool need_both) {
+  if (!split.IsMap()) {
+    d.add(split.Mark(), "'split' must be a map {train: [...], test: [...]}");
+    return;
+  }
+  detail::checkKeys(d, split, {"train", "test"}, "split", kKeyHint);
+  auto list = [&](const char* key, std::vector<std::unique_ptr<Item>>& out) {
+    const YAML::Node l = split[key];
+    if (!l) {
+      if (need_both || std::string(key) == "train")
+        d.add(split.Mark(), std::string("split: missing '") + key + ": [...]'");
+      return;
+    }
+    if (!l.IsSequence() || l.size() == 0) {
+      d.add(l.Mark(), std::string("split.") + key + ": expected a non-empty list of items");
+      return;
+    }
+    for (const auto& n : l) {
+      auto it = std::make_unique<Item>();
+      if (parseItem(n, datasets, base_source, base_dir, d, *it)) out.push_back(std::move(it));
+    }
+  };
+  list("train", train);
+  list("test", test);
+}
+
+void uniqueLabels(std::vector<std::unique_ptr<Item>>& items) {
+  std::map<std::string, int> n;
+  for (const auto& it : items) ++n[it->label];
+  for (auto& it : items)
+    if (n[it->label] > 1 && it->range_given) {
+      it->label += "[" + std::to_string(it->frames.first) + "-" +
+                   (it->frames.last == FrameRange::npos ? std::string("end")
+                                                        : std::to_string(it->frames.last)) +
+                   "]";
+    }
+}
+
+}  // namespace sweep_detail
+
+}  // namespace terramrf
