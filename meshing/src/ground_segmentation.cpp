@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <opencv2/imgproc.hpp>
+
 #include "terramrf/errors.hpp"
 #include "terramrf/label_set.hpp"
 
@@ -19,14 +21,24 @@ GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
                                std::to_string(image.height) + " px but the camera model says " +
                                std::to_string(cam.width) + "x" + std::to_string(cam.height));
   const int W = image.width, H = image.height;
+  // Textured ground (grass, gravel) imaged finer than the LiDAR samples it: single pixels of a
+  // grass field are as dark as a bush's shadow or as bright as the sky. The colour model and the
+  // contrast of eq. 12 then see the texture's mean colour over a (2k+1)² box (k = 0: raw pixels).
+  Image smoothed;
+  if (p.colour_smooth_px > 0) {
+    smoothed = Image(W, H, 3);
+    const int k = 2 * p.colour_smooth_px + 1;
+    cv::blur(cv::Mat(H, W, CV_8UC3, const_cast<uint8_t*>(image.data.data())),
+             cv::Mat(H, W, CV_8UC3, smoothed.data.data()), cv::Size(k, k), cv::Point(-1, -1),
+             cv::BORDER_REFLECT);
+  }
+  const Image& img = p.colour_smooth_px > 0 ? smoothed : image;
   GroundSegmentation g;
   g.width = W;
   g.height = H;
   std::vector<uint8_t> seed(std::size_t(W) * H, 0);
   ColourModel colours(p.colour_bins, H, p.colour_band_rows);
   std::vector<uint32_t> lidar_obj;  // pixels of non-ground points
-  const double lo = -p.sensor_height_m - p.band_m, hi = -p.sensor_height_m + p.band_m;
-  const double obj = hi + p.object_above_m;
   // Eq. 7: t = K R [I | −C] T, here P · T_camera_lidar (CameraModel::projectUnbounded). Every
   // point is projected once; its pixel (or −1) is kept for the passes below.
   const Eigen::Matrix3d R = cam.T_camera_lidar.linear();
@@ -110,6 +122,47 @@ GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
   };
   filter(zlo, true, nlo);
   filter(zhi, false, nhi);
+  // h1 of the paper is the ground plane z = −h1 below the sensor. A vehicle pitched on a slope,
+  // or a sensor whose mount height is not known exactly, puts the real ground plane elsewhere
+  // (RELLIS 000104: ground at z = −1.25 m at 5 m, −0.6 m at 17 m). Fit it to the local minima of
+  // the cells (the ground under grass and beside bushes), starting from z = −h1 and then
+  // tightening the acceptance to the band; fall back to z = −h1 when the fit is poorly supported.
+  Eigen::Vector3d plane(0, 0, -p.sensor_height_m);  // z = a·x + b·y + c
+  if (p.fit_ground_plane) {
+    const double rmax2 = p.plane_fit_range_m * p.plane_fit_range_m;
+    Eigen::Vector3d est = plane;
+    bool ok = true;
+    for (int it = 0; it < 4 && ok; ++it) {
+      Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d b = Eigen::Vector3d::Zero();
+      std::size_t n = 0;
+      for (int r = 0; r < nr; ++r) {
+        const double x = (r0 + r + 0.5) * cs;
+        for (int c = 0; c < ncol; ++c) {
+          const int k = r * ncol + c;
+          if (zlo[k] > 1e8f || zlo[k] > nlo[k] + 0.05f) continue;  // empty, or not a local minimum
+          const double y = (c0 + c + 0.5) * cs, d2 = x * x + y * y;
+          if (d2 > rmax2) continue;
+          const double res = zlo[k] - (est.x() * x + est.y() * y + est.z());
+          const double tol = it == 0 ? p.band_m + p.local_max_slope * std::sqrt(d2) : p.band_m;
+          if (std::abs(res) > tol) continue;
+          const Eigen::Vector3d q(x, y, 1.0);
+          A += q * q.transpose();
+          b += q * double(zlo[k]);
+          ++n;
+        }
+      }
+      ok = n >= 30 && std::abs(A.determinant()) > 1e-9;
+      if (ok) est = A.ldlt().solve(b);
+    }
+    if (ok && std::hypot(est.x(), est.y()) <= p.plane_max_slope &&
+        std::abs(est.z() + p.sensor_height_m) <= p.plane_max_offset_m) {
+      plane = est;
+      g.plane_fitted = true;
+    }
+  }
+  g.ground_plane = {plane.x(), plane.y(), plane.z()};
+  auto groundZ = [&](double x, double y) { return plane.x() * x + plane.y() * y + plane.z(); };
   const double below_r2 = p.below_sample_range_m * p.below_sample_range_m;
   // The object test measures height above the lowest point around, but a ditch floor is no
   // ground level: the grass on its rim would stand "above" it and become a non-ground sample
@@ -122,7 +175,7 @@ GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
     for (int c = 0; c < ncol; ++c) {
       const double y = (c0 + c + 0.5) * cs;
       float& z = zlo_ref[r * ncol + c];
-      if (x * x + y * y < below_r2) z = std::max(z, float(lo));
+      if (x * x + y * y < below_r2) z = std::max(z, float(groundZ(x, y) - p.band_m));
     }
   }
   filter(zlo_ref, true, nlo_obj);
@@ -131,6 +184,9 @@ GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
     const double z = pts.z[i];
     const double r2 = double(pts.x[i]) * pts.x[i] + double(pts.y[i]) * pts.y[i];
     const int cell = cell_of[i];
+    // Band around the ground plane (the paper's −h1 ± Δ when the plane is not fitted).
+    const double gz = groundZ(pts.x[i], pts.y[i]);
+    const double lo = gz - p.band_m, hi = gz + p.band_m, obj = hi + p.object_above_m;
     // Object: clearly above the lowest point around it. Ditch: clearly below the highest point
     // around it and below the band. Both give non-ground colour samples.
     // An object has height within its own cell (a wall, a crown, a car's side), or stands far
@@ -145,7 +201,7 @@ GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
     // point at the bottom of a flat neighbourhood is ground as well.
     if (!in_band && p.local_seeds && cell >= 0 && !is_obj && z - nlo[cell] < 0.5 * p.band_m &&
         nhi[cell] - nlo[cell] < p.local_relief_m &&
-        std::abs(z + p.sensor_height_m) <= p.band_m + p.local_max_slope * std::sqrt(r2))
+        std::abs(z - gz) <= p.band_m + p.local_max_slope * std::sqrt(r2))
       in_band = true;
     if (!in_band && !is_obj && !below) continue;
     const int u = pix[i] % W, v = pix[i] / W;
@@ -158,9 +214,9 @@ GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
         seed[s] = 1;
         ++g.seeds;
       }
-      colours.add(&image.data[s * 3], true, v);
+      colours.add(&img.data[s * 3], true, v);
     } else {
-      colours.add(&image.data[s * 3], false, v);
+      colours.add(&img.data[s * 3], false, v);
       ++g.object_samples;
       lidar_obj.push_back(uint32_t(s));
     }
@@ -169,7 +225,7 @@ GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
     throw InputError(name, "no LiDAR point projects into the camera image (does the camera pose "
                            "look away from the scan?); expected part of the scan in view");
   colours.finish();
-  std::vector<uint8_t> observed = colours.classify(image);
+  std::vector<uint8_t> observed = colours.classify(img);
   // Where the LiDAR saw the pixel, its geometry is the observation (eq. 10); colour elsewhere.
   const int rad = p.lidar_observation_px;
   auto paint = [&](std::size_t s, uint8_t val) {
@@ -187,9 +243,19 @@ GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
   // the gap (lane markings and other ground texture the colour model calls non-ground).
   if (p.column_fill_px > 0) {
     std::vector<int8_t> cls(seed.size(), -1);
+    // A return covers column_fill_halfwidth_px columns either side: with a LiDAR sparser than the
+    // image across (RELLIS: a return every ~9 px) most columns hold no return at all.
+    const int hw = p.column_fill_halfwidth_px;
+    auto mark = [&](std::size_t s, int8_t c) {
+      const int u = int(s % W), v = int(s / W);
+      for (int uu = std::max(0, u - hw); uu <= std::min(W - 1, u + hw); ++uu) {
+        int8_t& x = cls[std::size_t(v) * W + uu];
+        if (uu == u || x < 0 || c == 0) x = c;  // an object return wins a shared column
+      }
+    };
     for (std::size_t s = 0; s < seed.size(); ++s)
-      if (seed[s]) cls[s] = 1;
-    for (uint32_t s : lidar_obj) cls[s] = 0;
+      if (seed[s]) mark(s, 1);
+    for (uint32_t s : lidar_obj) mark(s, 0);
     for (int u = 0; u < W; ++u) {
       int last_v = -1, last_c = -1;
       for (int v = 0; v < H; ++v) {
@@ -202,7 +268,7 @@ GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
       }
     }
   }
-  PixelMrfResult r = solvePixelMrf(image, seed, observed, {}, p.mrf);
+  PixelMrfResult r = solvePixelMrf(img, seed, observed, {}, p.mrf);
   g.ground = std::move(r.label);
   g.evaluated = r.evaluated;
   g.sweeps = r.sweeps;

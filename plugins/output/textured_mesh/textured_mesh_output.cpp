@@ -34,6 +34,14 @@ class TexturedMeshOutput : public Output {
     d.add("sensor_height_m", p_.ground.sensor_height_m, "h1: LiDAR above the ground").unit("m").range(0, 10);
     d.add("band_m", p_.ground.band_m, "Δ: half width of the rough ground band").unit("m").range(0.01, 2);
     d.add("local_seeds", p_.ground.local_seeds, "also seed flat ground outside the band (hills)");
+    d.add("fit_ground_plane", p_.ground.fit_ground_plane, "fit the ground plane to the LiDAR (start: z = -h1) and put the band around it (pitched vehicle, unknown mount height)");
+    d.add("plane_fit_range_m", p_.ground.plane_fit_range_m, "fit_ground_plane: cells within this range").unit("m").range(2, 200);
+    d.add("seed_max_step_m", p_.ground.seed_max_step_m, "seeds lie in a 0.5 m cell whose points span less than this in height").unit("m").range(0.01, 2);
+    d.add("lidar_observation_px", p_.ground.lidar_observation_px, "pixels this close to a LiDAR return take its class as observation (eq. 10)").unit("px").range(0, 50);
+    d.add("column_fill_px", p_.ground.column_fill_px, "pixels between two ground returns this close in one image column are observed ground (0 = off)").unit("px").range(0, 500);
+    d.add("column_fill_halfwidth_px", p_.ground.column_fill_halfwidth_px, "for that fill a return also stands for this many columns either side (LiDAR sparser than the image)").unit("px").range(0, 50);
+    d.add("colour_smooth_px", p_.ground.colour_smooth_px, "colour observations are box means over (2k+1)^2 pixels (textured ground in fine images; 0 = raw)").unit("px").range(0, 50);
+    d.add("colour_band_rows", p_.ground.colour_band_rows, "colour histograms per band of this many image rows (0 = one for the image)").unit("px").range(0, 10000);
     d.add("mode", mode_, "ground MRF solver: flood_fill (paper's fast one) or gibbs (whole image)")
         .choices({"flood_fill", "gibbs"});
     d.add("alpha", p_.ground.mrf.alpha, "eq. 9-10 weight").unit("1").range(0, 100);
