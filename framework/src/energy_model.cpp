@@ -53,3 +53,41 @@ double EnergyModel::localEnergy(const std::vector<uint8_t>& lab, int i, int k) c
 }
 
 }  // namespace terramrf
+
+#include "terramrf/padded_labels.hpp"
+
+namespace terramrf {
+
+int icmSweeps(const EnergyModel& em, PaddedLabels& lab, int max_sweeps, std::vector<uint8_t>& dirty,
+              bool& converged) {
+  const int R = em.rows, C = em.cols, K = em.numLabels(), W = lab.stride();
+  dirty.assign(lab.data().size(), 1);
+  std::vector<float> s(K + 1);
+  const std::ptrdiff_t off[8] = {-W - 1, -W, -W + 1, -1, 1, W - 1, W, W + 1};
+  int sweep = 0;
+  bool changed = true;
+  for (; changed && sweep < max_sweeps; ++sweep) {
+    changed = false;
+    for (int r = 0; r < R; ++r) {
+      uint8_t* p = lab.at(r, 0);
+      uint8_t* d = &dirty[p - lab.data().data()];
+      for (int c = 0; c < C; ++c, ++p, ++d) {
+        if (!*d || *p == K) continue;  // unchanged surroundings, or fixed
+        *d = 0;
+        localScores(em, p, std::size_t(r) * C + c, W, s.data());
+        int best = *p;
+        for (int k = 0; k < K; ++k)
+          if (s[k] < s[best]) best = k;
+        if (best != *p) {
+          *p = static_cast<uint8_t>(best);
+          for (std::ptrdiff_t o : off) d[o] = 1;
+          changed = true;
+        }
+      }
+    }
+  }
+  converged = !changed;
+  return sweep;
+}
+
+}  // namespace terramrf

@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "terramrf/padded_labels.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -186,7 +187,12 @@ class AlphaExpansion final : public Stage {
       }
     }
     int icm_sweeps = 0;
-    if (pre_icm_) icm_sweeps = icm(em, lab);
+    if (pre_icm_) {
+      bool icm_converged = false;
+      pad_.assign(em, lab);
+      icm_sweeps = icmSweeps(em, pad_, 100, dirty_, icm_converged);
+      pad_.extract(em, lab);
+    }
 
     net_.build(em.rows, em.cols);
     fg_.build(em, net_);
@@ -284,74 +290,6 @@ class AlphaExpansion final : public Stage {
   int64_t toUnits(double x) const {
     const double y = x * scale_;
     return static_cast<int64_t>(y >= 0 ? y + 0.5 : y - 0.5);
-  }
-
-  /// Fills pad_ with `lab` on a grid padded by one cell; the pad and fixed cells hold the
-  /// sentinel K, whose score slot is scratch, so 8-neighbour loops need no tests.
-  void pad(const EnergyModel& em, const std::vector<uint8_t>& lab) {
-    const int R = em.rows, C = em.cols, W = C + 2;
-    pad_.assign(std::size_t(R + 2) * W, static_cast<uint8_t>(em.numLabels()));
-    for (int r = 0; r < R; ++r)
-      for (int c = 0; c < C; ++c) {
-        const int i = r * C + c;
-        if (!em.fixed[i]) pad_[std::size_t(r + 1) * W + c + 1] = lab[i];
-      }
-  }
-
-  /// Local energies E_c(k) − Σ_n w_n of a cell at padded position `p` into s[0..K−1].
-  static void localScores(const EnergyModel& em, const uint8_t* p, std::size_t cell, int W,
-                          float* s) {
-    const int K = em.numLabels();
-    const float we = 2.f * em.beta, wd = 2.f * em.beta_diagonal;
-    const float* u = &em.unary[cell * K];
-    for (int k = 0; k < K; ++k) s[k] = u[k];
-    s[p[-W - 1]] -= wd;
-    s[p[-W]] -= we;
-    s[p[-W + 1]] -= wd;
-    s[p[-1]] -= we;
-    s[p[1]] -= we;
-    s[p[W - 1]] -= wd;
-    s[p[W]] -= we;
-    s[p[W + 1]] -= wd;
-  }
-
-  /// ICM sweeps until nothing changes (or 100 sweeps); returns the number of sweeps. A cell is
-  /// re-examined only when a neighbour changed since its last visit (otherwise it would choose
-  /// the same again), so late sweeps cost next to nothing; the result equals plain ICM's.
-  int icm(const EnergyModel& em, std::vector<uint8_t>& lab) {
-    const int R = em.rows, C = em.cols, K = em.numLabels(), W = C + 2;
-    pad(em, lab);
-    dirty_.assign(pad_.size(), 1);
-    std::vector<float> s(K + 1);
-    const std::ptrdiff_t off[8] = {-W - 1, -W, -W + 1, -1, 1, W - 1, W, W + 1};
-    int sweep = 0;
-    for (bool changed = true; changed && sweep < 100; ++sweep) {
-      changed = false;
-      for (int r = 0; r < R; ++r) {
-        const std::size_t row = std::size_t(r + 1) * W + 1;
-        uint8_t* p = &pad_[row];
-        uint8_t* dirty = &dirty_[row];
-        for (int c = 0; c < C; ++c, ++p, ++dirty) {
-          if (!*dirty || *p == K) continue;  // unchanged surroundings, or fixed
-          *dirty = 0;
-          localScores(em, p, std::size_t(r) * C + c, W, s.data());
-          int best = *p;
-          for (int k = 0; k < K; ++k)
-            if (s[k] < s[best]) best = k;
-          if (best != *p) {
-            *p = static_cast<uint8_t>(best);
-            for (std::ptrdiff_t o : off) dirty[o] = 1;
-            changed = true;
-          }
-        }
-      }
-    }
-    for (int r = 0; r < R; ++r)
-      for (int c = 0; c < C; ++c) {
-        const int i = r * C + c;
-        if (!em.fixed[i]) lab[i] = pad_[std::size_t(r + 1) * W + c + 1];
-      }
-    return sweep;
   }
 
   /// Exact energy change if the cells in move_ take α (pairs inside the move counted once).
@@ -521,11 +459,11 @@ class AlphaExpansion final : public Stage {
     std::vector<float*> layer(K);
     for (int k = 0; k < K; ++k)
       layer[k] = ctx.grid->add(layers::score(ctx.labels->name(em.active[k]))).data();
-    pad(em, lab);
+    pad_.assign(em, lab);
     std::vector<float> s(K + 1);
     const float inv_t = static_cast<float>(1.0 / score_t_);
     for (int r = 0; r < R; ++r) {
-      const uint8_t* p = &pad_[std::size_t(r + 1) * W + 1];
+      const uint8_t* p = pad_.at(r, 0);
       for (int c = 0; c < C; ++c, ++p) {
         if (*p == K) continue;  // fixed: NaN
         const std::size_t i = std::size_t(r) * C + c;
@@ -551,7 +489,8 @@ class AlphaExpansion final : public Stage {
   std::vector<Edge> pred_;
   std::vector<boost::default_color_type> color_;
   std::vector<std::size_t> dist_;
-  std::vector<uint8_t> lab_, pad_, dirty_, in_move_;
+  std::vector<uint8_t> lab_, dirty_, in_move_;
+  PaddedLabels pad_;
   std::vector<int> move_;
 };
 

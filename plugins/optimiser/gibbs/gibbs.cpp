@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "terramrf/padded_labels.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -105,7 +106,7 @@ class GibbsSampler final : public Stage {
 
   void process(FrameContext& ctx) override {
     const EnergyModel& em = ctx.energy;
-    const int R = em.rows, C = em.cols, K = em.numLabels();
+    const int K = em.numLabels();
     OptimiserReport& rep = ctx.optimiser;
     rep = {};
     if (K == 0 || em.cells() == 0) {  // nothing to label: every cell unknown
@@ -114,16 +115,7 @@ class GibbsSampler final : public Stage {
     }
     if (K > 255)
       throw InputError("", name() + ": " + std::to_string(K) + " labels; at most 255 supported");
-    // Labels live in a grid padded by one cell; the pad and fixed cells hold the sentinel K, whose
-    // score slot is scratch, so the 8-neighbour loop needs neither bounds nor fixed-cell tests.
-    const int W = C + 2;
-    const uint8_t kSentinel = static_cast<uint8_t>(K);
-    pad_.assign(std::size_t(R + 2) * W, kSentinel);
-    for (int r = 0; r < R; ++r)
-      for (int c = 0; c < C; ++c) {
-        const int i = r * C + c;
-        if (!em.fixed[i]) pad_[std::size_t(r + 1) * W + c + 1] = em.initial[i];
-      }
+    pad_.assign(em, em.initial);
     best_ = pad_;
     const double e_initial = em.energy(em.initial);
     double e = e_initial, e_best = e_initial;
@@ -158,20 +150,14 @@ class GibbsSampler final : public Stage {
       if (e < e_best) {
         e_best = e;
         best_sweep = sweep;
-        std::memcpy(best_.data(), pad_.data(), pad_.size());
+        std::memcpy(best_.data().data(), pad_.data().data(), pad_.data().size());
       }
     }
 
     // The running energy is a float sum; the decision that keeps the promise "never above the
     // initial energy" is taken on exact totals.
     std::vector<uint8_t> lab = em.initial;
-    if (best_sweep >= 0) {
-      for (int r = 0; r < R; ++r)
-        for (int c = 0; c < C; ++c) {
-          const int i = r * C + c;
-          if (!em.fixed[i]) lab[i] = best_[std::size_t(r + 1) * W + c + 1];
-        }
-    }
+    if (best_sweep >= 0) best_.extract(em, lab);
     double e_final = em.energy(lab);
     if (e_final > e_initial) {
       lab = em.initial;
@@ -198,28 +184,17 @@ class GibbsSampler final : public Stage {
   /// labels changed and keeps `e` equal to the energy of the current labelling.
   template <int KK>
   int sweepGrid(const EnergyModel& em, float inv_t, bool average, Pcg32& rng, double& e) {
-    const int R = em.rows, C = em.cols, K = KK > 0 ? KK : em.numLabels(), W = C + 2;
+    const int R = em.rows, C = em.cols, K = KK > 0 ? KK : em.numLabels(), W = pad_.stride();
     // E_c(k) = u_k + Σ_n w_n − 2 Σ_{n: l_n = k} w_n; the middle sum is the same for every k and
-    // cancels in the conditional, so only u_k − 2 Σ w_n is kept. Index K is the sentinel's
-    // scratch slot.
-    const float we = 2.f * em.beta, wd = 2.f * em.beta_diagonal;
+    // cancels in the conditional, so localScores keeps only u_k − 2 Σ w_n.
     float s[KK > 0 ? KK + 1 : 256], q[KK > 0 ? KK : 255];
     int changed = 0;
     for (int r = 0; r < R; ++r) {
-      uint8_t* p = &pad_[std::size_t(r + 1) * W + 1];
+      uint8_t* p = pad_.at(r, 0);
       for (int c = 0; c < C; ++c, ++p) {
         if (*p == K) continue;  // fixed cell
         const std::size_t i = std::size_t(r) * C + c;
-        const float* u = &em.unary[i * K];
-        for (int k = 0; k < K; ++k) s[k] = u[k];
-        s[p[-W - 1]] -= wd;
-        s[p[-W]] -= we;
-        s[p[-W + 1]] -= wd;
-        s[p[-1]] -= we;
-        s[p[1]] -= we;
-        s[p[W - 1]] -= wd;
-        s[p[W]] -= we;
-        s[p[W + 1]] -= wd;
+        localScores<KK>(em, p, i, W, s);
         int arg = 0;
         for (int k = 1; k < K; ++k)
           if (s[k] < s[arg]) arg = k;
@@ -304,7 +279,7 @@ class GibbsSampler final : public Stage {
   int64_t seed_ = 1;
 
   NegExpTable exp_;
-  std::vector<uint8_t> pad_, best_;
+  PaddedLabels pad_, best_;
   std::vector<float> marg_;
 };
 
