@@ -3,7 +3,9 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
+#include <sstream>
 
 #include "terramrf/errors.hpp"
 
@@ -145,6 +147,19 @@ std::vector<uint32_t> LabelMap::rawIds() const {
   ids.reserve(by_raw_.size());
   for (const auto& [raw, cls] : by_raw_) ids.push_back(raw);
   return ids;
+}
+
+std::string shippedLabelMap(const std::string& file) {
+  std::string dirs;
+  if (const char* env = std::getenv("TERRAMRF_CONFIG_DIR"))
+    dirs = std::string(env) + "/label_maps:";
+  dirs += TERRAMRF_LABEL_MAP_DIRS;
+  std::stringstream ss(dirs);
+  std::string d;
+  while (std::getline(ss, d, ':'))
+    if (!d.empty() && std::filesystem::is_regular_file(d + "/" + file)) return d + "/" + file;
+  throw ParamError("label_map", "no label_map given and the shipped " + file +
+                                    " was not found (searched " + dirs + ")");
 }
 
 }  // namespace terramrf

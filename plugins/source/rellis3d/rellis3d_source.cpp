@@ -17,19 +17,6 @@
 namespace terramrf {
 namespace {
 
-std::string shippedLabelMap(const std::string& file) {
-  std::string dirs;
-  if (const char* env = std::getenv("TERRAMRF_CONFIG_DIR"))
-    dirs = std::string(env) + "/label_maps:";
-  dirs += TERRAMRF_LABEL_MAP_DIRS;
-  std::stringstream ss(dirs);
-  std::string d;
-  while (std::getline(ss, d, ':'))
-    if (!d.empty() && std::filesystem::is_regular_file(d + "/" + file)) return d + "/" + file;
-  throw ParamError("label_map", "no label_map given and the shipped " + file +
-                                    " was not found (searched " + dirs + ")");
-}
-
 /// "frame000104-1581624663_149.jpg" -> 1581624663.149 [s]; -1 if the name carries no stamp.
 double stampFromImageName(const std::string& path) {
   const std::string stem = std::filesystem::path(path).stem().string();

@@ -17,20 +17,6 @@
 namespace terramrf {
 namespace {
 
-/// The shipped map `file` ($TERRAMRF_CONFIG_DIR/label_maps, the source tree, the install).
-std::string shippedLabelMap(const std::string& file) {
-  std::string dirs;
-  if (const char* env = std::getenv("TERRAMRF_CONFIG_DIR"))
-    dirs = std::string(env) + "/label_maps:";
-  dirs += TERRAMRF_LABEL_MAP_DIRS;
-  std::stringstream ss(dirs);
-  std::string d;
-  while (std::getline(ss, d, ':'))
-    if (!d.empty() && std::filesystem::is_regular_file(d + "/" + file)) return d + "/" + file;
-  throw ParamError("label_map", "no label_map given and the shipped " + file +
-                                    " was not found (searched " + dirs + ")");
-}
-
 std::string fmt(double v) {
   char b[32];
   std::snprintf(b, sizeof b, "%.2f", v);

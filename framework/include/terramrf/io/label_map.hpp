@@ -54,4 +54,10 @@ class LabelMap {
   std::vector<int16_t> dense_;
 };
 
+/// Path of the shipped label map `file` (e.g. "semantickitti.yaml") for a source whose
+/// `label_map` is not configured: $TERRAMRF_CONFIG_DIR/label_maps, then the source tree's
+/// configs/label_maps (build-tree runs), then the install's. Throws ParamError("label_map", …)
+/// naming the folders searched.
+std::string shippedLabelMap(const std::string& file);
+
 }  // namespace terramrf
