@@ -1,5 +1,8 @@
 #include "grid_csv_format.hpp"
 
+#include "terramrf/evaluation.hpp"
+
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <stdexcept>
@@ -31,7 +34,7 @@ std::string csvField(const std::string& s) {
 }
 
 std::string gridToCsv(const TerrainGrid& grid, const LabelSet& labels,
-                      const std::vector<std::string>& layer_names) {
+                      const std::vector<std::string>& layer_names, const PointLabels* truth) {
   const std::vector<std::string> names = layer_names.empty() ? grid.layerNames() : layer_names;
   std::vector<const Layer*> layers;
   for (const auto& n : names) {
@@ -49,7 +52,19 @@ std::string gridToCsv(const TerrainGrid& grid, const LabelSet& labels,
   // binPoints() fills cellOfPoint(); before it the point lists must not be read (count = 0).
   const bool binned = !grid.cellOfPoint().empty();
 
+  const bool truth_cols = truth != nullptr;
+  const bool has_truth = truth_cols && !truth->empty() && binned;
+  if (has_truth && truth->label.size() != grid.cellOfPoint().size()) {
+    throw std::invalid_argument("grid_csv: the frame's ground truth has " +
+                                std::to_string(truth->label.size()) + " labels for " +
+                                std::to_string(grid.cellOfPoint().size()) +
+                                " binned points; expected one label per point");
+  }
+  const int obstacle_id = labels.obstacle();
+  std::vector<uint64_t> per_class(labels.size());
+
   std::string out = "row,col,x_m,y_m,label,label_name,points";
+  if (truth_cols) out += ",truth,truth_name,truth_points";
   for (const auto& n : names) out += "," + csvField(n);
   out += '\n';
   out.reserve(out.size() + cells * (32 + 10 * names.size()));
@@ -75,6 +90,33 @@ std::string gridToCsv(const TerrainGrid& grid, const LabelSet& labels,
       }
       out += ',';
       appendNumber(out, binned ? grid.count(cell) : 0u);
+      if (truth_cols) {
+        CellTruth t;
+        if (has_truth && grid.count(cell) > 0) {
+          std::fill(per_class.begin(), per_class.end(), 0);
+          for (const uint32_t* p = grid.pointsBegin(cell); p != grid.pointsEnd(cell); ++p) {
+            const LabelId l = truth->label[*p];
+            if (l >= per_class.size()) {
+              throw std::invalid_argument("grid_csv: ground-truth label " + std::to_string(l) +
+                                          " at point " + std::to_string(*p) +
+                                          " is not a class id (" +
+                                          std::to_string(per_class.size()) + " classes)");
+            }
+            ++per_class[l];
+          }
+          t = cellTruth(per_class, obstacle_id, has_labels ? lab[cell] : labels::kUnknown);
+        }
+        out += ',';
+        if (t.label != labels::kUnknown) {
+          appendNumber(out, static_cast<int>(t.label));
+          out += ',';
+          out += csvField(labels.name(t.label));
+          out += ',';
+          appendNumber(out, t.labelled);
+        } else {
+          out += ",,";
+        }
+      }
       for (const Layer* l : layers) {
         out += ',';
         appendNumber(out, (*l)[cell]);

@@ -3,6 +3,7 @@
 #include <string>
 #include <vector>
 
+#include "terramrf/frame.hpp"
 #include "terramrf/label_set.hpp"
 #include "terramrf/terrain_grid.hpp"
 
@@ -12,8 +13,13 @@ namespace terramrf {
 /// `row,col,x_m,y_m,label,label_name,points,<layers...>`. x_m/y_m are the cell centre [m]; layer
 /// values in the shortest form that reads back to the same float; NaN (no data) is an empty field.
 /// `layers` empty = all layers in name order. Throws std::invalid_argument naming a missing layer.
+/// With `truth` (the frame's per-point ground truth, binned into `grid`) the columns
+/// `truth,truth_name,truth_points` follow `points`: the cell's true class by the evaluation's rule
+/// (cellTruth, paper 001 §VI-B) and its labelled points; empty for a cell without a labelled point
+/// or a frame without truth. Throws std::invalid_argument on a truth id that is not a class.
 std::string gridToCsv(const TerrainGrid& grid, const LabelSet& labels,
-                      const std::vector<std::string>& layers);
+                      const std::vector<std::string>& layers,
+                      const PointLabels* truth = nullptr);
 
 /// RFC 4180 quoting: the field as is, or in double quotes (inner quotes doubled) if it holds a
 /// comma, a quote or a line break.

@@ -25,6 +25,9 @@ class GridCsvOutput : public Output {
   void declare(ParamDecl& d) override {
     d.add("subdir", subdir_, "folder for the CSV files, relative to the run's output folder");
     d.add("layers", layers_, "float layers to write as columns; empty = every layer of the grid");
+    d.add("truth", truth_,
+          "add columns truth, truth_name, truth_points: each cell's true class by the evaluation's "
+          "rule (paper 001 §VI-B) and its labelled points; empty where the frame has no truth");
   }
 
   void configure(const PluginContext& ctx) override {
@@ -61,13 +64,15 @@ class GridCsvOutput : public Output {
     }
     const std::string id =
         safeName(ctx.frame->id.empty() ? std::to_string(ctx.index) : ctx.frame->id);
-    const std::string csv = gridToCsv(*ctx.grid, ctx.labels ? *ctx.labels : labels_, layers_);
+    const std::string csv = gridToCsv(*ctx.grid, ctx.labels ? *ctx.labels : labels_, layers_,
+                                      truth_ ? &ctx.frame->truth : nullptr);
     writeFileAtomic((std::filesystem::path(output_dir_) / subdir_ / (id + ".csv")).string(), csv);
   }
 
  private:
   std::string subdir_ = "grid_csv";
   std::vector<std::string> layers_;
+  bool truth_ = false;
 
   std::string output_dir_ = ".";
   LabelSet labels_ = LabelSet::defaults();

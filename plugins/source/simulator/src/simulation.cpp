@@ -56,6 +56,16 @@ void declareSimulationParams(ParamDecl& d, SimulationConfig& c) {
       .range(0, 10);
   d.add("max_range_m", c.max_range_m, "no return beyond this").unit("m").range(5, 300);
   d.add("range_noise_m", c.range_noise_m, "1σ range noise along the beam").unit("m").range(0, 1);
+  d.add("grass_depth_m", c.grass_depth_m,
+        "grass canopy height: beams on grass return from a blade at a uniform height up to this "
+        "above the soil (0: from the soil surface)")
+      .unit("m")
+      .range(0, 1);
+  d.add("gravel_depth_m", c.gravel_depth_m,
+        "gravel grain: beams on gravel return from a stone top up to this above the bed (0: from "
+        "the bed surface)")
+      .unit("m")
+      .range(0, 1);
   d.add("dropout_prob", c.dropout_prob, "probability that a beam returns nothing")
       .unit("1")
       .range(0, 0.95);
@@ -171,6 +181,8 @@ Simulation::Simulation(const SimulationConfig& config) : c_(config) {
   lp.max_range_m = c_.max_range_m;
   lp.range_noise_m = c_.range_noise_m;
   lp.dropout_prob = c_.dropout_prob;
+  lp.grass_depth_m = c_.grass_depth_m;
+  lp.gravel_depth_m = c_.gravel_depth_m;
   lp.intensity_noise = c_.intensity_noise;
   lp.sweep_period_s = period;
   lp.motion_distortion = c_.motion_distortion;

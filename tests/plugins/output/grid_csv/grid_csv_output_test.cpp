@@ -100,6 +100,38 @@ TEST_F(GridCsvTest, MissingLayerAndBadParams) {
   EXPECT_THROW(test::makeOutput("grid_csv", "{subdir: /abs}", pctx()), std::exception);
 }
 
+// Cell (3,0) holds one road and one obstacle point: obstacle by the one-point rule although the
+// cell is labelled obstacle either way; the point outside the grid counts nowhere.
+TEST_F(GridCsvTest, TruthColumnsFollowTheEvaluationRule) {
+  frame.truth.label = {labels::kRoad, labels::kObstacle, labels::kRough};
+  make("{layers: [height], truth: true}")->write(ctx());
+  const auto l = lines(readFile(dir.str() + "/grid_csv/000007.csv"));
+  ASSERT_EQ(l.size(), 17u);
+  EXPECT_EQ(l[0], "row,col,x_m,y_m,label,label_name,points,truth,truth_name,truth_points,height");
+  EXPECT_EQ(l[1 + 12], "3,0,1.5,-1.5,3,obstacle,2,3,obstacle,2,0.25");
+  EXPECT_EQ(l[1 + 3], "0,3,-1.5,1.5,1,road,0,,,,-1.5");  // no points: no truth
+
+  frame.truth.label = {labels::kRoad, labels::kRoad, labels::kUnknown};
+  make("{layers: [], truth: true}")->write(ctx());
+  EXPECT_NE(readFile(dir.str() + "/grid_csv/000007.csv").find("\n3,0,1.5,-1.5,3,obstacle,2,1,road,2,"),
+            std::string::npos);
+
+  frame.truth.label.clear();  // a frame without labels: the columns stay, empty
+  make("{layers: [height], truth: true}")->write(ctx());
+  EXPECT_EQ(lines(readFile(dir.str() + "/grid_csv/000007.csv"))[1 + 12],
+            "3,0,1.5,-1.5,3,obstacle,2,,,,0.25");
+
+  frame.truth.label = {labels::kRoad, 99, labels::kRough};  // not a class id: named, nothing written
+  fs::remove(dir.str() + "/grid_csv/000007.csv");
+  try {
+    make("{truth: true}")->write(ctx());
+    FAIL() << "bad truth id accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("label 99"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir.str() + "/grid_csv/000007.csv"));
+}
+
 TEST_F(GridCsvTest, UnwritableFolderThrowsNamingThePath) {
   writeFileAtomic(dir.str() + "/grid_csv", "not a folder");
   try {

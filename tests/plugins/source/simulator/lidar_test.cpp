@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <algorithm>
 #include <map>
+#include <vector>
 
 #include "terramrf/sim/trajectory.hpp"
 #include "terramrf/sim/world.hpp"
@@ -106,6 +108,43 @@ TEST(SimLidar, PointsLieOnTheSurfacesTheyAreLabelledWith) {
     ++ground;
   }
   EXPECT_GT(ground, 5000);
+}
+
+// Grass and gravel returns come from a blade or stone top: the same beam as without a canopy,
+// only shorter (by at most depth / 0.1, the incidence cap), and where the incidence is above the
+// cap the return rises by about a uniform 0…depth (median depth / 2); asphalt is untouched.
+TEST(SimLidar, GrassAndGravelReturnFromWithinTheirDepth) {
+  LidarParams soil;
+  soil.range_noise_m = 0;
+  soil.azimuth_step_deg = 0.5;
+  LidarParams canopy = soil;
+  canopy.grass_depth_m = 0.05;
+  canopy.gravel_depth_m = 0.02;
+  const Scene a(2, soil), b(2, canopy);
+  ASSERT_EQ(a.frame.points.size(), b.frame.points.size());
+  std::map<Material, std::vector<double>> rise;  // [m]
+  for (std::size_t i = 0; i < a.frame.points.size(); ++i) {
+    const Material m = Material(a.frame.truth.raw[i]);
+    ASSERT_EQ(uint32_t(m), b.frame.truth.raw[i]) << "point " << i;
+    const Eigen::Vector3d pa(a.frame.points.x[i], a.frame.points.y[i], a.frame.points.z[i]);
+    const Eigen::Vector3d pb(b.frame.points.x[i], b.frame.points.y[i], b.frame.points.z[i]);
+    const double shorter = pa.norm() - pb.norm();
+    if (m == Material::kAsphalt) ASSERT_EQ(shorter, 0.0) << "point " << i;
+    if (m != Material::kGrass && m != Material::kGravel) continue;
+    const double depth = m == Material::kGrass ? 0.05 : 0.02;
+    ASSERT_GE(shorter, -1e-4) << "point " << i;
+    ASSERT_LE(shorter, depth / 0.1 + 1e-4) << "point " << i;
+    // Within 12 m the incidence stays above the cap (sin > 0.1 for a 1.73 m high sensor).
+    if (pa.head<2>().norm() < 12) rise[m].push_back(pb.z() - pa.z());
+  }
+  for (auto [m, depth] : {std::pair{Material::kGrass, 0.05}, {Material::kGravel, 0.02}}) {
+    std::vector<double>& v = rise[m];
+    ASSERT_GT(v.size(), 300u) << materialName(m);
+    std::sort(v.begin(), v.end());
+    EXPECT_NEAR(v[v.size() / 2], depth / 2, depth * 0.1) << materialName(m);
+    EXPECT_NEAR(v[v.size() / 10], depth / 10, depth * 0.1) << materialName(m);
+    EXPECT_NEAR(v[v.size() * 9 / 10], depth * 0.9, depth * 0.15) << materialName(m);
+  }
 }
 
 TEST(SimLidar, MotionDistortionShiftsLateColumns) {

@@ -24,6 +24,13 @@ struct LidarParams {
   double max_range_m = 100.0;
   double range_noise_m = 0.02;    ///< 1σ along the beam [m]
   double dropout_prob = 0.01;     ///< chance a beam returns nothing [1]
+  /// Grass canopy height [m]: a beam on grass returns from a blade at a uniform height in
+  /// [0, this] above the soil, i.e. that height / sin(incidence) earlier along the beam (capped at
+  /// 10×), as real scans of grass show (no single surface; scatter grows at grazing incidence).
+  /// 0 = returns from the soil surface.
+  double grass_depth_m = 0.0;
+  /// The same for gravel [m]: returns from the top of a stone up to this above the bed.
+  double gravel_depth_m = 0.0;
   double intensity_noise = 0.02;  ///< 1σ [intensity units, 0..1 scale]
   double sweep_period_s = 0.1;    ///< one revolution [s]
   /// If true, each column is fired from the pose at its own time and reported in that

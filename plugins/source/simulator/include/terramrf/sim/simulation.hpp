@@ -38,6 +38,8 @@ struct SimulationConfig {
   double max_range_m = 100.0;
   double range_noise_m = 0.02;
   double dropout_prob = 0.01;
+  double grass_depth_m = 0.0;
+  double gravel_depth_m = 0.0;
   double intensity_noise = 0.02;
   bool motion_distortion = false;
   std::string point_order = "column";
