@@ -54,6 +54,14 @@ void writeFileAtomic(const std::string& path, std::string_view bytes) {
   }
 }
 
+std::string safeFileName(std::string s) {
+  for (char& ch : s) {
+    if (ch == '/' || ch == '\\' || ch == ':' || ch == ' ') ch = '_';
+  }
+  if (s.empty() || s == "." || s == "..") s = "_" + s;
+  return s;
+}
+
 std::string readFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "cannot open file for reading");

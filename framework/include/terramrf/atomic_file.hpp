@@ -10,6 +10,10 @@ namespace terramrf {
 /// Throws std::runtime_error naming the path on failure; the old file, if any, is untouched.
 void writeFileAtomic(const std::string& path, std::string_view bytes);
 
+/// A frame id or camera name made safe as one file-name component inside an output folder: path
+/// separators, ':' and spaces become '_', and "", "." and ".." get a leading '_'.
+std::string safeFileName(std::string s);
+
 /// Reads a whole file; throws InputError naming it if it cannot be read.
 std::string readFile(const std::string& path);
 

@@ -12,18 +12,11 @@
 #include <string>
 
 #include "terramrf/adapters/opencv_image.hpp"
+#include "terramrf/atomic_file.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
 namespace {
-
-// Frame ids and camera names become file names; keep them inside the output folder.
-std::string safeName(std::string s) {
-  for (char& ch : s)
-    if (ch == '/' || ch == '\\' || ch == ':' || ch == ' ') ch = '_';
-  if (s.empty() || s == "." || s == "..") s = "_" + s;
-  return s;
-}
 
 class FusionOverlayOutput final : public Output {
  public:
@@ -67,7 +60,7 @@ class FusionOverlayOutput final : public Output {
     const Frame& f = *ctx.frame;
     const TerrainGrid& g = *ctx.grid;
     const LabelSet& labels = ctx.labels ? *ctx.labels : labels_;
-    const std::string id = safeName(f.id.empty() ? std::to_string(ctx.index) : f.id);
+    const std::string id = safeFileName(f.id.empty() ? std::to_string(ctx.index) : f.id);
     if (g.cellPixels().empty())
       throw std::runtime_error("fusion_overlay: frame " + id +
                                " has no fused camera pixels; put a camera_fusion stage in the "
@@ -84,7 +77,7 @@ class FusionOverlayOutput final : public Output {
           cam.image->height != cp.height)
         throw std::runtime_error("fusion_overlay: frame " + id + ", camera " + name +
                                  ": image missing or not the fused size");
-      writeImageAtomic(path(id + "_" + safeName(name) + ".png"), render(f, g, labels, cp));
+      writeImageAtomic(path(id + "_" + safeFileName(name) + ".png"), render(f, g, labels, cp));
       ++drawn;
     }
     if (drawn == 0 && !cameras_.empty())

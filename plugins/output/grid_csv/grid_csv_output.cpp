@@ -12,14 +12,6 @@
 namespace terramrf {
 namespace {
 
-std::string safeName(std::string s) {
-  for (char& ch : s) {
-    if (ch == '/' || ch == '\\' || ch == ':' || ch == ' ') ch = '_';
-  }
-  if (s.empty() || s == "." || s == "..") s = "_" + s;
-  return s;
-}
-
 class GridCsvOutput : public Output {
  public:
   void declare(ParamDecl& d) override {
@@ -63,7 +55,7 @@ class GridCsvOutput : public Output {
       throw std::invalid_argument("grid_csv: frame context without a frame or a grid");
     }
     const std::string id =
-        safeName(ctx.frame->id.empty() ? std::to_string(ctx.index) : ctx.frame->id);
+        safeFileName(ctx.frame->id.empty() ? std::to_string(ctx.index) : ctx.frame->id);
     const std::string csv = gridToCsv(*ctx.grid, ctx.labels ? *ctx.labels : labels_, layers_,
                                       truth_ ? &ctx.frame->truth : nullptr);
     writeFileAtomic((std::filesystem::path(output_dir_) / subdir_ / (id + ".csv")).string(), csv);

@@ -7,19 +7,11 @@
 
 #include "grid_render.hpp"
 #include "terramrf/adapters/opencv_image.hpp"
+#include "terramrf/atomic_file.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
 namespace {
-
-// Frame ids and camera names become file names; keep them inside the output folder.
-std::string safeName(std::string s) {
-  for (char& ch : s) {
-    if (ch == '/' || ch == '\\' || ch == ':' || ch == ' ') ch = '_';
-  }
-  if (s.empty() || s == "." || s == "..") s = "_" + s;
-  return s;
-}
 
 class GridPngOutput : public Output {
  public:
@@ -56,7 +48,7 @@ class GridPngOutput : public Output {
       throw std::invalid_argument("grid_png: frame context without a frame or a grid");
     }
     const std::string id =
-        safeName(ctx.frame->id.empty() ? std::to_string(ctx.index) : ctx.frame->id);
+        safeFileName(ctx.frame->id.empty() ? std::to_string(ctx.index) : ctx.frame->id);
     GridRenderStats stats;
     const Image img =
         renderGrid(*ctx.grid, ctx.labels ? *ctx.labels : labels_, pixels_per_cell_, &stats);
@@ -72,7 +64,7 @@ class GridPngOutput : public Output {
       if (!cam.image || cam.image->empty()) continue;  // calibration-only camera: nothing to show
       const std::string name =
           cam.model.name.empty() ? "camera" + std::to_string(i) : cam.model.name;
-      writeImageAtomic(path(id + "_" + safeName(name) + ".png"), *cam.image);
+      writeImageAtomic(path(id + "_" + safeFileName(name) + ".png"), *cam.image);
     }
   }
 

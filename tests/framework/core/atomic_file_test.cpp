@@ -55,4 +55,13 @@ TEST(AtomicFile, ReadMissingFileNamesIt) {
   }
 }
 
+TEST(SafeFileName, KeepsANameInsideItsFolder) {
+  EXPECT_EQ(safeFileName("000042"), "000042");
+  EXPECT_EQ(safeFileName("../etc/passwd"), ".._etc_passwd");
+  EXPECT_EQ(safeFileName("cam 2:left\\x"), "cam_2_left_x");
+  EXPECT_EQ(safeFileName(""), "_");
+  EXPECT_EQ(safeFileName("."), "_.");
+  EXPECT_EQ(safeFileName(".."), "_..");
+}
+
 }  // namespace terramrf
