@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "terramrf/errors.hpp"
+#include "terramrf/text_format.hpp"
 
 namespace terramrf {
 
@@ -255,24 +256,6 @@ EvalCounts Evaluator::addFrame(const TerrainGrid& grid, const Frame& frame) {
 
 namespace {
 
-std::string jsonString(const std::string& s) {
-  std::string o = "\"";
-  for (const char ch : s) {
-    const auto u = static_cast<unsigned char>(ch);
-    if (ch == '"' || ch == '\\') {
-      o += '\\';
-      o += ch;
-    } else if (u < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", u);
-      o += buf;
-    } else {
-      o += ch;
-    }
-  }
-  return o + "\"";
-}
-
 /// Shortest text that reads back to the same double; null for NaN/inf (not JSON numbers).
 std::string jsonNumber(double v) {
   if (!std::isfinite(v)) return "null";
@@ -286,7 +269,7 @@ void jsonScores(std::ostringstream& o, const ConfusionMatrix& m, const LabelSet&
   o << indent << "\"classes\": [\n";
   for (std::size_t c = 1; c < labels.size(); ++c) {
     const ClassScores s = m.scores(static_cast<LabelId>(c));
-    o << indent << "  {\"id\": " << c << ", \"name\": " << jsonString(labels.name(c))
+    o << indent << "  {\"id\": " << c << ", \"name\": " << jsonQuote(labels.name(c))
       << ", \"tp\": " << s.tp << ", \"fp\": " << s.fp << ", \"fn\": " << s.fn
       << ", \"tn\": " << s.tn << ", \"precision\": " << jsonNumber(s.precision())
       << ", \"recall\": " << jsonNumber(s.recall()) << ", \"tpr\": " << jsonNumber(s.tpr())
@@ -311,12 +294,12 @@ std::string toJson(const EvalCounts& c, const LabelSet& labels, EvalRules rules,
   std::ostringstream o;
   o << "{\n";
   o << "  \"schema\": \"terramrf.evaluation/1\",\n";
-  if (!frame_id.empty()) o << "  \"frame\": " << jsonString(frame_id) << ",\n";
-  o << "  \"rules\": " << jsonString(toString(rules)) << ",\n";
-  o << "  \"tie_rule\": " << jsonString(kTieRule) << ",\n";
+  if (!frame_id.empty()) o << "  \"frame\": " << jsonQuote(frame_id) << ",\n";
+  o << "  \"rules\": " << jsonQuote(toString(rules)) << ",\n";
+  o << "  \"tie_rule\": " << jsonQuote(kTieRule) << ",\n";
   o << "  \"labels\": [";
   for (std::size_t i = 0; i < labels.size(); ++i) {
-    o << (i ? ", " : "") << jsonString(labels.name(static_cast<LabelId>(i)));
+    o << (i ? ", " : "") << jsonQuote(labels.name(static_cast<LabelId>(i)));
   }
   o << "],\n";
   o << "  \"counts\": {\n"

@@ -8,6 +8,7 @@
 
 #include "terramrf/errors.hpp"
 #include "terramrf/plugin.hpp"
+#include "terramrf/text_format.hpp"
 
 namespace terramrf {
 
@@ -24,20 +25,6 @@ std::string num(double v, const char* fmt = "%.6g") {
 std::string jsonNum(double v) {
   if (!std::isfinite(v)) return "null";
   return num(v, "%.6g");
-}
-std::string jsonStr(const std::string& s) {
-  std::string o = "\"";
-  for (char ch : s) {
-    if (ch == '"' || ch == '\\') o += '\\';
-    if (static_cast<unsigned char>(ch) < 0x20) {
-      char b[8];
-      std::snprintf(b, sizeof b, "\\u%04x", ch);
-      o += b;
-      continue;
-    }
-    o += ch;
-  }
-  return o + "\"";
 }
 std::string xmlEscape(const std::string& s) {
   std::string o;
@@ -339,7 +326,7 @@ std::string rocSummaryJson(const std::vector<RocCurve>& curves) {
   o << "[";
   for (std::size_t i = 0; i < curves.size(); ++i) {
     const auto& c = curves[i];
-    o << (i ? ", " : "") << "{\"class\": " << jsonStr(c.class_name)
+    o << (i ? ", " : "") << "{\"class\": " << jsonQuote(c.class_name)
       << ", \"positives\": " << c.positives << ", \"negatives\": " << c.negatives
       << ", \"auc\": " << jsonNum(c.auc) << ", \"operating_fpr\": " << jsonNum(c.operating_fpr)
       << ", \"operating_tpr\": " << jsonNum(c.operating_tpr) << "}";

@@ -11,6 +11,7 @@
 
 #include "sweep_internal.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/text_format.hpp"
 #include "terramrf/version.hpp"
 
 namespace terramrf {
@@ -63,31 +64,7 @@ std::string jsonNum(double v) {
   return b;
 }
 
-std::string jsonStr(const std::string& s) {
-  std::string o = "\"";
-  for (char ch : s) {
-    if (ch == '"' || ch == '\\') {
-      o += '\\';
-      o += ch;
-    } else if (ch == '\n') {
-      o += "\\n";
-    } else if (static_cast<unsigned char>(ch) < 0x20) {
-      char b[8];
-      std::snprintf(b, sizeof b, "\\u%04x", ch);
-      o += b;
-    } else {
-      o += ch;
-    }
-  }
-  return o + "\"";
-}
 
-std::string csvStr(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string o = "\"";
-  for (char ch : s) o += ch == '"' ? std::string("\"\"") : std::string(1, ch);
-  return o + "\"";
-}
 
 std::string capitalise(std::string s) {
   if (!s.empty()) s[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(s[0])));
@@ -294,7 +271,7 @@ std::string accuracyCsv(const SweepResult& r) {
     for (LabelId c : scoredClasses(r.labels)) {
       const bool ok = x.status == RunRecord::Status::kOk;
       const ClassScores cs = x.counts.cell_wise.scores(c), ps = x.counts.point_wise.scores(c);
-      o << csvStr(x.dataset) << "," << csvStr(x.optimiser) << "," << csvStr(x.feature_set) << ","
+      o << csvField(x.dataset) << "," << csvField(x.optimiser) << "," << csvField(x.feature_set) << ","
         << statusName(x.status) << "," << r.labels.name(c) << "," << (ok ? csvNum(cs.tpr()) : "")
         << "," << (ok ? csvNum(cs.fpr()) : "") << "," << (ok ? csvNum(ps.tpr()) : "") << ","
         << (ok ? csvNum(ps.fpr()) : "") << "\n";
@@ -312,7 +289,7 @@ std::string evaluationCsv(const SweepResult& r) {
       for (LabelId c : scoredClasses(r.labels)) {
         const ConfusionMatrix& m = level[0] == 'p' ? x.counts.point_wise : x.counts.cell_wise;
         const ClassScores s = m.scores(c);
-        o << csvStr(x.dataset) << "," << csvStr(x.optimiser) << "," << csvStr(x.feature_set)
+        o << csvField(x.dataset) << "," << csvField(x.optimiser) << "," << csvField(x.feature_set)
           << ",ok," << level << "," << r.labels.name(c) << "," << s.tp << "," << s.fp << "," << s.fn
           << "," << s.tn << "," << csvNum(s.precision()) << "," << csvNum(s.recall()) << ","
           << csvNum(s.tpr()) << "," << csvNum(s.fpr()) << "," << x.counts.scans << ","
@@ -332,8 +309,8 @@ std::string perScanCsv(const SweepResult& r) {
       for (const char* level : {"point", "cell"})
         for (LabelId c : scoredClasses(r.labels)) {
           const ClassScores s = (level[0] == 'p' ? counts.point_wise : counts.cell_wise).scores(c);
-          o << csvStr(x.dataset) << "," << csvStr(x.feature_set) << "," << csvStr(x.optimiser) << ","
-            << csvStr(frame) << "," << level << "," << r.labels.name(c) << "," << s.tp << ","
+          o << csvField(x.dataset) << "," << csvField(x.feature_set) << "," << csvField(x.optimiser) << ","
+            << csvField(frame) << "," << level << "," << r.labels.name(c) << "," << s.tp << ","
             << s.fp << "," << s.fn << "," << csvNum(s.precision()) << "," << csvNum(s.recall())
             << "\n";
         }
@@ -370,7 +347,7 @@ std::string runtimeCsv(const SweepResult& r) {
        "total_mean_ms\n";
   for (const auto& x : r.runs) {
     const Stats p = stats(x.times.processing);
-    o << csvStr(x.dataset) << "," << csvStr(x.feature_set) << "," << csvStr(x.optimiser) << ","
+    o << csvField(x.dataset) << "," << csvField(x.feature_set) << "," << csvField(x.optimiser) << ","
       << statusName(x.status) << "," << p.n << "," << csvNum(p.mean) << "," << csvNum(p.stddev)
       << "," << csvNum(p.max) << "," << csvNum(p.min) << "," << csvNum(p.median) << ","
       << csvNum(stats(x.times.features).mean) << "," << csvNum(stats(x.times.mrf).mean) << ","
@@ -385,8 +362,8 @@ std::string energiesCsv(const SweepResult& r) {
        "iterations,converged\n";
   for (const auto& x : r.runs)
     for (const auto& e : x.energies)
-      o << csvStr(x.dataset) << "," << csvStr(x.feature_set) << "," << csvStr(x.optimiser) << ","
-        << csvStr(e.frame) << "," << csvNum(e.initial) << "," << csvNum(e.reported) << ","
+      o << csvField(x.dataset) << "," << csvField(x.feature_set) << "," << csvField(x.optimiser) << ","
+        << csvField(e.frame) << "," << csvNum(e.initial) << "," << csvNum(e.reported) << ","
         << csvNum(e.recomputed) << "," << e.iterations << "," << (e.converged ? 1 : 0) << "\n";
   return o.str();
 }
@@ -397,7 +374,7 @@ std::string rocAucCsv(const SweepResult& r) {
        "operating_tpr\n";
   for (const auto& x : r.runs)
     for (const auto& c : x.roc)
-      o << csvStr(x.dataset) << "," << csvStr(x.feature_set) << "," << csvStr(x.optimiser) << ","
+      o << csvField(x.dataset) << "," << csvField(x.feature_set) << "," << csvField(x.optimiser) << ","
         << c.class_name << "," << toString(x.score_source) << "," << c.positives << ","
         << c.negatives << "," << csvNum(c.auc) << "," << csvNum(c.operating_fpr) << ","
         << csvNum(c.operating_tpr) << "\n";
@@ -419,14 +396,14 @@ std::string timesJson(const std::vector<double>& v) {
 std::string resultsJson(const SweepResult& r) {
   auto list = [](const std::vector<std::string>& v) {
     std::string s = "[";
-    for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + jsonStr(v[i]);
+    for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + jsonQuote(v[i]);
     return s + "]";
   };
   std::ostringstream o;
-  o << "{\n  \"schema\": \"terramrf.compare/1\",\n  \"name\": " << jsonStr(r.name)
-    << ",\n  \"sweep\": " << jsonStr(r.sweep_path)
-    << ",\n  \"output_dir\": " << jsonStr(r.output_dir) << ",\n  \"created\": " << jsonStr(utcNow())
-    << ",\n  \"tool\": " << jsonStr(std::string("terramrf ") + TERRAMRF_VERSION)
+  o << "{\n  \"schema\": \"terramrf.compare/1\",\n  \"name\": " << jsonQuote(r.name)
+    << ",\n  \"sweep\": " << jsonQuote(r.sweep_path)
+    << ",\n  \"output_dir\": " << jsonQuote(r.output_dir) << ",\n  \"created\": " << jsonQuote(utcNow())
+    << ",\n  \"tool\": " << jsonQuote(std::string("terramrf ") + TERRAMRF_VERSION)
     << ",\n  \"limit\": " << r.limit << ",\n  \"labels\": " << list(r.labels.names())
     << ",\n  \"datasets\": " << list(r.datasets)
     << ",\n  \"feature_sets\": " << list(r.feature_sets)
@@ -434,24 +411,24 @@ std::string resultsJson(const SweepResult& r) {
     << ",\n  \"models\": [";
   for (std::size_t i = 0; i < r.models.size(); ++i) {
     const auto& m = r.models[i];
-    o << (i ? "," : "") << "\n    {\"feature_set\": " << jsonStr(m.feature_set)
-      << ", \"path\": " << (m.path.empty() ? "null" : jsonStr(m.path))
+    o << (i ? "," : "") << "\n    {\"feature_set\": " << jsonQuote(m.feature_set)
+      << ", \"path\": " << (m.path.empty() ? "null" : jsonQuote(m.path))
       << ", \"trained\": " << (m.trained ? "true" : "false")
-      << ", \"reason\": " << jsonStr(m.reason) << ", \"frames\": " << m.frames
+      << ", \"reason\": " << jsonQuote(m.reason) << ", \"frames\": " << m.frames
       << ", \"labelled_frames\": " << m.labelled_frames << ", \"train\": " << list(m.train_items)
       << ", \"not_learnt\": " << list(m.missing) << "}";
   }
   o << "\n  ],\n  \"runs\": [";
   for (std::size_t i = 0; i < r.runs.size(); ++i) {
     const auto& x = r.runs[i];
-    o << (i ? "," : "") << "\n    {\"dataset\": " << jsonStr(x.dataset)
-      << ", \"feature_set\": " << jsonStr(x.feature_set)
-      << ", \"optimiser\": " << jsonStr(x.optimiser) << ", \"status\": \"" << statusName(x.status)
-      << "\", \"reason\": " << jsonStr(x.reason) << ", \"output_dir\": " << jsonStr(x.output_dir)
+    o << (i ? "," : "") << "\n    {\"dataset\": " << jsonQuote(x.dataset)
+      << ", \"feature_set\": " << jsonQuote(x.feature_set)
+      << ", \"optimiser\": " << jsonQuote(x.optimiser) << ", \"status\": \"" << statusName(x.status)
+      << "\", \"reason\": " << jsonQuote(x.reason) << ", \"output_dir\": " << jsonQuote(x.output_dir)
       << ", \"frames\": " << x.frames << ", \"frames_ok\": " << x.frames_ok << ", \"failed\": [";
     for (std::size_t k = 0; k < x.failed.size(); ++k)
-      o << (k ? ", " : "") << "{\"frame\": " << jsonStr(x.failed[k].first)
-        << ", \"reason\": " << jsonStr(x.failed[k].second) << "}";
+      o << (k ? ", " : "") << "{\"frame\": " << jsonQuote(x.failed[k].first)
+        << ", \"reason\": " << jsonQuote(x.failed[k].second) << "}";
     o << "],\n     \"times_ms\": {\"processing\": " << timesJson(x.times.processing)
       << ",\n                  \"features\": " << timesJson(x.times.features)
       << ",\n                  \"mrf\": " << timesJson(x.times.mrf)
@@ -459,13 +436,13 @@ std::string resultsJson(const SweepResult& r) {
       << "},\n     \"energies\": [";
     for (std::size_t k = 0; k < x.energies.size(); ++k) {
       const auto& e = x.energies[k];
-      o << (k ? ", " : "") << "{\"frame\": " << jsonStr(e.frame)
+      o << (k ? ", " : "") << "{\"frame\": " << jsonQuote(e.frame)
         << ", \"initial\": " << jsonNum(e.initial) << ", \"reported\": " << jsonNum(e.reported)
         << ", \"energy\": " << jsonNum(e.recomputed) << ", \"iterations\": " << e.iterations
         << ", \"converged\": " << (e.converged ? "true" : "false") << "}";
     }
     o << "],\n     \"roc\": {\"scores\": \"" << (x.roc.empty() ? "none" : toString(x.score_source))
-      << "\", \"note\": " << jsonStr(x.roc_note) << ", \"curves\": " << rocSummaryJson(x.roc)
+      << "\", \"note\": " << jsonQuote(x.roc_note) << ", \"curves\": " << rocSummaryJson(x.roc)
       << "}";
     if (x.status == RunRecord::Status::kOk)
       o << ",\n     \"evaluation\": " << toJson(x.counts, r.labels);

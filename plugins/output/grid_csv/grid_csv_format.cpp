@@ -1,6 +1,7 @@
 #include "grid_csv_format.hpp"
 
 #include "terramrf/evaluation.hpp"
+#include "terramrf/text_format.hpp"
 
 #include <algorithm>
 #include <charconv>
@@ -23,15 +24,6 @@ void appendNumber(std::string& out, T v) {
 
 }  // namespace
 
-std::string csvField(const std::string& s) {
-  if (s.find_first_of(",\"\r\n") == std::string::npos) return s;
-  std::string q = "\"";
-  for (char ch : s) {
-    if (ch == '"') q += '"';
-    q += ch;
-  }
-  return q + "\"";
-}
 
 std::string gridToCsv(const TerrainGrid& grid, const LabelSet& labels,
                       const std::vector<std::string>& layer_names, const PointLabels* truth) {

@@ -5,6 +5,7 @@
 
 #include "terramrf/frame.hpp"
 #include "terramrf/label_set.hpp"
+#include "terramrf/text_format.hpp"
 #include "terramrf/terrain_grid.hpp"
 
 namespace terramrf {
@@ -21,8 +22,5 @@ std::string gridToCsv(const TerrainGrid& grid, const LabelSet& labels,
                       const std::vector<std::string>& layers,
                       const PointLabels* truth = nullptr);
 
-/// RFC 4180 quoting: the field as is, or in double quotes (inner quotes doubled) if it holds a
-/// comma, a quote or a line break.
-std::string csvField(const std::string& s);
 
 }  // namespace terramrf

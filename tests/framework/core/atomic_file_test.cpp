@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/text_format.hpp"
 #include "terramrf/errors.hpp"
 #include "test_support.hpp"
 
@@ -53,6 +54,17 @@ TEST(AtomicFile, ReadMissingFileNamesIt) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("/no/such/file.bin"), std::string::npos);
   }
+}
+
+TEST(TextFormat, JsonAndCsvQuoting) {
+  EXPECT_EQ(jsonQuote("road"), "\"road\"");
+  EXPECT_EQ(jsonQuote("a\"b\\c"), "\"a\\\"b\\\\c\"");
+  EXPECT_EQ(jsonQuote("x\ny\tz"), "\"x\\ny\\u0009z\"");
+  EXPECT_EQ(jsonQuote("Gelände"), "\"Gelände\"");  // UTF-8 passes through
+  EXPECT_EQ(csvField("road"), "road");
+  EXPECT_EQ(csvField("a,b"), "\"a,b\"");
+  EXPECT_EQ(csvField("say \"hi\""), "\"say \"\"hi\"\"\"");
+  EXPECT_EQ(csvField("two\r\nlines"), "\"two\r\nlines\"");
 }
 
 TEST(SafeFileName, KeepsANameInsideItsFolder) {
