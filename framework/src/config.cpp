@@ -232,12 +232,8 @@ bool applyEntryParams(Plugin& plugin, const YAML::Node& e, const PluginContext& 
 
 }  // namespace detail
 
-namespace {
-
-const std::vector<std::string> kTopKeys = {"version", "plugin_path", "grid", "labels", "split",
-                                           "source", "stages", "outputs", "output_dir"};
-
-}  // namespace
+const std::vector<std::string> detail::kPipelineKeys = {
+    "version", "plugin_path", "grid", "labels", "split", "source", "stages", "outputs", "output_dir"};
 
 Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options,
                       PluginRegistry& registry) {
@@ -248,7 +244,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
     c.add(root.Mark(), "expected a map with keys version, grid, source, stages, outputs");
     c.throwIfAny();
   }
-  detail::checkKeys(c, root, kTopKeys, "the config");
+  detail::checkKeys(c, root, detail::kPipelineKeys, "the config");
 
   Pipeline p;
   p.config_path = config_path;

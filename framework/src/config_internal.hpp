@@ -26,6 +26,9 @@ struct Diags {
   void throwIfAny() const;
 };
 
+/// Top-level keys of a pipeline config (`terramrf run` and `terramrf train` read the same files).
+extern const std::vector<std::string> kPipelineKeys;
+
 /// What an unknown-key diagnostic suggests.
 enum class KeyHint {
   kNearest,       ///< "(did you mean 'x'?)" when an allowed key is close

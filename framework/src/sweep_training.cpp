@@ -132,10 +132,6 @@ std::string composeModel(const std::string& stats_text, const TrainJob& job, con
          std::string(em.c_str()) + "\n" + classes;
 }
 
-const std::vector<std::string> kConfigKeys = {"version", "plugin_path", "grid",
-                                              "labels",  "source",      "stages",
-                                              "outputs", "output_dir",  "split"};
-
 }  // namespace
 }  // namespace sweep_detail
 
@@ -264,7 +260,6 @@ using sweep_detail::Progress;
 using sweep_detail::TrainJob;
 using sweep_detail::checkDisjoint;
 using sweep_detail::identify;
-using sweep_detail::kConfigKeys;
 using sweep_detail::kKeyHint;
 using sweep_detail::kStatsPlugin;
 using sweep_detail::parseSplit;
@@ -285,7 +280,7 @@ TrainResult trainModel(const TrainOptions& o) {
     d.add(root.Mark(), "expected a pipeline config (a map with version, grid, source, stages)");
     d.throwIfAny();
   }
-  detail::checkKeys(d, root, kConfigKeys, "the config", kKeyHint);
+  detail::checkKeys(d, root, detail::kPipelineKeys, "the config", kKeyHint);
   detail::checkVersion(root, d);
   Frame0 f0;
   f0.file = o.config_path;

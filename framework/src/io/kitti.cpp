@@ -11,6 +11,8 @@
 
 #include "terramrf/errors.hpp"
 
+#include "fs_checks.hpp"
+
 namespace terramrf {
 namespace fs = std::filesystem;
 namespace {
@@ -59,14 +61,8 @@ std::vector<std::string> sortedStems(const fs::path& dir, const std::string& ext
   return stems;
 }
 
-bool isDir(const fs::path& p) {
-  std::error_code ec;
-  return fs::is_directory(p, ec);
-}
-bool isFile(const fs::path& p) {
-  std::error_code ec;
-  return fs::is_regular_file(p, ec);
-}
+using io_detail::isDir;
+using io_detail::isFile;
 
 }  // namespace
 

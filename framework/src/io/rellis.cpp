@@ -10,6 +10,8 @@
 
 #include "terramrf/errors.hpp"
 
+#include "fs_checks.hpp"
+
 namespace terramrf {
 namespace fs = std::filesystem;
 namespace {
@@ -19,14 +21,8 @@ bool allDigits(const std::string& s) {
          std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); });
 }
 
-bool isDir(const fs::path& p) {
-  std::error_code ec;
-  return fs::is_directory(p, ec);
-}
-bool isFile(const fs::path& p) {
-  std::error_code ec;
-  return fs::is_regular_file(p, ec);
-}
+using io_detail::isDir;
+using io_detail::isFile;
 
 /// frame<id>-<stamp>.<ext> files of `dir`, by id.
 std::map<std::string, std::string> cameraFiles(const fs::path& dir, const std::string& ext) {
