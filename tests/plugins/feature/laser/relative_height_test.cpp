@@ -1,6 +1,10 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
+#include <string>
+#include <vector>
 
 #include "plugin_harness.hpp"
 
@@ -20,6 +24,46 @@ TEST(RelativeHeight, DitchFloorIsBelowItsSurroundings) {
   EXPECT_NEAR(h.at("relative_height", 0.2, -2.2), 0.0, 1e-5);
   // Next to the trench most neighbours are ground: the median stays at ground level.
   EXPECT_NEAR(h.at("relative_height", 0.2, 1.7), 0.0, 1e-5);
+}
+
+// Against the definition, computed the obvious way (nth_element per cell), on random grids with
+// empty cells, ties (heights on a 1 cm lattice) and every radius the fast selection must handle.
+TEST(RelativeHeight, EqualsTheMedianOfItsNeighboursOnRandomGrids) {
+  std::mt19937 rng(7);
+  for (int radius : {1, 2, 3, 5}) {
+    test::StageHarness h(10, 0.5);  // 20 × 20 cells
+    std::uniform_real_distribution<float> pos(-5.f, 5.f);
+    std::uniform_int_distribution<int> level(-30, 30);
+    for (int i = 0; i < 500; ++i)
+      h.frame.points.push_back(pos(rng), pos(rng), -1.7f + 0.01f * level(rng), 0);
+    h.bin();
+    h.make("relative_height", "{radius_cells: " + std::to_string(radius) + ", min_neighbours: 1}")
+        ->process(h.ctx);
+    const TerrainGrid& g = h.grid;
+    std::vector<float> zmin(g.cells(), NAN);
+    for (std::size_t i = 0; i < h.frame.points.size(); ++i) {
+      const int c = g.cellOfPoint()[i];
+      if (c >= 0) zmin[c] = std::isnan(zmin[c]) ? h.frame.points.z[i] : std::min(zmin[c], h.frame.points.z[i]);
+    }
+    int checked = 0;
+    for (int r = 0; r < g.rows(); ++r)
+      for (int c = 0; c < g.cols(); ++c) {
+        const float out = g.layer("relative_height")[g.index(r, c)];
+        const float z = zmin[g.index(r, c)];
+        std::vector<float> w;
+        for (int rr = std::max(0, r - radius); rr <= std::min(g.rows() - 1, r + radius); ++rr)
+          for (int cc = std::max(0, c - radius); cc <= std::min(g.cols() - 1, c + radius); ++cc)
+            if ((rr != r || cc != c) && !std::isnan(zmin[g.index(rr, cc)])) w.push_back(zmin[g.index(rr, cc)]);
+        if (std::isnan(z) || w.empty()) {
+          EXPECT_TRUE(std::isnan(out)) << r << "," << c;
+          continue;
+        }
+        std::nth_element(w.begin(), w.begin() + w.size() / 2, w.end());
+        ASSERT_EQ(out, z - w[w.size() / 2]) << "radius " << radius << " cell " << r << "," << c;
+        ++checked;
+      }
+    EXPECT_GT(checked, 250) << radius;  // ~70 % of 400 cells hold a point
+  }
 }
 
 }  // namespace terramrf
