@@ -8,7 +8,9 @@
 // Filter: residual_i = r_i − mean(r_{i−w..i+w} \ r_i) over the ring's neighbours in scan order;
 // a neighbour beyond `max_jump_m` or missing ends the window (object edges are not roughness).
 // Cell value: RMS of its points' residuals [m].
+#include <algorithm>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "terramrf/plugin.hpp"
@@ -24,6 +26,11 @@ class Roughness final : public Stage {
     d.add("max_jump_m", max_jump_m_,
           "a neighbour whose range differs more than this is an edge, not roughness")
         .unit("m").range(0.01, 100);
+    d.add("azimuth_order", azimuth_order_,
+          "order of the points along a ring: 'scan' trusts the cloud's order, 'sort' sorts every "
+          "ring by azimuth, 'auto' sorts the rings whose order is not the scan's (more than 2 % "
+          "of consecutive points over 5° apart: shuffled or resampled clouds)")
+        .choices({"auto", "scan", "sort"});
     d.add("min_points", min_points_, "cells with fewer filtered points get NaN")
         .unit("points").range(1, 1000);
   }
@@ -52,6 +59,9 @@ class Roughness final : public Stage {
     cursor_.assign(offsets_.begin(), offsets_.end() - 1);
     for (std::size_t i = 0; i < n; ++i)
       if (pc.ring[i] != kUnknownRing) order_[cursor_[pc.ring[i]]++] = static_cast<uint32_t>(i);
+    sorted_rings_ = 0;
+    if (azimuth_order_ != "scan") sortRings(pc, rings);
+    ctx.metrics[name() + ".sorted_rings"] = sorted_rings_;
     range_.resize(order_.size());
     for (std::size_t k = 0; k < order_.size(); ++k) {
       const uint32_t i = order_[k];
@@ -89,10 +99,44 @@ class Roughness final : public Stage {
   }
 
  private:
+  /// Puts the points of each ring in azimuth order where the cloud's order is not the scan
+  /// order. The high-pass compares each point with its neighbours along the ring; in a shuffled
+  /// cloud consecutive points of a ring are anywhere on it, and asphalt reads as rough.
+  /// Detection costs a few multiply-adds per point (no trigonometry), so ordered scans pay little.
+  void sortRings(const PointCloud& pc, int rings) {
+    const float *X = pc.x.data(), *Y = pc.y.data();
+    const float cos2 = 0.99240388f;  // cos²(5°)
+    for (int r = 0; r < rings; ++r) {
+      uint32_t* b = order_.data() + offsets_[r];
+      uint32_t* e = order_.data() + offsets_[r + 1];
+      if (e - b < 3) continue;
+      bool sort = azimuth_order_ == "sort";
+      if (!sort) {
+        std::size_t apart = 0;
+        for (uint32_t* it = b + 1; it != e; ++it) {
+          const float x0 = X[it[-1]], y0 = Y[it[-1]], x1 = X[*it], y1 = Y[*it];
+          const float dot = x0 * x1 + y0 * y1;
+          const float n2 = (x0 * x0 + y0 * y0) * (x1 * x1 + y1 * y1);
+          apart += !(dot > 0 && dot * dot >= cos2 * n2);
+        }
+        sort = apart * 50 > static_cast<std::size_t>(e - b);  // > 2 %
+      }
+      if (!sort) continue;
+      ++sorted_rings_;
+      keyed_.clear();
+      for (uint32_t* it = b; it != e; ++it) keyed_.emplace_back(std::atan2(Y[*it], X[*it]), *it);
+      std::sort(keyed_.begin(), keyed_.end());
+      for (std::size_t k = 0; k < keyed_.size(); ++k) b[k] = keyed_[k].second;
+    }
+  }
+
   std::string layer_ = "roughness";
   int window_ = 2;
   double max_jump_m_ = 0.5;
   int min_points_ = 1;
+  std::string azimuth_order_ = "auto";
+  int sorted_rings_ = 0;
+  std::vector<std::pair<float, uint32_t>> keyed_;
   std::vector<uint32_t> offsets_, cursor_, order_, cnt_;
   std::vector<float> range_, sum_;
 };

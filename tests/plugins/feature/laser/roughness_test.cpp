@@ -1,7 +1,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <algorithm>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include "plugin_harness.hpp"
 
@@ -28,6 +31,59 @@ TEST(Roughness, SmoothRingIsZeroAndAlternatingRingKnown) {
   EXPECT_LT(h.at("roughness", 4.9, 0.05), 1e-4);
   EXPECT_NEAR(h.at("roughness", 7.9, 0.05), 0.04, 1e-3);
   EXPECT_TRUE(std::isnan(h.at("roughness", 2.0, 2.0)));
+}
+
+// A cloud stored out of scan order (shuffled, as the Open3D-ML scans are): 'auto' finds the rings
+// whose order is not an azimuth sweep and sorts them, giving the ordered cloud's roughness;
+// 'scan' trusts the order and compares points from anywhere on the ring.
+TEST(Roughness, ShuffledRingsAreSortedByAzimuth) {
+  // Ranges that vary smoothly around the ring (a sensor off the centre of a round clearing),
+  // plus 1 cm noise; and a second ring with 0.3 m steps.
+  std::vector<double> dr(2000);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  for (std::size_t i = 0; i < dr.size(); ++i) dr[i] = 2.0 * std::sin(2 * M_PI * i / dr.size()) + noise(rng);
+  test::StageHarness ordered;
+  addRing(ordered.frame.points, 20, 8.0, 2000, dr);
+  addRing(ordered.frame.points, 30, 12.0, 3000, {0.0, 0.3});
+  ordered.bin();
+  ordered.make("roughness")->process(ordered.ctx);
+
+  test::StageHarness shuffled;
+  PointCloud& src = ordered.frame.points;
+  std::vector<std::size_t> perm(src.size());
+  for (std::size_t i = 0; i < perm.size(); ++i) perm[i] = i;
+  std::shuffle(perm.begin(), perm.end(), rng);
+  for (std::size_t i : perm) shuffled.frame.points.push_back(src.x[i], src.y[i], src.z[i], 0, src.ring[i]);
+  shuffled.bin();
+  shuffled.make("roughness")->process(shuffled.ctx);
+  // Cells away from azimuth 0 and ±180°, where the ordered and the sorted ring start (a ring's
+  // first and last points have a neighbour on one side only).
+  int compared = 0;
+  for (std::size_t c = 0; c < ordered.grid.cells(); ++c) {
+    const Eigen::Vector2d p = ordered.grid.geometry().cellCentre(int(c) / ordered.grid.cols(),
+                                                                 int(c) % ordered.grid.cols());
+    if (std::abs(p.y()) < 1.0) continue;
+    const float a = ordered.grid.layer("roughness")[c], b = shuffled.grid.layer("roughness")[c];
+    if (std::isnan(a)) continue;
+    EXPECT_NEAR(b, a, 1e-6) << p.transpose();
+    ++compared;
+  }
+  EXPECT_GT(compared, 50);
+  EXPECT_EQ(shuffled.ctx.metrics.at("roughness.sorted_rings"), 2);
+  EXPECT_EQ(ordered.ctx.metrics.at("roughness.sorted_rings"), 0);
+
+  // Trusting the shuffled order compares points from anywhere on the ring: most cells change
+  // (or lose every neighbour to the edge rule and become no-data).
+  shuffled.make("roughness", "{azimuth_order: scan}")->process(shuffled.ctx);
+  int changed = 0, valid = 0;
+  for (std::size_t c = 0; c < ordered.grid.cells(); ++c) {
+    const float a = ordered.grid.layer("roughness")[c], b = shuffled.grid.layer("roughness")[c];
+    if (std::isnan(a)) continue;
+    ++valid;
+    changed += std::isnan(b) || std::abs(b - a) > 0.005f;
+  }
+  EXPECT_GT(changed * 2, valid) << changed << " of " << valid;
 }
 
 TEST(Roughness, EdgesAreNotRoughness) {
