@@ -241,17 +241,22 @@ TEST(SweepsE2E, SemanticKittiAgainstPatchworkOnFrame0) {
   }
 }
 
-TEST(SweepsE2E, Open3dMl750AndRellisBeatPatchwork) {
+// Patchwork++ (the reference): 000750 0.972 / 0.973, RELLIS 0.879 / 0.931. On 000750
+// L-rh+G beats it on both; on RELLIS L+G finds more obstacles (0.964) but its precision is 0.871
+// since roughness reads the shuffled Open3D-ML training scans in azimuth order (it was 0.882 with
+// the broken order; docs/benchmarks.md). Guards: recall above Patchwork++'s, precision as
+// measured less 0.01.
+TEST(SweepsE2E, Open3dMl750AndRellisAgainstPatchwork) {
   struct Case {
     const char *sweep, *data, *feature_set, *frame;
-    double precision, recall;  // Patchwork++'s
+    double min_precision, recall;  // recall: Patchwork++'s
   };
   for (const Case& c : {Case{"semantickitti_o3dml.yaml", "semantickitti_o3dml_demo", "L-rh+G", "000750",
-                             0.972, 0.973},
-                        Case{"rellis3d.yaml", "rellis3d_example_000104", "L+G", "000104", 0.879, 0.931}}) {
+                             0.9721, 0.973},
+                        Case{"rellis3d.yaml", "rellis3d_example_000104", "L+G", "000104", 0.86, 0.931}}) {
     test::TempDir out;
     const auto [p, rc] = scanScore(runSweep(out, c.sweep, c.data), c.feature_set, "icm", c.frame, "obstacle");
-    EXPECT_GT(p, c.precision) << c.sweep;
+    EXPECT_GE(p, c.min_precision) << c.sweep;
     EXPECT_GT(rc, c.recall) << c.sweep;
   }
 }
