@@ -74,8 +74,8 @@ TEST(ConfigsE2E, SemanticKittiPrintsTheEvaluation) {
   EXPECT_EQ(s["counts"]["scans"].as<int>(), 3) << "frames 0-2 are the labelled ones";
   // Regression guards a little below the measured held-out figures (docs/benchmarks.md:
   // obstacle 0.970 / 0.950, road 0.986 / 0.895, rough recall 0.847). The model is learnt on the
-  // voxel-thinned Open3D-ML scans, whose grass is smoother than raw scans' (road recall was 0.967
-  // while roughness read those shuffled scans out of azimuth order).
+  // Open3D-ML scenes, whose rough ground is smoother than seq 00's (road recall was 0.967 while
+  // roughness read those shuffled scans out of azimuth order).
   EXPECT_GE(cellScore(s, "obstacle", "precision"), 0.96);
   EXPECT_GE(cellScore(s, "obstacle", "recall"), 0.94);
   EXPECT_GE(cellScore(s, "road", "precision"), 0.97);
@@ -226,7 +226,7 @@ std::string runSweep(const test::TempDir& out, const std::string& sweep, const s
 
 // Patchwork++ scores obstacle 0.979 / 0.921 on this scan. L+G finds more obstacles with every
 // optimiser; its precision is 0.978, about one cell short, since the models are learnt on the
-// voxel-thinned Open3D-ML scans (docs/benchmarks.md). Guards: recall above Patchwork++'s,
+// Open3D-ML scenes, whose rough ground is smoother (docs/benchmarks.md). Guards: recall above Patchwork++'s,
 // precision not below 0.975.
 TEST(SweepsE2E, SemanticKittiAgainstPatchworkOnFrame0) {
   test::TempDir out;
