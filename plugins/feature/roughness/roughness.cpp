@@ -5,7 +5,8 @@
 // δz / sin(incidence), so a few centimetres of grass or gravel show up as decimetres of range
 // jitter along a ring, while asphalt only shows the sensor's range noise.
 //
-// Filter: residual_i = r_i − mean(r_{i−w..i+w} \ r_i) over the ring's neighbours in scan order;
+// Filter: residual_i = r_i − mean(r_{i−w..i+w} \ r_i) over the ring's neighbours in scan order
+// (azimuth order for rings the cloud stores shuffled, see sortRings);
 // a neighbour beyond `max_jump_m` or missing ends the window (object edges are not roughness).
 // Cell value: RMS of its points' residuals [m].
 #include <algorithm>
