@@ -24,7 +24,6 @@ void appendNumber(std::string& out, T v) {
 
 }  // namespace
 
-
 std::string gridToCsv(const TerrainGrid& grid, const LabelSet& labels,
                       const std::vector<std::string>& layer_names, const PointLabels* truth) {
   const std::vector<std::string> names = layer_names.empty() ? grid.layerNames() : layer_names;

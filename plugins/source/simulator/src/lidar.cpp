@@ -83,16 +83,13 @@ void LidarModel::scan(const std::function<Eigen::Isometry3d(double)>& pose_at, u
       const RayHit hit = world_->castRay(o, dw, p_.min_range_m, p_.max_range_m,
                                          hashKeys(key, uint64_t(idx), 1), scratch);
       if (!hit.hit()) continue;
+      const double cosi = std::abs(hit.normal.dot(dw));  // sine of the incidence on the surface
       double range = hit.t_m + p_.range_noise_m * rng.normal();
       const double depth = hit.material == Material::kGrass    ? p_.grass_depth_m
                            : hit.material == Material::kGravel ? p_.gravel_depth_m
                                                                : 0.0;
-      if (depth > 0) {
-        const double sin_inc = std::max(0.1, std::abs(hit.normal.dot(dw)));
-        range -= rng.uniform(0.0, depth) / sin_inc;
-      }
+      if (depth > 0) range -= rng.uniform(0.0, depth) / std::max(0.1, cosi);
       if (range < p_.min_range_m || range > p_.max_range_m) continue;
-      const double cosi = std::abs(hit.normal.dot(dw));
       const double inten =
           reflectivity(hit.material) * (0.35 + 0.65 * cosi) + p_.intensity_noise * rng.normal();
       const Ray ray{float(dl.x() * range), float(dl.y() * range), float(dl.z() * range),
