@@ -7,7 +7,11 @@
 //
 // Filter: residual_i = r_i − mean(r_{i−w..i+w} \ r_i) over the ring's neighbours in scan order
 // (azimuth order for rings the cloud stores shuffled, see sortRings);
-// a neighbour beyond `max_jump_m` or missing ends the window (object edges are not roughness).
+// a neighbour beyond `max_jump_m` or missing ends the window (object edges are not roughness);
+// a neighbour whose beam elevation differs by more than `max_elevation_step_deg` belongs to
+// another laser and is passed over. Rings recovered by elevation binning from voxel-thinned
+// clouds (the Open3D-ML scans) interleave two lasers near the sensor, whose ground ranges differ
+// by decimetres there: without the check their asphalt read as grass (road recall 0.79 → 0.92).
 // Cell value: RMS of its points' residuals [m].
 #include <algorithm>
 #include <cmath>
@@ -32,6 +36,12 @@ class Roughness final : public Stage {
           "ring by azimuth, 'auto' sorts the rings whose order is not the scan's (more than 2 % "
           "of consecutive points over 5° apart: shuffled or resampled clouds)")
         .choices({"auto", "scan", "sort"});
+    d.add("max_elevation_step_deg", max_elev_step_deg_,
+          "a neighbour whose beam elevation differs more than this is from another laser and is "
+          "passed over (rings recovered from thinned or merged clouds mix lasers near the "
+          "sensor; 64-beam sensors space lasers >= 0.33 deg apart); 0 = off")
+        .unit("deg")
+        .range(0, 90);
     d.add("min_points", min_points_, "cells with fewer filtered points get NaN")
         .unit("points").range(1, 1000);
   }
@@ -64,14 +74,21 @@ class Roughness final : public Stage {
     if (azimuth_order_ != "scan") sortRings(pc, rings);
     ctx.metrics[name() + ".sorted_rings"] = sorted_rings_;
     range_.resize(order_.size());
+    const bool elev = max_elev_step_deg_ > 0;
+    if (elev) sin_el_.resize(order_.size());
+    const float max_dsin = static_cast<float>(std::sin(max_elev_step_deg_ * M_PI / 180));
+    // Passed-over neighbours widen the search, up to 4 windows along the ring.
+    const int span = elev ? 4 * window_ : window_;
     for (std::size_t k = 0; k < order_.size(); ++k) {
       const uint32_t i = order_[k];
       range_[k] = std::sqrt(pc.x[i] * pc.x[i] + pc.y[i] * pc.y[i] + pc.z[i] * pc.z[i]);
+      if (elev) sin_el_[k] = pc.z[i] / std::max(range_[k], 1e-3f);
     }
     sum_.assign(g.cells(), 0.f);
     cnt_.assign(g.cells(), 0);
     const auto& cell_of = g.cellOfPoint();
     const float jump = static_cast<float>(max_jump_m_);
+    std::size_t passed_over = 0, residuals = 0;
     for (int r = 0; r < rings; ++r) {
       const int b = static_cast<int>(offsets_[r]), e = static_cast<int>(offsets_[r + 1]);
       for (int k = b; k < e; ++k) {
@@ -80,21 +97,36 @@ class Roughness final : public Stage {
         const float rk = range_[k];
         float s = 0;
         int m = 0;
-        for (int j = k - 1; j >= b && j >= k - window_; --j) {
+        const float sk = elev ? sin_el_[k] : 0.f;
+        for (int j = k - 1, got = 0; j >= b && j >= k - span && got < window_; --j) {
+          if (elev && std::abs(sin_el_[j] - sk) > max_dsin) {
+            ++passed_over;
+            continue;
+          }
           if (std::abs(range_[j] - rk) > jump) break;
-          s += range_[j], ++m;
+          s += range_[j], ++m, ++got;
         }
         const int left = m;
-        for (int j = k + 1; j < e && j <= k + window_; ++j) {
+        for (int j = k + 1, got = 0; j < e && j <= k + span && got < window_; ++j) {
+          if (elev && std::abs(sin_el_[j] - sk) > max_dsin) {
+            ++passed_over;
+            continue;
+          }
           if (std::abs(range_[j] - rk) > jump) break;
-          s += range_[j], ++m;
+          s += range_[j], ++m, ++got;
         }
         if (left == 0 || m == left) continue;  // need neighbours on both sides
         const float res = rk - s / m;
         sum_[cell] += res * res;
         ++cnt_[cell];
+        ++residuals;
       }
     }
+    // Neighbours passed over per residual: 2.6–3.0 on the Open3D-ML scans, whose recovered rings
+    // interleave lasers; about 0.2 on KITTI's own ring order, from points beyond object edges
+    // (their z/r differs through the laser's offset from the point origin).
+    ctx.metrics[name() + ".passed_over_per_point"] =
+        residuals ? static_cast<double>(passed_over) / residuals : 0.0;
     for (std::size_t c = 0; c < g.cells(); ++c)
       if (cnt_[c] >= static_cast<uint32_t>(min_points_)) out[c] = std::sqrt(sum_[c] / cnt_[c]);
   }
@@ -140,7 +172,8 @@ class Roughness final : public Stage {
   int sorted_rings_ = 0;
   std::vector<std::pair<float, uint32_t>> keyed_;
   std::vector<uint32_t> offsets_, cursor_, order_, cnt_;
-  std::vector<float> range_, sum_;
+  double max_elev_step_deg_ = 0.15;
+  std::vector<float> range_, sin_el_, sum_;
 };
 
 }  // namespace terramrf

@@ -117,3 +117,32 @@ TEST(Roughness, WithoutRingsIsAnInputError) {
 }
 
 }  // namespace terramrf
+
+namespace terramrf {
+
+// Rings recovered by elevation from a voxel-thinned cloud: two lasers, hitting flat ground 4.0 m
+// and 4.3 m away (1.7 m below the sensor), end up interleaved under one ring index. Each laser
+// alone sees a smooth circle; compared with the other laser's points the asphalt reads 0.14 m
+// rough. Neighbours whose beam elevation differs (here by 1.4°) are passed over.
+TEST(Roughness, NeighboursFromAnotherLaserArePassedOver) {
+  test::StageHarness h;
+  const int n = 4000;
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * M_PI * i / n, r = i % 2 ? 4.3 : 4.0;
+    h.frame.points.push_back(float(r * std::cos(a)), float(r * std::sin(a)), -1.7f, 0, 7);
+  }
+  h.bin();
+  h.make("roughness")->process(h.ctx);
+  // Cells at azimuth ≈ 16° holding one laser each (4.3 m and 4.0 m). Window 2: each point's two
+  // neighbours of its own laser on each side are 2 and 4 positions away, at its own range.
+  EXPECT_LT(h.at("roughness", 4.1, 1.2), 1e-4);
+  EXPECT_LT(h.at("roughness", 3.8, 1.2), 1e-4);
+  EXPECT_GT(h.ctx.metrics.at("roughness.passed_over_per_point"), 1.5);
+  // Off: the window takes both lasers, two of each: residual ±(r_b − r_a) / 2 in 3D range.
+  h.make("roughness", "{max_elevation_step_deg: 0}")->process(h.ctx);
+  const double half_step = (std::hypot(4.3, 1.7) - std::hypot(4.0, 1.7)) / 2;  // 0.139 m
+  EXPECT_NEAR(h.at("roughness", 4.1, 1.2), half_step, 1e-3);
+  EXPECT_NEAR(h.at("roughness", 3.8, 1.2), half_step, 1e-3);
+}
+
+}  // namespace terramrf
