@@ -18,6 +18,13 @@ class RelativeHeight final : public Stage {
   void declare(ParamDecl& d) override {
     d.add("layer", layer_, "name of the output layer: lowest point − local median of lowest points [m]");
     d.add("radius_cells", radius_, "half-width of the square neighbourhood").unit("cells").range(1, 20);
+    d.add("quantile", quantile_,
+          "which quantile of the neighbours' lowest points is the reference: 0.5 = median; lower "
+          "values keep the foot of a hedge or car, whose neighbours' lowest points are raised by "
+          "the "
+          "object, near 0")
+        .unit("1")
+        .range(0, 1);
     d.add("min_neighbours", min_neighbours_, "cells with fewer neighbours holding points get NaN")
         .unit("cells").range(1, 1000);
   }
@@ -62,7 +69,8 @@ class RelativeHeight final : public Stage {
         if (n < min_neighbours_) continue;
         const int padded = (n + 7) / 8 * 8;
         std::fill(win.begin() + n, win.begin() + padded, kInf);
-        out[r * C + c] = z - rankSelect(win.data(), n, padded, n / 2);
+        out[r * C + c] =
+            z - rankSelect(win.data(), n, padded, std::min(n - 1, static_cast<int>(quantile_ * n)));
       }
     }
   }
@@ -96,6 +104,7 @@ class RelativeHeight final : public Stage {
   std::string layer_ = "relative_height";
   int radius_ = 3;
   int min_neighbours_ = 4;
+  double quantile_ = 0.5;
   std::vector<float> zmin_, window_;
 };
 

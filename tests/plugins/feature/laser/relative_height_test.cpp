@@ -67,3 +67,29 @@ TEST(RelativeHeight, EqualsTheMedianOfItsNeighboursOnRandomGrids) {
 }
 
 }  // namespace terramrf
+
+namespace terramrf {
+
+// The foot of a hedge: a ground cell in the inner corner of an L-shaped hedge, whose lowest
+// returns are 0.5 m up (the ground under it is hidden). Of its 24 neighbours (radius 2) 16 are
+// hedge: against their median the cell sits 0.5 m "below ground" like a ditch floor; against
+// their lower quartile (8 ground values come first) it is ground.
+TEST(RelativeHeight, QuantileKeepsTheFootOfAHedgeAtGround) {
+  test::StageHarness h;
+  for (double x = -5; x < 5; x += 0.1)
+    for (double y = -5; y < 5; y += 0.1) {
+      const bool hedge = x + 0.05 >= 0.5 || y + 0.05 >= 0.5;
+      h.frame.points.push_back(float(x + 0.05), float(y + 0.05), hedge ? -1.2f : -1.7f, 0);
+    }
+  h.bin();
+  h.make("relative_height", "{radius_cells: 2}")->process(h.ctx);
+  EXPECT_NEAR(h.at("relative_height", 0.2, 0.2), -0.5, 1e-5);
+  EXPECT_NEAR(h.at("relative_height", -2.2, -2.2), 0.0, 1e-5);
+  h.make("relative_height", "{radius_cells: 2, quantile: 0.25}")->process(h.ctx);
+  EXPECT_NEAR(h.at("relative_height", 0.2, 0.2), 0.0, 1e-5);
+  EXPECT_NEAR(h.at("relative_height", -2.2, -2.2), 0.0, 1e-5);
+  // A hedge cell is level with the hedge around it, and a trench floor stays below the quartile.
+  EXPECT_NEAR(h.at("relative_height", 2.2, 2.2), 0.0, 1e-5);
+}
+
+}  // namespace terramrf
