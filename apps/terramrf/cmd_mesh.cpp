@@ -61,7 +61,7 @@ int cmdMesh(const Args& args) {
     std::cerr << "terramrf mesh: " << e.what() << "\n";
     return kError;
   }
-  writeFileAtomic(p.output_dir + "/timing.md", timingTable(r));
+  writeRunReports(p.output_dir, r);
   std::cout << r.summary.frames_ok << " of " << r.frames_total << " frame(s) ok\n";
   for (const auto& [id, why] : r.summary.failed) std::cout << "  " << id << ": " << why << "\n";
   for (const auto& e : r.output_errors) std::cout << "error: " << e << "\n";

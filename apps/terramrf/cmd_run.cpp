@@ -82,7 +82,7 @@ int cmdRun(const Args& args) {
             << ", outputs in " << p.output_dir << "\n";
   RunResult r = runPipeline(p, ro);
   const std::string table = timingTable(r);
-  writeFileAtomic(p.output_dir + "/timing.md", table);
+  writeRunReports(p.output_dir, r);
   std::cout << "\nPer-stage timing over " << r.summary.frames_ok << " scan(s):\n" << table;
   std::cout << "\n" << r.summary.frames_ok << " of " << r.frames_total << " frame(s) ok";
   if (!r.summary.failed.empty()) {

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/text_format.hpp"
 
 namespace terramrf {
 
@@ -164,6 +165,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       slot_ms[slot++] = msSince(t_frame);
       for (std::size_t s = 0; s < slot; ++s) res.timings[s].ms.push_back(slot_ms[s]);
       ++res.summary.frames_ok;
+      if (!ctx.metrics.empty()) res.metrics.emplace_back(frames[cur].id, ctx.metrics);
       have_prev = true;
       cur = 1 - cur;
     } catch (const std::exception& e) {
@@ -198,6 +200,21 @@ std::string timingTable(const RunResult& r) {
     o << buf;
   }
   return o.str();
+}
+
+std::string metricsCsv(const RunResult& r) {
+  std::ostringstream o;
+  o.precision(9);
+  o << "frame,metric,value\n";
+  for (const auto& [frame, m] : r.metrics)
+    for (const auto& [key, value] : m)
+      o << csvField(frame) << ',' << csvField(key) << ',' << value << '\n';
+  return o.str();
+}
+
+void writeRunReports(const std::string& dir, const RunResult& r) {
+  writeFileAtomic(dir + "/timing.md", timingTable(r));
+  if (!r.metrics.empty()) writeFileAtomic(dir + "/metrics.csv", metricsCsv(r));
 }
 
 }  // namespace terramrf

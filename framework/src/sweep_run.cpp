@@ -362,7 +362,7 @@ SweepResult runSweep(const CompareOptions& o) {
           rec.frames_ok = rr.summary.frames_ok;
           rec.failed = rr.summary.failed;
           rec.times = runTimes(rr, p);
-          writeFileAtomic(rec.output_dir + "/timing.md", timingTable(rr));
+          writeRunReports(rec.output_dir, rr);
           if (rr.frames_total > 0 && rr.summary.frames_ok == 0) {
             rec.status = RunRecord::Status::kFailed;
             rec.reason = "every frame failed";

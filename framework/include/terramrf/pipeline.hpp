@@ -2,6 +2,7 @@
 // Runs a loaded pipeline over every frame of its source: read → egomotion → grid → stages →
 // outputs. Owns order, per-stage timing and error handling; a bad frame is reported and skipped.
 #include <iosfwd>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,9 @@ struct RunResult {
   std::size_t frames_total = 0;
   std::vector<StageTiming> timings;  ///< read, egomotion…, grid, stages…, outputs…, total
   std::vector<std::string> output_errors;
+  /// What the stages measured (FrameContext::metrics, e.g. "rough.sorted_rings"), per frame that
+  /// completed, in run order; frames whose stages measured nothing are left out.
+  std::vector<std::pair<std::string, std::map<std::string, double>>> metrics;
   /// 0 all frames ok; 3 some frames failed; 4 every frame failed or an output failed at the end.
   int exitCode() const;
 };
@@ -39,5 +43,12 @@ RunResult runPipeline(Pipeline& pipeline, const RunOptions& options = {});
 
 /// Per-stage timing table (mean, std, min, max, median per scan [ms]), Markdown.
 std::string timingTable(const RunResult& r);
+
+/// The stage metrics as CSV: `frame,metric,value`, one row per frame and metric.
+std::string metricsCsv(const RunResult& r);
+
+/// Writes `timing.md` and, when a stage measured something, `metrics.csv` into `dir`
+/// (atomically, like every output).
+void writeRunReports(const std::string& dir, const RunResult& r);
 
 }  // namespace terramrf

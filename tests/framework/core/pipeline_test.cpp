@@ -1,10 +1,12 @@
+#include "terramrf/pipeline.hpp"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <sstream>
 
 #include "config_fixture.hpp"
-#include "terramrf/pipeline.hpp"
+#include "terramrf/atomic_file.hpp"
 
 namespace terramrf {
 
@@ -71,6 +73,35 @@ TEST(Pipeline, EmptyScanGivesAllUnknownGrid) {
   ro.progress = false;
   RunResult r = runPipeline(p, ro);
   EXPECT_EQ(r.exitCode(), 0);
+}
+
+}  // namespace terramrf
+
+namespace terramrf {
+
+// What the stages measure is kept per completed frame and written next to timing.md.
+TEST(Pipeline, StageMetricsOfCompletedFramesAreWrittenAsCsv) {
+  test::ConfigFixture f;
+  LoadOptions lo;
+  lo.output_dir = f.dir.str() + "/out";
+  Pipeline p = loadPipeline(
+      f.write("m.yaml", test::ConfigFixture::validPipeline("{frames: 3, bad_frames: [1]}")), lo,
+      f.registry);
+  std::ostringstream log;
+  RunOptions ro;
+  ro.progress = false;
+  ro.log = &log;
+  const RunResult r = runPipeline(p, ro);
+  ASSERT_EQ(r.metrics.size(), 2u);  // the failed frame measured nothing that counts
+  EXPECT_EQ(r.metrics[0].first, "000000");
+  EXPECT_EQ(r.metrics[1].first, "000002");
+  EXPECT_TRUE(r.metrics[1].second.count("solve.sweeps"));
+  writeRunReports(lo.output_dir, r);
+  EXPECT_TRUE(std::filesystem::exists(lo.output_dir + "/timing.md"));
+  const std::string csv = readFile(lo.output_dir + "/metrics.csv");
+  EXPECT_EQ(csv.rfind("frame,metric,value\n", 0), 0u) << csv;
+  EXPECT_NE(csv.find("\n000002,solve.sweeps,"), std::string::npos) << csv;
+  EXPECT_EQ(csv.find("000001,"), std::string::npos) << csv;
 }
 
 }  // namespace terramrf
