@@ -73,14 +73,14 @@ TEST(ConfigsE2E, SemanticKittiPrintsTheEvaluation) {
   const YAML::Node s = YAML::LoadFile(out.str() + "/evaluation/summary.json");
   EXPECT_EQ(s["counts"]["scans"].as<int>(), 3) << "frames 0-2 are the labelled ones";
   // Regression guards a little below the measured held-out figures (docs/benchmarks.md:
-  // obstacle 0.970 / 0.950, road 0.986 / 0.895, rough recall 0.847). The model is learnt on the
-  // Open3D-ML scenes, whose rough ground is smoother than seq 00's (road recall was 0.967 while
-  // roughness read those shuffled scans out of azimuth order).
-  EXPECT_GE(cellScore(s, "obstacle", "precision"), 0.96);
+  // obstacle 0.978 / 0.946, road 0.987 / 0.912, rough recall 0.886, with roughness on a log
+  // scale; the road target 0.90 / 0.90 is met). The model is learnt on the Open3D-ML
+  // scenes, whose rough ground is smoother than seq 00's.
+  EXPECT_GE(cellScore(s, "obstacle", "precision"), 0.97);
   EXPECT_GE(cellScore(s, "obstacle", "recall"), 0.94);
-  EXPECT_GE(cellScore(s, "road", "precision"), 0.97);
-  EXPECT_GE(cellScore(s, "road", "recall"), 0.87);
-  EXPECT_GE(cellScore(s, "rough", "recall"), 0.60);
+  EXPECT_GE(cellScore(s, "road", "precision"), 0.98);
+  EXPECT_GE(cellScore(s, "road", "recall"), 0.90);
+  EXPECT_GE(cellScore(s, "rough", "recall"), 0.80);
 }
 
 TEST(ConfigsE2E, SimulateWritesAReadableSequence) {
@@ -224,36 +224,38 @@ std::string runSweep(const test::TempDir& out, const std::string& sweep, const s
 }
 }  // namespace
 
-// Patchwork++ scores obstacle 0.979 / 0.921 on this scan. L+G finds more obstacles with every
-// optimiser; its precision is 0.978, about one cell short, since the models are learnt on the
-// Open3D-ML scenes, whose rough ground is smoother (docs/benchmarks.md). Guards: recall above Patchwork++'s,
-// precision not below 0.975.
+// Patchwork++ scores obstacle 0.979 / 0.921 on this scan. L+G (roughness on a log scale) beats
+// it on both with every optimiser: 0.988–0.989 / 0.943–0.949 (docs/benchmarks.md). Guards:
+// precision and recall above Patchwork++'s; road as measured (0.983–0.984 / 0.905–0.922) less
+// about 0.01.
 TEST(SweepsE2E, SemanticKittiAgainstPatchworkOnFrame0) {
   test::TempDir out;
   const std::string dir = runSweep(out, "semantickitti.yaml", "semantickitti_seq00_000000-000005");
   for (const char* opt : {"icm", "gibbs", "alpha_expansion"}) {
     const auto [p, rc] = scanScore(dir, "L+G", opt, "000000", "obstacle");
-    EXPECT_GE(p, 0.975) << opt;
+    EXPECT_GT(p, 0.979) << opt;
     EXPECT_GT(rc, 0.921) << opt;
     const auto [rp, rr] = scanScore(dir, "L+G", opt, "000000", "road");
-    EXPECT_GE(rp, 0.97) << opt;
-    EXPECT_GE(rr, 0.87) << opt;
+    EXPECT_GE(rp, 0.975) << opt;
+    EXPECT_GE(rr, 0.895) << opt;
   }
 }
 
-// Patchwork++ (the reference): 000750 0.972 / 0.973, RELLIS 0.879 / 0.931. On 000750
-// L-rh+G beats it on both; on RELLIS L+G finds more obstacles (0.964) but its precision is 0.871
-// since roughness reads the shuffled Open3D-ML training scans in azimuth order (it was 0.882 with
-// the broken order; docs/benchmarks.md). Guards: recall above Patchwork++'s, precision as
-// measured less 0.01.
+// Patchwork++ (the reference): 000750 0.972 / 0.973, RELLIS 0.879 / 0.931. On RELLIS
+// L+G beats it on both (0.880 / 0.962). On 000750 L-rh+G finds more obstacles (0.982) at a
+// precision of 0.970, two cells short (it was 0.974 before roughness went to a log scale and
+// passed over neighbours from other lasers, which lifted road recall there from 0.77 to 0.89;
+// docs/benchmarks.md). Guards: recall above Patchwork++'s; precision above Patchwork++'s on
+// RELLIS, as measured less 0.005 on 000750.
 TEST(SweepsE2E, Open3dMl750AndRellisAgainstPatchwork) {
   struct Case {
     const char *sweep, *data, *feature_set, *frame;
     double min_precision, recall;  // recall: Patchwork++'s
   };
-  for (const Case& c : {Case{"semantickitti_o3dml.yaml", "semantickitti_o3dml_demo", "L-rh+G", "000750",
-                             0.9721, 0.973},
-                        Case{"rellis3d.yaml", "rellis3d_example_000104", "L+G", "000104", 0.86, 0.931}}) {
+  for (const Case& c :
+       {Case{"semantickitti_o3dml.yaml", "semantickitti_o3dml_demo", "L-rh+G", "000750", 0.965,
+             0.973},
+        Case{"rellis3d.yaml", "rellis3d_example_000104", "L+G", "000104", 0.8795, 0.931}}) {
     test::TempDir out;
     const auto [p, rc] = scanScore(runSweep(out, c.sweep, c.data), c.feature_set, "icm", c.frame, "obstacle");
     EXPECT_GE(p, c.min_precision) << c.sweep;

@@ -445,7 +445,7 @@ TEST(Train, DataFolderOfRealScansIsRecordedWithItsLabelMap) {
   EXPECT_EQ(
       item["label_map"].as<std::string>(),
       fs::weakly_canonical(test::sourceDir() + "/configs/label_maps/semantickitti.yaml").string());
-  EXPECT_EQ(m["trained_from"]["features"].size(), 5u);  // from the config's feature_stats output
+  EXPECT_EQ(m["trained_from"]["features"].size(), 6u);  // from the config's feature_stats output
   EXPECT_NE(m["provenance"].as<std::string>().find("converted_semantickitti"), std::string::npos);
 }
 
