@@ -136,8 +136,18 @@ int cmdDescribe(const Args& args) {
     if (s.required) std::cout << ", required";
     else std::cout << ", default " << toYaml(s.default_value);
     if (s.min || s.max) {
-      std::cout << ", range [" << (s.min ? std::to_string(*s.min) : "-inf") << ", "
-                << (s.max ? std::to_string(*s.max) : "inf") << "]";
+      // Stream formatting, as the validator's messages: 1e-09 stays 1e-09 (to_string: 0.000000).
+      std::cout << ", range [";
+      if (s.min)
+        std::cout << *s.min;
+      else
+        std::cout << "-inf";
+      std::cout << ", ";
+      if (s.max)
+        std::cout << *s.max;
+      else
+        std::cout << "inf";
+      std::cout << "]";
     }
     if (!s.unit.empty()) std::cout << ", unit " << s.unit;
     if (!s.choices.empty()) {
