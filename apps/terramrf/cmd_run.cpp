@@ -1,5 +1,6 @@
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 
 #include "commands.hpp"
 #include "terramrf/atomic_file.hpp"
@@ -137,17 +138,12 @@ int cmdDescribe(const Args& args) {
     else std::cout << ", default " << toYaml(s.default_value);
     if (s.min || s.max) {
       // Stream formatting, as the validator's messages: 1e-09 stays 1e-09 (to_string: 0.000000).
-      std::cout << ", range [";
-      if (s.min)
-        std::cout << *s.min;
-      else
-        std::cout << "-inf";
-      std::cout << ", ";
-      if (s.max)
-        std::cout << *s.max;
-      else
-        std::cout << "inf";
-      std::cout << "]";
+      auto bound = [](const auto& b, const char* none) {
+        std::ostringstream o;
+        if (b) o << *b; else o << none;
+        return o.str();
+      };
+      std::cout << ", range [" << bound(s.min, "-inf") << ", " << bound(s.max, "inf") << "]";
     }
     if (!s.unit.empty()) std::cout << ", unit " << s.unit;
     if (!s.choices.empty()) {
