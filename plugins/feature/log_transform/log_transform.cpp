@@ -5,7 +5,7 @@
 // grass and vegetation spread over a decade, so a Gaussian fitted to the linear values is either
 // too wide for asphalt or too narrow for grass. On a log scale both are close to Gaussian, and a
 // road cell whose roughness is twice the usual no longer costs as much as one ten times rougher
-// (measured in docs/energy.md). The offset keeps zero finite and sets the floor below which
+// (measured in docs/benchmarks.md). The offset keeps zero finite and sets the floor below which
 // differences stop mattering (about the sensor's noise).
 #include <algorithm>
 #include <cmath>

@@ -21,8 +21,7 @@ class RelativeHeight final : public Stage {
     d.add("quantile", quantile_,
           "which quantile of the neighbours' lowest points is the reference: 0.5 = median; lower "
           "values keep the foot of a hedge or car, whose neighbours' lowest points are raised by "
-          "the "
-          "object, near 0")
+          "the object, near 0")
         .unit("1")
         .range(0, 1);
     d.add("min_neighbours", min_neighbours_, "cells with fewer neighbours holding points get NaN")
