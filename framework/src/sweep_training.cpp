@@ -239,10 +239,16 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
   // Which class/feature pairs got no statistics (fewer than two cells).
   try {
     const YAML::Node classes = YAML::Load(text)["classes"];
+    // A class is {feature: …} or a mixture {components: [{weight, features: {feature: …}}]}.
+    auto learnt = [](const YAML::Node& cls, const std::string& f) {
+      if (!cls) return false;
+      if (const YAML::Node comps = cls["components"]) return comps[0]["features"][f].IsDefined();
+      return cls[f].IsDefined();
+    };
     for (std::size_t c = 1; c < f0.labels->size(); ++c) {
       const std::string cls = f0.labels->name(static_cast<LabelId>(c));
       for (const auto& f : job.features)
-        if (!classes || !classes[cls] || !classes[cls][f]) r.missing.push_back(cls + "." + f);
+        if (!classes || !learnt(classes[cls], f)) r.missing.push_back(cls + "." + f);
     }
   } catch (const YAML::Exception& e) {
     throw std::runtime_error(tmp + ": feature_stats wrote an unreadable model: " + e.what());

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <stdexcept>
 
 namespace terramrf {
@@ -9,6 +10,59 @@ namespace terramrf {
 namespace {
 std::string at(const std::string& path, const YAML::Node& n) {
   return path + ":" + std::to_string(n.Mark().line + 1) + ":" + std::to_string(n.Mark().column + 1);
+}
+
+/// `{feature: {mean, sigma}, …}` of class `cls` into `out`.
+void readFeatures(const std::string& path, const std::string& cls, const YAML::Node& map,
+                  std::map<std::string, Gaussian>& out) {
+  if (!map.IsMap())
+    throw std::runtime_error(at(path, map) + ": class '" + cls +
+                             "' must map features to {mean, sigma}");
+  for (auto f = map.begin(); f != map.end(); ++f) {
+    const std::string feat = f->first.as<std::string>();
+    Gaussian g;
+    try {
+      g.mean = f->second["mean"].as<double>();
+      g.sigma = f->second["sigma"].as<double>();
+    } catch (const YAML::Exception&) {
+      throw std::runtime_error(at(path, f->second) + ": " + cls + "." + feat +
+                               ": expected {mean: <number>, sigma: <number > 0>}");
+    }
+    if (!(g.sigma > 0))
+      throw std::runtime_error(at(path, f->second) + ": " + cls + "." + feat +
+                               ": sigma must be > 0, got " + std::to_string(g.sigma));
+    out[feat] = g;
+  }
+}
+
+std::vector<GaussianComponent> readMixture(const std::string& path, const std::string& cls,
+                                           const YAML::Node& list) {
+  if (!list.IsSequence() || list.size() == 0)
+    throw std::runtime_error(at(path, list) + ": " + cls +
+                             ".components: expected a list of {weight, features}");
+  std::vector<GaussianComponent> out;
+  double sum = 0;
+  for (const YAML::Node& c : list) {
+    GaussianComponent comp;
+    try {
+      comp.weight = c["weight"].as<double>();
+    } catch (const YAML::Exception&) {
+      throw std::runtime_error(at(path, c) + ": " + cls +
+                               ".components: each needs 'weight: <number > 0>'");
+    }
+    if (!(comp.weight > 0))
+      throw std::runtime_error(at(path, c) + ": " + cls + ": component weight must be > 0, got " +
+                               std::to_string(comp.weight));
+    if (!c["features"])
+      throw std::runtime_error(at(path, c) + ": " + cls + ".components: each needs 'features:'");
+    readFeatures(path, cls, c["features"], comp.features);
+    sum += comp.weight;
+    out.push_back(std::move(comp));
+  }
+  if (std::abs(sum - 1) > 1e-3)
+    throw std::runtime_error(at(path, list) + ": " + cls + ": component weights sum to " +
+                             std::to_string(sum) + ", expected 1");
+  return out;
 }
 }  // namespace
 
@@ -24,25 +78,16 @@ GaussianModel GaussianModel::load(const std::string& path) {
   if (root["provenance"]) m.provenance = root["provenance"].as<std::string>("");
   const YAML::Node classes = root["classes"];
   if (!classes || !classes.IsMap())
-    throw std::runtime_error(path + ": expected a map 'classes: {class: {feature: {mean, sigma}}}'");
+    throw std::runtime_error(path +
+                             ": expected a map 'classes: {class: {feature: {mean, sigma}}}'");
   for (auto c = classes.begin(); c != classes.end(); ++c) {
     const std::string cls = c->first.as<std::string>();
-    if (!c->second.IsMap())
-      throw std::runtime_error(at(path, c->second) + ": class '" + cls + "' must map features to {mean, sigma}");
-    for (auto f = c->second.begin(); f != c->second.end(); ++f) {
-      const std::string feat = f->first.as<std::string>();
-      Gaussian g;
-      try {
-        g.mean = f->second["mean"].as<double>();
-        g.sigma = f->second["sigma"].as<double>();
-      } catch (const YAML::Exception&) {
-        throw std::runtime_error(at(path, f->second) + ": " + cls + "." + feat +
-                                 ": expected {mean: <number>, sigma: <number > 0>}");
-      }
-      if (!(g.sigma > 0))
-        throw std::runtime_error(at(path, f->second) + ": " + cls + "." + feat +
-                                 ": sigma must be > 0, got " + std::to_string(g.sigma));
-      m.classes[cls][feat] = g;
+    if (c->second.IsMap() && c->second["components"]) {
+      m.classes[cls] = readMixture(path, cls, c->second["components"]);
+    } else {
+      GaussianComponent one;
+      readFeatures(path, cls, c->second, one.features);
+      m.classes[cls] = {one};
     }
   }
   return m;

@@ -1,6 +1,6 @@
 #pragma once
-// Per-class Gaussian feature model (mean, standard deviation per feature), as learnt from
-// annotated cells (paper 000 §4.6) or given by hand.
+// Per-class feature model, as learnt from annotated cells (paper 000 §4.6) or given by hand:
+// per class one diagonal Gaussian over the features (eq. 11), or a mixture of several.
 #include <map>
 #include <string>
 #include <vector>
@@ -12,12 +12,21 @@ struct Gaussian {
   double sigma = 1;  ///< > 0
 };
 
+/// One component of a class: a diagonal Gaussian over the features and its weight.
+struct GaussianComponent {
+  double weight = 1;                         ///< > 0; a class's weights sum to 1
+  std::map<std::string, Gaussian> features;  ///< feature → N(μ, σ)
+};
+
 struct GaussianModel {
-  std::string path;                                         ///< file it came from
-  std::string provenance;                                   ///< free text: data, label map, split
-  std::map<std::string, std::map<std::string, Gaussian>> classes;  ///< class → feature → N(μ, σ)
+  std::string path;        ///< file it came from
+  std::string provenance;  ///< free text: data, label map, split
+  /// class → components: one for paper 000's model, several for a mixture.
+  std::map<std::string, std::vector<GaussianComponent>> classes;
 
   /// Loads a model file; throws std::runtime_error naming the file, line and what was expected.
+  /// A class is either `{feature: {mean, sigma}, …}` (one component) or
+  /// `{components: [{weight, features: {feature: {mean, sigma}, …}}, …]}`.
   static GaussianModel load(const std::string& path);
 };
 

@@ -4,6 +4,9 @@
 // Sign of δ: eq. 10 as printed gives −1 to different and +1 to equal labels, which, minimised,
 // would reward label changes everywhere; the model it cites (Deng et al.) and every result in the
 // paper need the opposite, so δ(equal) = −1 and δ(different) = +1 here (docs/energy.md).
+//
+// A class of the model file may also be a mixture of Gaussians (feature_stats `components`); its
+// feature energy is then −log Σ_m w_m exp(−E_m), E_m being eq. 11 under component m.
 #include <cmath>
 #include <filesystem>
 
@@ -57,25 +60,37 @@ class PottsGaussian final : public Stage {
       auto it = model_.classes.find(c);
       if (it == model_.classes.end())
         throw ParamError("model", model_path_ + " has no entry for class '" + c + "'");
-      for (const auto& f : features_)
-        if (!it->second.count(f))
-          throw ParamError("features", "feature '" + f + "' is not in model " + model_path_ +
-                                           " for class '" + c + "' (the model was made for other features)");
+      for (std::size_t j = 0; j < it->second.size(); ++j)
+        for (const auto& f : features_)
+          if (!it->second[j].features.count(f))
+            throw ParamError(
+                "features",
+                "feature '" + f + "' is not in model " + model_path_ + " for class '" + c + "'" +
+                    (it->second.size() > 1 ? " (component " + std::to_string(j + 1) + ")" : "") +
+                    " (the model was made for other features)");
     }
     cost_.assign(active_.size(), 0.f);
     for (std::size_t k = 0; k < class_cost_.size(); ++k) cost_[k] = static_cast<float>(class_cost_[k]);
-    // Precompute per class/feature: 1/(2σ²) and log(√(2π)σ).
+    // Precompute per class, component and feature: 1/(2σ²), log(√(2π)σ), and −log(weight).
     const std::size_t K = active_.size(), F = features_.size();
-    inv2var_.assign(K * F, 0);
-    mean_.assign(K * F, 0);
-    lognorm_.assign(K * F, 0);
-    for (std::size_t k = 0; k < K; ++k)
-      for (std::size_t f = 0; f < F; ++f) {
-        const Gaussian& g = model_.classes.at(classes_[k]).at(features_[f]);
-        mean_[k * F + f] = static_cast<float>(g.mean);
-        inv2var_[k * F + f] = static_cast<float>(1.0 / (2 * g.sigma * g.sigma));
-        lognorm_[k * F + f] = static_cast<float>(std::log(std::sqrt(2 * M_PI) * g.sigma));
+    comp_begin_.assign(1, 0);
+    mean_.clear();
+    inv2var_.clear();
+    lognorm_.clear();
+    neglogw_.clear();
+    for (std::size_t k = 0; k < K; ++k) {
+      for (const GaussianComponent& comp : model_.classes.at(classes_[k])) {
+        neglogw_.push_back(static_cast<float>(-std::log(comp.weight)));
+        for (std::size_t f = 0; f < F; ++f) {
+          const Gaussian& g = comp.features.at(features_[f]);
+          mean_.push_back(static_cast<float>(g.mean));
+          inv2var_.push_back(static_cast<float>(1.0 / (2 * g.sigma * g.sigma)));
+          lognorm_.push_back(static_cast<float>(std::log(std::sqrt(2 * M_PI) * g.sigma)));
+        }
       }
+      comp_begin_.push_back(static_cast<int>(neglogw_.size()));
+    }
+    comp_energy_.resize(neglogw_.size());
   }
 
   std::vector<std::string> reads() const override {
@@ -106,14 +121,28 @@ class PottsGaussian final : public Stage {
       }
       float* u = &em.unary[std::size_t(c) * K];
       for (int k = 0; k < K; ++k) {
-        float e = 0;
-        for (std::size_t f = 0; f < F; ++f) {
-          const float v = feat[f][c];
-          if (std::isnan(v)) continue;  // no data for this feature: it does not vote
-          const float d = v - mean_[k * F + f];
-          e += d * d * inv2var_[k * F + f] + lognorm_[k * F + f];
+        // Eq. 11 per component; a mixture's energy is −log Σ_m w_m exp(−E_m) (log-sum-exp).
+        // A feature that is NaN here (no data) does not vote, in any component.
+        const int b = comp_begin_[k], e = comp_begin_[k + 1];
+        float emin = INFINITY;
+        for (int j = b; j < e; ++j) {
+          float ej = neglogw_[j];
+          for (std::size_t f = 0; f < F; ++f) {
+            const float v = feat[f][c];
+            if (std::isnan(v)) continue;
+            const float d = v - mean_[j * F + f];
+            ej += d * d * inv2var_[j * F + f] + lognorm_[j * F + f];
+          }
+          comp_energy_[j] = ej;
+          emin = std::min(emin, ej);
         }
-        u[k] = alpha * e + cost_[k];
+        float energy = emin;
+        if (e - b > 1) {
+          float sum = 0;
+          for (int j = b; j < e; ++j) sum += std::exp(emin - comp_energy_[j]);
+          energy = emin - std::log(sum);
+        }
+        u[k] = alpha * energy + cost_[k];
       }
       // Initial labelling: the pre-classification decides obstacle vs flat; among the others
       // the feature term decides.
@@ -147,7 +176,8 @@ class PottsGaussian final : public Stage {
   GaussianModel model_;
   std::vector<LabelId> active_;
   int obstacle_index_ = -1;
-  std::vector<float> mean_, inv2var_, lognorm_, cost_;
+  std::vector<int> comp_begin_;  ///< components of class k: [comp_begin_[k], comp_begin_[k + 1])
+  std::vector<float> mean_, inv2var_, lognorm_, neglogw_, cost_, comp_energy_;
 };
 
 }  // namespace terramrf

@@ -2,6 +2,11 @@
 // cell whose labelled points agree on one class (purity), each feature value is added to that
 // class's running mean/variance. The model file it writes is what potts_gaussian loads, with a
 // provenance line naming the config and frames it came from.
+//
+// With `components` > 1 each class is a mixture of diagonal Gaussians instead, learnt by
+// classification EM: a class such as "obstacle" is a union of physically different things
+// (smooth, tall walls and car bodies; rough vegetation; low rocks), and one Gaussian per feature
+// fits none of them — with robust estimates it fits the majority and treats the rest as outliers.
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -31,6 +36,12 @@ class FeatureStats final : public Output {
           "§4.6) or robust (median and 1.4826 × median absolute deviation: a few mislabelled "
           "cells at class borders no longer inflate σ)")
         .choices({"moments", "robust"});
+    d.add("components", components_,
+          "Gaussians per class: 1 = paper 000's model; more = a mixture of diagonal Gaussians, "
+          "learnt by classification EM (cells assigned to their most likely component, each "
+          "component estimated with `estimator`), started from quantiles of the first feature; "
+          "components left with fewer than 10 cells are dropped")
+        .range(1, 8);
     d.add("obstacle_rule", obstacle_rule_,
           "a cell holding at least one ground-truth obstacle point is an obstacle sample whatever "
           "its purity, as in the cell-wise evaluation of paper 001 §VI-B (the class the "
@@ -50,6 +61,7 @@ class FeatureStats final : public Output {
     mean_.assign(K * F, 0);
     m2_.assign(K * F, 0);
     samples_.assign(K * F, {});
+    cells_.assign(K, {});
     robust_ = estimator_ == "robust";
     obstacle_ = static_cast<std::size_t>(std::max(0, info.labels->obstacle()));
     frames_ = 0;
@@ -80,6 +92,8 @@ class FeatureStats final : public Output {
       const bool obstacle_cell = obstacle_rule_ && obstacle_ > 0 && count[obstacle_] > 0;
       if (obstacle_cell) best = obstacle_;
       else if (count[best] < min_purity_ * labelled) continue;
+      if (components_ > 1)
+        for (std::size_t f = 0; f < F; ++f) cells_[best].push_back(layers[f][c]);
       for (std::size_t f = 0; f < F; ++f) {
         const float v = layers[f][c];
         if (std::isnan(v)) continue;
@@ -107,18 +121,35 @@ class FeatureStats final : public Output {
     for (std::size_t k = 1; k < K; ++k) {
       std::ostringstream cls;
       bool any = false;
+      std::vector<Gaussian> single(F);
+      std::vector<bool> learnt(F, false);
       for (std::size_t f = 0; f < F; ++f) {
         const std::size_t i = k * F + f;
         if (n_[i] < 2) continue;
-        any = true;
-        const double floor = min_sigma_.empty() ? 0 : min_sigma_[min_sigma_.size() == 1 ? 0 : f];
+        any = learnt[f] = true;
         double mean = mean_[i], sigma = std::sqrt(m2_[i] / (n_[i] - 1));
         if (robust_) robustEstimate(samples_[i], mean, sigma);
-        sigma = std::max(floor, sigma);
-        cls << "    " << features_[f] << ": {mean: " << mean << ", sigma: " << sigma
-            << "}  # " << n_[i] << " cells\n";
+        single[f] = {mean, std::max(sigmaFloor(f), sigma)};
+        cls << "    " << features_[f] << ": {mean: " << single[f].mean
+            << ", sigma: " << single[f].sigma << "}  # " << n_[i] << " cells\n";
       }
-      if (any) o << "  " << info_.labels->name(static_cast<LabelId>(k)) << ":\n" << cls.str();
+      if (!any) continue;
+      o << "  " << info_.labels->name(static_cast<LabelId>(k)) << ":\n";
+      const std::vector<Component> mix =
+          components_ > 1 ? mixture(cells_[k], single, learnt) : std::vector<Component>{};
+      if (mix.size() < 2) {
+        o << cls.str();
+        continue;
+      }
+      o << "    components:  # " << cells_[k].size() / F << " cells, classification EM\n";
+      for (const Component& m : mix) {
+        o << "      - weight: " << m.weight << "  # " << m.cells << " cells\n"
+          << "        features:\n";
+        for (std::size_t f = 0; f < F; ++f)
+          if (learnt[f])
+            o << "          " << features_[f] << ": {mean: " << m.g[f].mean
+              << ", sigma: " << m.g[f].sigma << "}\n";
+      }
     }
     const std::string path =
         out_path_.front() == '/' ? out_path_ : info_.output_dir + "/" + out_path_;
@@ -126,6 +157,108 @@ class FeatureStats final : public Output {
   }
 
  private:
+  struct Gaussian {
+    double mean = 0, sigma = 1;
+  };
+  struct Component {
+    double weight = 0;
+    std::size_t cells = 0;
+    std::vector<Gaussian> g;  ///< per feature
+  };
+
+  double sigmaFloor(std::size_t f) const {
+    return min_sigma_.empty() ? 0 : min_sigma_[min_sigma_.size() == 1 ? 0 : f];
+  }
+
+  /// Classification EM over one class's cells (`x`: cells × F, NaN = no data). Starts from equal
+  /// shares of the cells ordered by the first feature, then alternates: estimate each component
+  /// from its cells (as the single model would: `estimator`, σ floors; a feature without values
+  /// in a component takes the class's single estimate) and move each cell to the component under
+  /// which it is most likely. Components under 10 cells are dropped. Deterministic.
+  std::vector<Component> mixture(const std::vector<float>& x, const std::vector<Gaussian>& single,
+                                 const std::vector<bool>& learnt) const {
+    const std::size_t F = features_.size(), n = x.size() / F;
+    constexpr std::size_t kMinCells = 10;
+    int M = components_;
+    if (n < kMinCells * 2) return {};
+    std::vector<std::size_t> order(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = i;
+    auto key = [&](std::size_t i) {
+      const float v = x[i * F];
+      return std::isnan(v) ? single[0].mean : static_cast<double>(v);
+    };
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return key(a) < key(b); });
+    std::vector<int> z(n);
+    for (std::size_t r = 0; r < n; ++r) z[order[r]] = static_cast<int>(r * M / n);
+    std::vector<Component> comp;
+    std::vector<float> vals;
+    for (int iter = 0; iter < 100; ++iter) {
+      // M-step.
+      comp.assign(M, {});
+      for (int m = 0; m < M; ++m) {
+        comp[m].g = single;
+        for (std::size_t i = 0; i < n; ++i) comp[m].cells += z[i] == m;
+        comp[m].weight = static_cast<double>(comp[m].cells) / n;
+        for (std::size_t f = 0; f < F; ++f) {
+          if (!learnt[f]) continue;
+          vals.clear();
+          for (std::size_t i = 0; i < n; ++i)
+            if (z[i] == m && !std::isnan(x[i * F + f])) vals.push_back(x[i * F + f]);
+          if (vals.size() < 2) continue;
+          double mean = 0, sigma = 0;
+          if (robust_) {
+            robustEstimate(vals, mean, sigma);
+          } else {
+            for (float v : vals) mean += v;
+            mean /= vals.size();
+            for (float v : vals) sigma += (v - mean) * (v - mean);
+            sigma = std::sqrt(sigma / (vals.size() - 1));
+          }
+          comp[m].g[f] = {mean, std::max(sigmaFloor(f), sigma)};
+        }
+      }
+      // Drop components too small to estimate; their cells move in the next assignment.
+      std::vector<Component> kept;
+      for (auto& c : comp)
+        if (c.cells >= kMinCells) kept.push_back(std::move(c));
+      const bool dropped = static_cast<int>(kept.size()) < M;
+      comp = std::move(kept);
+      M = static_cast<int>(comp.size());
+      if (M < 2) return {};
+      // Assignment step: the most likely component (log weight + log likelihood).
+      bool changed = dropped;
+      for (std::size_t i = 0; i < n; ++i) {
+        int best = 0;
+        double best_e = INFINITY;
+        for (int m = 0; m < M; ++m) {
+          double e = -std::log(comp[m].weight);
+          for (std::size_t f = 0; f < F; ++f) {
+            const float v = x[i * F + f];
+            if (!learnt[f] || std::isnan(v)) continue;
+            const Gaussian& g = comp[m].g[f];
+            e += (v - g.mean) * (v - g.mean) / (2 * g.sigma * g.sigma) + std::log(g.sigma);
+          }
+          if (e < best_e) best_e = e, best = m;
+        }
+        changed |= z[i] != best;
+        z[i] = best;
+      }
+      if (!changed) break;
+    }
+    // Weights and counts of the final assignment (the estimates are of the assignment before it,
+    // identical when EM converged).
+    for (auto& c : comp) c.cells = 0;
+    for (std::size_t i = 0; i < n; ++i) ++comp[z[i]].cells;
+    std::vector<Component> out;
+    for (auto& c : comp)
+      if (c.cells) {
+        c.weight = static_cast<double>(c.cells) / n;
+        out.push_back(c);
+      }
+    return out.size() < 2 ? std::vector<Component>{} : out;
+  }
+
   // Median and 1.4826·MAD: σ of a Gaussian core, unaffected by up to half of outliers.
   static void robustEstimate(std::vector<float>& v, double& mean, double& sigma) {
     auto median = [](std::vector<float>& x) {
@@ -151,6 +284,8 @@ class FeatureStats final : public Output {
   bool robust_ = false;
   std::size_t obstacle_ = 0;
   std::vector<std::vector<float>> samples_;
+  int components_ = 1;
+  std::vector<std::vector<float>> cells_;  ///< per class: cells × features (components > 1)
   std::size_t frames_ = 0;
 };
 

@@ -101,4 +101,68 @@ TEST(PottsGaussian, ModelForOtherFeaturesNamesTheFile) {
   }
 }
 
+// A class may be a mixture: its energy is −log Σ w_m N_m (eq. 11 per component), and a feature
+// without data does not vote in any component.
+TEST(PottsGaussian, MixtureEnergyIsMinusLogOfTheWeightedSum) {
+  test::TempDir d;
+  const std::string p = d.str() + "/mix.yaml";
+  std::ofstream(p)
+      << "classes:\n"
+         "  road:  {f: {mean: 0.0, sigma: 0.1}, g: {mean: 0, sigma: 1}}\n"
+         "  rough: {f: {mean: 1.0, sigma: 0.5}, g: {mean: 0, sigma: 1}}\n"
+         "  obstacle:\n"
+         "    components:\n"
+         "      - {weight: 0.25, features: {f: {mean: 0.3, sigma: 0.1}, g: {mean: 0, sigma: 1}}}\n"
+         "      - {weight: 0.75, features: {f: {mean: 5.0, sigma: 2.0}, g: {mean: 3, sigma: 1}}}\n";
+  test::StageHarness h;
+  h.frame.points.push_back(1.1f, 1.1f, -1.7f, 0);
+  h.frame.points.push_back(3.1f, 3.1f, -1.7f, 0);
+  h.bin();
+  const int c1 = h.geom.cellOf(1.1, 1.1), c2 = h.geom.cellOf(3.1, 3.1);
+  h.grid.add("f")[c1] = 0.35f;
+  h.grid.layer("f")[c2] = 0.35f;
+  h.grid.add("g")[c1] = 1.0f;  // g is NaN in c2
+  h.make("potts_gaussian", "{model: " + p + ", features: [f, g]}")->process(h.ctx);
+  auto n = [](double x, double mu, double s) {
+    return std::exp(-(x - mu) * (x - mu) / (2 * s * s)) / (std::sqrt(2 * M_PI) * s);
+  };
+  const double e1 =
+      -std::log(0.25 * n(0.35, 0.3, 0.1) * n(1, 0, 1) + 0.75 * n(0.35, 5, 2) * n(1, 3, 1));
+  const double e2 = -std::log(0.25 * n(0.35, 0.3, 0.1) + 0.75 * n(0.35, 5, 2));
+  EXPECT_NEAR(h.ctx.energy.unary[c1 * 3 + 2], e1, 1e-4);
+  EXPECT_NEAR(h.ctx.energy.unary[c2 * 3 + 2], e2, 1e-4);
+  EXPECT_NEAR(h.ctx.energy.unary[c2 * 3 + 0], -std::log(n(0.35, 0, 0.1)), 1e-4);  // one component
+}
+
+TEST(PottsGaussian, BadMixturesNameTheFileAndLine) {
+  test::TempDir d;
+  test::StageHarness h;
+  const std::string base =
+      "classes:\n  road: {f: {mean: 0, sigma: 1}}\n  rough: {f: {mean: 1, sigma: 1}}\n";
+  struct Case {
+    const char *obstacle, *expect;
+  };
+  for (const Case& c :
+       {Case{"  obstacle: {components: [{weight: 0.5, features: {f: {mean: 0, sigma: 1}}},"
+             " {weight: 0.4, features: {f: {mean: 2, sigma: 1}}}]}\n",
+             "component weights sum to 0.9"},
+        Case{"  obstacle: {components: [{weight: 1.0, features: {g: {mean: 0, sigma: 1}}}]}\n",
+             "feature 'f' is not in model"},
+        Case{"  obstacle: {components: [{weight: 0, features: {f: {mean: 0, sigma: 1}}},"
+             " {weight: 1, features: {f: {mean: 0, sigma: 1}}}]}\n",
+             "component weight must be > 0"},
+        Case{"  obstacle: {components: []}\n", "expected a list of {weight, features}"}}) {
+    const std::string p = d.str() + "/bad.yaml";
+    std::ofstream(p) << base << c.obstacle;
+    try {
+      h.make("potts_gaussian", "{model: " + p + ", features: [f]}");
+      ADD_FAILURE() << "accepted " << c.obstacle;
+    } catch (const std::exception& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(c.expect), std::string::npos) << what;
+      EXPECT_NE(what.find("bad.yaml"), std::string::npos) << what;
+    }
+  }
+}
+
 }  // namespace terramrf

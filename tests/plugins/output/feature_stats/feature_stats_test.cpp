@@ -20,8 +20,9 @@ struct Scene {
   GridGeometry geom;
   Frame frame;
   TerrainGrid grid;
-  Scene(const std::vector<LabelId>& truth, const std::vector<float>& f, LabelId extra) {
-    geom.size_m = 10;
+  Scene(const std::vector<LabelId>& truth, const std::vector<float>& f, LabelId extra,
+        double size_m = 10) {
+    geom.size_m = size_m;
     geom.cell_m = 1;
     grid.reset(geom);
     const Eigen::Vector2d o = geom.origin();
@@ -29,7 +30,7 @@ struct Scene {
       frame.points.push_back(float(o.x() + 0.5), float(o.y() + i + 0.5), 0.f, 0);
       frame.truth.label.push_back(truth[i]);
     }
-    frame.points.push_back(float(o.x() + 0.5), float(o.y() + 9.6), 0.f, 0);
+    frame.points.push_back(float(o.x() + 0.5), float(o.y() + truth.size() - 0.4), 0.f, 0);
     frame.truth.label.push_back(extra);
     grid.binPoints(frame.points);
     Layer& l = grid.add("f");
@@ -97,6 +98,38 @@ TEST(FeatureStats, UnknownEstimatorIsAParameterError) {
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("estimator"), std::string::npos) << e.what();
   }
+}
+
+// Two kinds of obstacle, 24 cells around 0.3 (low rocks) and 16 around 2.0 (walls): with two
+// components the learner finds both, with their shares as weights; with one, robust estimates
+// describe the majority only.
+TEST(FeatureStats, TwoComponentsFindBothKindsOfAClass) {
+  std::vector<LabelId> truth(40, kObstacle);
+  std::vector<float> f(40);
+  for (int i = 0; i < 40; ++i)
+    f[i] = (i < 24 ? 0.3f : 2.0f) + 0.01f * static_cast<float>(i % 5 - 2);
+  Scene s(truth, f, kObstacle, 40);
+  const YAML::Node one = s.learn("{features: [f], min_labelled_points: 1, estimator: robust}");
+  EXPECT_NEAR(one["classes"]["obstacle"]["f"]["mean"].as<double>(), 0.3, 0.025);  // upper median
+  const YAML::Node two =
+      s.learn("{features: [f], min_labelled_points: 1, estimator: robust, components: 2}");
+  const YAML::Node comps = two["classes"]["obstacle"]["components"];
+  ASSERT_TRUE(comps.IsSequence()) << two;
+  ASSERT_EQ(comps.size(), 2u);
+  EXPECT_NEAR(comps[0]["weight"].as<double>(), 0.6, 1e-6);
+  EXPECT_NEAR(comps[1]["weight"].as<double>(), 0.4, 1e-6);
+  EXPECT_NEAR(comps[0]["features"]["f"]["mean"].as<double>(), 0.3, 0.011);
+  EXPECT_NEAR(comps[1]["features"]["f"]["mean"].as<double>(), 2.0, 0.011);
+  // σ floors apply per component (the default 1e-4 is below the 0.01 jitter).
+  EXPECT_GT(comps[1]["features"]["f"]["sigma"].as<double>(), 0.005);
+}
+
+// Too few cells for two components of at least 10: the class stays one Gaussian.
+TEST(FeatureStats, SmallClassStaysOneGaussian) {
+  Scene s(std::vector<LabelId>(10, kRoad), std::vector<float>(10, 0.02f), kRoad);
+  const YAML::Node m = s.learn("{features: [f], min_labelled_points: 1, components: 3}");
+  EXPECT_FALSE(m["classes"]["road"]["components"].IsDefined());
+  EXPECT_NEAR(m["classes"]["road"]["f"]["mean"].as<double>(), 0.02, 1e-6);
 }
 
 }  // namespace terramrf
