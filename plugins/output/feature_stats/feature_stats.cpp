@@ -114,7 +114,9 @@ class FeatureStats final : public Output {
     o << "provenance: \"config " << info_.config_path << ", " << frames_
       << " labelled frame(s), cells with purity >= " << min_purity_ << " and >= " << min_points_
       << " labelled points" << (obstacle_rule_ ? ", any obstacle point makes an obstacle cell" : "")
-      << ", " << estimator_ << " estimates\"\n";
+      << ", " << estimator_ << " estimates"
+      << (components_ > 1 ? ", up to " + std::to_string(components_) + " Gaussians per class" : "")
+      << "\"\n";
     o << "classes:\n";
     const std::size_t K = info_.labels->size(), F = features_.size();
     o.precision(6);
