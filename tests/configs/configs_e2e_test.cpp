@@ -176,11 +176,12 @@ std::pair<double, double> scanScore(const std::string& dir, const std::string& f
   return {0, 0};
 }
 
-/// α-expansion's energy ≤ ICM's on every scan (by construction: it starts from the ICM result
-/// and only accepts moves that lower the energy), and ≤ Gibbs's up to 1e-4 relative: annealed
-/// Gibbs can end lower by moving a cluster of cells to two different labels at once, a move
-/// neither expansions nor swaps contain (with one Gaussian per class it did on one of 44 sweep
-/// scans, by 0.66 of 24 224; with two per class α-expansion is lowest on all 44).
+/// α-expansion's energy ≤ ICM's and ≤ Gibbs's on every scan (the target; 1e-9 relative
+/// for rounding). Against ICM it holds by construction: α-expansion starts from the ICM result
+/// and only accepts moves that lower the energy. Against Gibbs it is measured: annealed Gibbs can
+/// end lower by moving a cluster of cells to two different labels at once, a move neither
+/// expansions nor swaps contain (with one Gaussian per class it did on one of 44 sweep scans, by
+/// 0.66 of 24 224; with two per class α-expansion is lowest on all 44).
 void expectAlphaExpansionLowest(const std::string& dir) {
   std::map<std::string, std::map<std::string, double>> energy;  // set/frame → optimiser → E
   for (const auto& r : readCsv(dir + "/energies.csv"))
@@ -189,8 +190,7 @@ void expectAlphaExpansionLowest(const std::string& dir) {
   for (const auto& [scan, by_opt] : energy) {
     ASSERT_TRUE(by_opt.count("alpha_expansion")) << scan;
     for (const auto& [opt, e] : by_opt)
-      EXPECT_LE(by_opt.at("alpha_expansion"), e + (opt == "icm" ? 1e-9 : 1e-4) * std::fabs(e))
-          << scan << " vs " << opt;
+      EXPECT_LE(by_opt.at("alpha_expansion"), e + 1e-9 * std::fabs(e)) << scan << " vs " << opt;
   }
 }
 
@@ -259,6 +259,31 @@ TEST(SweepsE2E, Open3dMl750AndRellisAgainstPatchwork) {
     const auto [p, rc] = scanScore(runSweep(out, c.sweep, c.data), c.feature_set, "icm", c.frame, "obstacle");
     EXPECT_GE(p, c.min_precision) << c.sweep;
     EXPECT_GE(rc, c.min_recall) << c.sweep;
+  }
+}
+
+// The simulator sweep (paper 000 Tables 1–3 on our own data): with two Gaussians per class every
+// feature set but L+H meets the obstacle target 0.96 / 0.96 with every optimiser
+// (measured: L 0.991 / 0.967, L+FH 0.976 / 0.967, L+C 0.993 / 0.966; L+H 0.935 / 0.962), road
+// ≥ 0.90 / 0.90 and rough recall ≥ 0.60 with all four; α-expansion has the lowest energy on all
+// 20 (set, scan) pairs (docs/compare.md).
+TEST(SweepsE2E, SimulatorSweepMeetsTheTargets) {
+  test::TempDir out;
+  const Result r = compare("simulator.yaml", out.str());
+  ASSERT_EQ(r.status, 0) << r.out;
+  expectAlphaExpansionLowest(out.str());
+  std::map<std::string, std::map<std::string, std::pair<double, double>>> pr;  // run → class → P/R
+  for (const auto& row : readCsv(out.str() + "/evaluation.csv"))
+    if (row.at("level") == "cell")
+      pr[row.at("feature_set") + "/" + row.at("optimiser")][row.at("class")] = {
+          std::stod(row.at("precision")), std::stod(row.at("recall"))};
+  ASSERT_EQ(pr.size(), 12u);
+  for (const auto& [run, by_class] : pr) {
+    EXPECT_GE(by_class.at("road").first, 0.90) << run;
+    EXPECT_GE(by_class.at("road").second, 0.90) << run;
+    EXPECT_GE(by_class.at("rough").second, 0.60) << run;
+    EXPECT_GE(by_class.at("obstacle").second, 0.96) << run;
+    if (run.rfind("L+H/", 0) != 0) EXPECT_GE(by_class.at("obstacle").first, 0.96) << run;
   }
 }
 
