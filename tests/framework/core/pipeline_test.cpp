@@ -10,6 +10,21 @@
 
 namespace terramrf {
 
+namespace {
+/// Runs the synthetic test pipeline with `source_params` quietly (progress off, log to `log`);
+/// outputs go to `<fixture>/out`.
+RunResult runSynthetic(test::ConfigFixture& f, const std::string& source_params, std::ostream& log) {
+  LoadOptions lo;
+  lo.output_dir = f.dir.str() + "/out";
+  Pipeline p = loadPipeline(f.write("c.yaml", test::ConfigFixture::validPipeline(source_params)), lo,
+                            f.registry);
+  RunOptions ro;
+  ro.progress = false;
+  ro.log = &log;
+  return runPipeline(p, ro);
+}
+}  // namespace
+
 TEST(Pipeline, ClassifiesPlaneAndBox) {
   test::ConfigFixture f;
   LoadOptions lo;
@@ -44,16 +59,8 @@ TEST(Pipeline, ClassifiesPlaneAndBox) {
 
 TEST(Pipeline, BadFrameIsReportedAndSkipped) {
   test::ConfigFixture f;
-  LoadOptions lo;
-  lo.output_dir = f.dir.str() + "/out";
-  Pipeline p = loadPipeline(
-      f.write("bad.yaml", test::ConfigFixture::validPipeline("{frames: 4, bad_frames: [1, 2]}")), lo,
-      f.registry);
   std::ostringstream log;
-  RunOptions ro;
-  ro.progress = false;
-  ro.log = &log;
-  RunResult r = runPipeline(p, ro);
+  const RunResult r = runSynthetic(f, "{frames: 4, bad_frames: [1, 2]}", log);
   EXPECT_EQ(r.summary.frames_ok, 2u);
   ASSERT_EQ(r.summary.failed.size(), 2u);
   EXPECT_EQ(r.summary.failed[0].first, "000001");
@@ -75,30 +82,19 @@ TEST(Pipeline, EmptyScanGivesAllUnknownGrid) {
   EXPECT_EQ(r.exitCode(), 0);
 }
 
-}  // namespace terramrf
-
-namespace terramrf {
-
 // What the stages measure is kept per completed frame and written next to timing.md.
 TEST(Pipeline, StageMetricsOfCompletedFramesAreWrittenAsCsv) {
   test::ConfigFixture f;
-  LoadOptions lo;
-  lo.output_dir = f.dir.str() + "/out";
-  Pipeline p = loadPipeline(
-      f.write("m.yaml", test::ConfigFixture::validPipeline("{frames: 3, bad_frames: [1]}")), lo,
-      f.registry);
   std::ostringstream log;
-  RunOptions ro;
-  ro.progress = false;
-  ro.log = &log;
-  const RunResult r = runPipeline(p, ro);
+  const RunResult r = runSynthetic(f, "{frames: 3, bad_frames: [1]}", log);
+  const std::string out = f.dir.str() + "/out";
   ASSERT_EQ(r.metrics.size(), 2u);  // the failed frame measured nothing that counts
   EXPECT_EQ(r.metrics[0].first, "000000");
   EXPECT_EQ(r.metrics[1].first, "000002");
   EXPECT_TRUE(r.metrics[1].second.count("solve.sweeps"));
-  writeRunReports(lo.output_dir, r);
-  EXPECT_TRUE(std::filesystem::exists(lo.output_dir + "/timing.md"));
-  const std::string csv = readFile(lo.output_dir + "/metrics.csv");
+  writeRunReports(out, r);
+  EXPECT_TRUE(std::filesystem::exists(out + "/timing.md"));
+  const std::string csv = readFile(out + "/metrics.csv");
   EXPECT_EQ(csv.rfind("frame,metric,value\n", 0), 0u) << csv;
   EXPECT_NE(csv.find("\n000002,solve.sweeps,"), std::string::npos) << csv;
   EXPECT_EQ(csv.find("000001,"), std::string::npos) << csv;
