@@ -32,7 +32,10 @@ int cmdCompare(const Args& args) {
       const SweepPlan plan = planSweep(o.sweep_path);
       std::cout << "sweep '" << plan.name << "': " << plan.runs.size() << " run(s)";
       if (!plan.skipped.empty()) std::cout << ", " << plan.skipped.size() << " skipped";
+      if (!plan.selection_runs.empty())
+        std::cout << " after " << plan.selection_runs.size() << " validation run(s) of select:";
       std::cout << "\n";
+      for (const auto& r : plan.selection_runs) std::cout << "  select " << r << "\n";
       for (const auto& r : plan.runs) std::cout << "  run   " << r << "\n";
       for (const auto& [r, why] : plan.skipped) std::cout << "  skip  " << r << ": " << why << "\n";
       return kOk;
@@ -44,6 +47,11 @@ int cmdCompare(const Args& args) {
       skipped += x.status == RunRecord::Status::kSkipped;
       failed += x.status == RunRecord::Status::kFailed;
     }
+    for (const auto& sel : r.selections)
+      std::cout << "selected on validation for " << sel.feature_set << ": "
+                << (sel.chosen < 0 ? std::string("none (no candidate could be scored)")
+                                   : sel.candidates[sel.chosen])
+                << "\n";
     for (const auto& ds : r.datasets)
       for (const auto& op : r.optimisers)
         std::cout << "\n"

@@ -152,6 +152,11 @@ std::string convert(const ParamSpec& s, const YAML::Node& n, ParamValue& out) {
 
 }  // namespace
 
+std::string checkParamValue(const ParamSpec& spec, const YAML::Node& value) {
+  ParamValue v;
+  return convert(spec, value, v);
+}
+
 std::string didYouMean(const std::string& word, const std::vector<std::string>& candidates) {
   std::string best;
   std::size_t best_d = std::max<std::size_t>(2, word.size() / 3) + 1;

@@ -26,6 +26,10 @@ std::vector<ParamIssue> applyParams(Plugin& plugin, const YAML::Node& params,
                                     const PluginContext& ctx, const YAML::Mark& stage_mark,
                                     const std::vector<std::pair<std::string, std::string>>& overrides = {});
 
+/// Why `value` cannot be the value of `spec` (wrong type, out of range, not one of the choices),
+/// or "" if it can. Nothing is set.
+std::string checkParamValue(const ParamSpec& spec, const YAML::Node& value);
+
 /// The plugin's current parameter values as a YAML map (flow style lines "key: value").
 YAML::Node currentParams(Plugin& plugin);
 

@@ -166,17 +166,20 @@ void identify(Item& it, const std::string& base_dir, PluginRegistry& reg);
 bool parseItem(const YAML::Node& n, const std::map<std::string, YAML::Node>* datasets,
                const YAML::Node& base_source, const std::string& base_dir, Diags& d, Item& it);
 /// Train and test items must not share data: same folder (or one inside the other) or same
-/// parameters without a path, with intersecting frame ranges. Diagnostics at the test item.
-void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& test, Diags& d);
+/// parameters without a path, with intersecting frame ranges. Diagnostics at the test item; the
+/// roles name the two sets in them (validation items are checked against both others).
+void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& test, Diags& d,
+                   const std::string& test_role = "test", const std::string& train_role = "train");
 /// Instantiates and configures the item's source (unless its type is not installed); checks
 /// the frame range against the source's size and applies `limit`.
 void prepareItem(Item& it, PluginRegistry& reg, const Frame0& f0, const std::string& out_dir,
                  std::size_t limit, Diags& d, bool tolerate_missing);
-/// Parses split.train / split.test lists.
+/// Parses split.train / split.test lists, and split.validation (optional) where `validation` is
+/// given (sweeps; train configs have no validation set).
 void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>* datasets,
                 const YAML::Node& base_source, const std::string& base_dir, Diags& d,
                 std::vector<std::unique_ptr<Item>>& train, std::vector<std::unique_ptr<Item>>& test,
-                bool need_both);
+                bool need_both, std::vector<std::unique_ptr<Item>>* validation = nullptr);
 /// Unique labels: an item named like another gets its frame range appended.
 void uniqueLabels(std::vector<std::unique_ptr<Item>>& items);
 
@@ -238,6 +241,29 @@ struct FeatureSet {
   int train_group = -1;     ///< index into Sweep::train_groups, -1 = split.train
 };
 
+/// One candidate of `select:`: parameter values that override the sweep's `training:`
+/// (feature_stats) and `energy:` parameters.
+struct Candidate {
+  YAML::Node training = YAML::Node(YAML::NodeType::Map);
+  YAML::Node energy = YAML::Node(YAML::NodeType::Map);
+  std::string training_text, energy_text;  ///< "components=2", "beta=0.8"; "" = none
+  std::string text() const {
+    if (training_text.empty()) return energy_text;
+    return energy_text.empty() ? training_text : training_text + ", " + energy_text;
+  }
+};
+
+/// `select:`: the candidates (the product of the listed values, first listed first) and how they
+/// are scored on split.validation.
+struct Selection {
+  std::vector<Candidate> candidates;  ///< empty = no selection
+  std::string optimiser;              ///< name of one of the sweep's optimisers
+  std::string score = "macro_f1";     ///< or "f1_<class>"
+  /// Scores closer than this to the best are ties, which the candidate listed first wins: a
+  /// difference of a few cells is noise, not a reason for a larger model.
+  double tie = 0.001;
+};
+
 struct OptimiserDef {
   std::string name;
   YAML::Node entry;
@@ -249,6 +275,8 @@ struct Sweep {
   Frame0 f0;
   std::map<std::string, YAML::Node> datasets;
   std::vector<std::unique_ptr<Item>> train, test;
+  std::vector<std::unique_ptr<Item>> validation;  ///< split.validation (scores `select:`)
+  Selection select;
   /// Feature-set specific training items (`train:` of a feature set), overriding split.train.
   std::vector<std::vector<std::unique_ptr<Item>>> train_groups;
   std::vector<YAML::Node> common_stages;

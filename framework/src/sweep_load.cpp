@@ -18,9 +18,13 @@ namespace sweep_detail {
 namespace {
 
 const std::vector<std::string> kSweepKeys = {
-    "version",    "name",     "grid",     "labels",        "plugin_path",
-    "output_dir", "datasets", "split",    "common_stages", "feature_sets",
-    "optimisers", "energy",   "training", "outputs",       "roc"};
+    "version",  "name",   "grid",          "labels",       "plugin_path", "output_dir",
+    "datasets", "split",  "common_stages", "feature_sets", "optimisers",  "energy",
+    "training", "select", "outputs",       "roc"};
+
+/// Candidates `select:` may list before the product is refused (each costs a training and
+/// validation runs per feature set).
+constexpr std::size_t kMaxCandidates = 64;
 
 /// What a sweep's `training:` may set: the parameters feature_stats declares, except those compare
 /// sets per feature set (its features and the model file). Empty if feature_stats is not installed
@@ -36,6 +40,180 @@ std::vector<std::string> trainingKeys(PluginRegistry& reg) {
     // Reported when training needs it.
   }
   return keys;
+}
+
+/// A YAML value on one line ("[0.02, 0.05]").
+std::string flow(const YAML::Node& v) {
+  if (v.IsScalar()) return v.Scalar();
+  YAML::Emitter e;
+  e << YAML::Flow << v;
+  return e.c_str();
+}
+
+/// The parameter names a plugin type declares; empty if it is not installed.
+std::vector<std::string> declaredNames(PluginRegistry& reg, const std::string& type) {
+  std::vector<std::string> names;
+  if (type.empty() || !reg.find(type)) return names;
+  try {
+    const auto p = reg.create(type);
+    for (const auto& spec : declaredParams(*p)) names.push_back(spec.name);
+  } catch (const std::exception&) {
+  }
+  return names;
+}
+
+/// `select:` — candidate values of training (feature_stats) and energy parameters, scored on
+/// split.validation. Every problem is a diagnostic at its place in the sweep.
+void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d) {
+  if (!sel.IsMap()) {
+    d.add(sel.Mark(),
+          "'select' must be a map {training: {param: [values]}, energy: {param: "
+          "[values]}, optimiser, score}");
+    return;
+  }
+  detail::checkKeys(d, sel, {"training", "energy", "optimiser", "score", "tie"}, "select",
+                    kKeyHint);
+  struct Axis {
+    bool energy;
+    std::string key;
+    std::vector<YAML::Node> values;
+  };
+  std::vector<Axis> axes;
+  const std::size_t before = d.list.size();
+  auto section = [&](const char* name, bool energy) {
+    const YAML::Node m = sel[name];
+    if (!m) return;
+    const std::string what = std::string("select.") + name;
+    if (!m.IsMap() || m.size() == 0) {
+      d.add(m.Mark(), what + ": expected a map parameter: [candidate values]");
+      return;
+    }
+    // Allowed: what the plugin declares, except what compare sets per feature set.
+    std::vector<std::string> allowed;
+    const YAML::Node base = energy ? s.energy["params"] : s.training;
+    if (energy) {
+      for (const auto& n : declaredNames(reg, s.energy["type"].Scalar()))
+        if (n != "model" && n != "features") allowed.push_back(n);
+    } else {
+      allowed = trainingKeys(reg);
+    }
+    if (!allowed.empty()) detail::checkKeys(d, m, allowed, what, kKeyHint);
+    for (auto it = m.begin(); it != m.end(); ++it) {
+      const std::string key = it->first.Scalar();
+      if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), key) == allowed.end())
+        continue;  // reported above
+      if (base && base.IsMap() && base[key])
+        d.add(it->first.Mark(), what + "." + key + ": also set in '" +
+                                    (energy ? "energy.params" : "training") +
+                                    "'; give it in one place (select's values replace it)");
+      if (!it->second.IsSequence() || it->second.size() == 0) {
+        d.add(it->second.Mark(),
+              what + "." + key + ": expected a non-empty list of candidate values, e.g. [1, 2]");
+        continue;
+      }
+      Axis a{energy, key, {}};
+      for (const auto& v : it->second) a.values.push_back(v);
+      axes.push_back(std::move(a));
+    }
+  };
+  section("training", false);
+  section("energy", true);
+  if (axes.empty()) {
+    if (d.list.size() == before)
+      d.add(sel.Mark(),
+            "select: list candidate values under 'training' (feature_stats "
+            "parameters) or 'energy' (energy parameters)");
+    return;
+  }
+  std::size_t n = 1;
+  for (const auto& a : axes) n = std::min(kMaxCandidates + 1, n * a.values.size());
+  if (n > kMaxCandidates) {
+    d.add(sel.Mark(),
+          "select: the listed values make more than " + std::to_string(kMaxCandidates) +
+              " candidates (each is trained and validated per feature set); list fewer");
+    return;
+  }
+  // Every value as the plugin would take it (type, range, choices), reported at the value.
+  for (const auto& a : axes) {
+    const std::string type = a.energy ? s.energy["type"].Scalar() : std::string(kStatsPlugin);
+    if (!reg.find(type)) continue;
+    std::unique_ptr<Plugin> p;
+    try {
+      p = reg.create(type);
+    } catch (const std::exception&) {
+      continue;  // reported where the plugin is made
+    }
+    ParamDecl decl;
+    p->declare(decl);
+    const ParamSpec* spec = decl.find(a.key);
+    if (!spec) continue;
+    for (const auto& v : a.values) {
+      const std::string err = detail::checkParamValue(*spec, v);
+      if (!err.empty())
+        d.add(v.Mark(), std::string("select.") + (a.energy ? "energy." : "training.") + a.key +
+                            ": candidate " + flow(v) + ": " + err);
+    }
+  }
+  // The product, first axis outermost: candidates come in the order the values are listed.
+  std::vector<std::size_t> idx(axes.size(), 0);
+  for (std::size_t c = 0; c < n; ++c) {
+    Candidate cand;
+    for (std::size_t k = 0; k < axes.size(); ++k) {
+      const Axis& a = axes[k];
+      const YAML::Node& v = a.values[idx[k]];
+      std::string& text = a.energy ? cand.energy_text : cand.training_text;
+      text += (text.empty() ? "" : ", ") + a.key + "=" + flow(v);
+      (a.energy ? cand.energy : cand.training)[a.key] = YAML::Clone(v);
+    }
+    s.select.candidates.push_back(std::move(cand));
+    for (std::size_t k = axes.size(); k-- > 0;) {
+      if (++idx[k] < axes[k].values.size()) break;
+      idx[k] = 0;
+    }
+  }
+  // Which optimiser scores them, and how.
+  if (const YAML::Node o = sel["optimiser"]) {
+    s.select.optimiser = o.Scalar();
+    std::vector<std::string> names;
+    for (const auto& od : s.optimisers) names.push_back(od.name);
+    if (std::find(names.begin(), names.end(), s.select.optimiser) == names.end()) {
+      std::string m =
+          "select.optimiser: '" + s.select.optimiser + "' is not one of the sweep's optimisers";
+      const std::string dym = detail::didYouMean(s.select.optimiser, names);
+      m += dym.empty() ? "" : " (did you mean '" + dym + "'?)";
+      d.add(o.Mark(), m);
+    }
+  } else if (!s.optimisers.empty()) {
+    s.select.optimiser = s.optimisers.front().name;
+  }
+  for (const auto& od : s.optimisers)
+    if (od.name == s.select.optimiser && !od.unavailable.empty())
+      d.add(sel["optimiser"] ? sel["optimiser"].Mark() : sel.Mark(),
+            "select: optimiser '" + od.name + "', which scores the candidates, is not installed (" +
+                od.unavailable + ")");
+  if (const YAML::Node tie = sel["tie"]) {
+    try {
+      s.select.tie = tie.as<double>();
+      if (!(s.select.tie >= 0 && s.select.tie < 1)) throw YAML::Exception(tie.Mark(), "");
+    } catch (const YAML::Exception&) {
+      d.add(tie.Mark(), "select.tie: expected a score difference in [0, 1), e.g. 0.001");
+    }
+  }
+  if (const YAML::Node sc = sel["score"]) {
+    s.select.score = sc.Scalar();
+    const std::string& v = s.select.score;
+    const bool class_f1 = v.rfind("f1_", 0) == 0 && s.f0.labels->find(v.substr(3)) > 0;
+    if (v != "macro_f1" && !class_f1) {
+      std::string classes;
+      for (std::size_t c = 1; c < s.f0.labels->size(); ++c)
+        classes += std::string(classes.empty() ? "" : ", ") + "f1_" +
+                   s.f0.labels->name(static_cast<LabelId>(c));
+      d.add(sc.Mark(), "select.score: '" + v +
+                           "'; expected macro_f1 (cell-wise F1 averaged over "
+                           "the classes) or the F1 of one class: " +
+                           classes);
+    }
+  }
 }
 
 }  // namespace
@@ -113,7 +291,8 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   }
   // split
   if (const YAML::Node split = root["split"]) {
-    parseSplit(split, &s->datasets, YAML::Node(), s->f0.base_dir, d, s->train, s->test, true);
+    parseSplit(split, &s->datasets, YAML::Node(), s->f0.base_dir, d, s->train, s->test, true,
+               &s->validation);
   } else {
     d.add(root.Mark(),
           "missing key 'split' ({train: [...], test: [...]}); train and test sets "
@@ -121,6 +300,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   }
   uniqueLabels(s->test);
   uniqueLabels(s->train);
+  uniqueLabels(s->validation);
   // common stages
   auto stageList = [&](const YAML::Node& l, const std::string& what, std::vector<YAML::Node>& out,
                        std::string& unavailable) {
@@ -313,6 +493,15 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
       s->training_mark = tr.Mark();
     }
   }
+  if (const YAML::Node sel = root["select"]) {
+    parseSelect(sel, *s, reg, d);
+    if (s->validation.empty())
+      d.add(sel.Mark(),
+            "select needs split.validation: the candidates are scored there, never on "
+            "the test split");
+  } else if (!s->validation.empty()) {
+    s->notes.push_back("split.validation is only used by 'select:', which this sweep has not");
+  }
   if (const YAML::Node out = root["outputs"]) {
     if (!out.IsSequence()) {
       d.add(out.Mark(), "'outputs' must be a list of output entries (added to every test run)");
@@ -350,27 +539,34 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   // Disjoint split, then the sources (configured once, reused by every run).
   for (auto& it : s->train) identify(*it, s->f0.base_dir, reg);
   for (auto& it : s->test) identify(*it, s->f0.base_dir, reg);
+  for (auto& it : s->validation) identify(*it, s->f0.base_dir, reg);
   for (auto& g : s->train_groups)
     for (auto& it : g) identify(*it, s->f0.base_dir, reg);
-  std::vector<Item*> tr, te;
+  std::vector<Item*> tr, te, va;
   for (auto& it : s->train) tr.push_back(it.get());
   for (auto& g : s->train_groups)
     for (auto& it : g) tr.push_back(it.get());
   for (auto& it : s->test) te.push_back(it.get());
+  for (auto& it : s->validation) va.push_back(it.get());
   checkDisjoint(tr, te, d);
+  // Validation data must be unseen in training, and choosing on it must not peek at the test.
+  checkDisjoint(tr, va, d, "validation", "train");
+  checkDisjoint(va, te, d, "test", "validation");
   d.throwIfAny();
   for (auto& it : s->train) prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true);
   for (auto& g : s->train_groups)
     for (auto& it : g) prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true);
   for (auto& it : s->test) prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true);
+  for (auto& it : s->validation) prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true);
   std::set<std::string> used;
   for (auto& it : s->train) used.insert(it->dataset);
   for (auto& g : s->train_groups)
     for (auto& it : g) used.insert(it->dataset);
   for (auto& it : s->test) used.insert(it->dataset);
+  for (auto& it : s->validation) used.insert(it->dataset);
   for (const auto& [name, node] : s->datasets)
     if (!used.count(name))
-      s->notes.push_back("dataset '" + name + "' is in neither split.train nor split.test");
+      s->notes.push_back("dataset '" + name + "' is in no split (train, validation, test)");
   d.throwIfAny();
   return s;
 }

@@ -254,6 +254,7 @@ std::string runsSection(const SweepResult& r) {
       o << m.labelled_frames << " labelled of " << m.frames << " frame(s)";
     else
       o << m.reason;
+    if (!m.selected.empty()) o << "; selected on validation: " << m.selected;
     if (!m.missing.empty()) {
       o << "; not learnt:";
       for (const auto& x : m.missing) o << " " << x;
@@ -261,6 +262,59 @@ std::string runsSection(const SweepResult& r) {
     o << " |\n";
   }
   o << "\n";
+  return o.str();
+}
+
+/// F1 of class c from cell-wise counts; NaN if undefined.
+double cellF1(const EvalCounts& e, LabelId c) {
+  const ClassScores s = e.cell_wise.scores(c);
+  const double den = 2.0 * s.tp + s.fp + s.fn;
+  return den > 0 ? 2.0 * s.tp / den : std::numeric_limits<double>::quiet_NaN();
+}
+
+std::string selectionSection(const SweepResult& r) {
+  if (r.selections.empty()) return "";
+  std::ostringstream o;
+  o << "## Parameters selected on validation\n\n"
+       "Every candidate was trained on the train split and scored on the validation split (";
+  for (std::size_t i = 0; i < r.validation_items.size(); ++i)
+    o << (i ? "; " : "") << r.validation_items[i];
+  o << "), never on the test split. The first candidate listed whose score is within the tie "
+       "margin of the best wins (a few cells are noise, not a reason for a larger model). "
+       "Cell-wise F1 (paper 001 §VI-B rules).\n\n";
+  const std::vector<LabelId> classes = scoredClasses(r.labels);
+  for (const auto& s : r.selections) {
+    o << "### " << s.feature_set << " (optimiser " << s.optimiser << ", score " << s.score
+      << ", tie " << fmt("%g", s.tie) << ")\n\n| candidate |";
+    for (LabelId c : classes) o << " " << r.labels.name(c) << " F1 |";
+    o << " score | |\n|---|";
+    for (std::size_t k = 0; k < classes.size(); ++k) o << "---:|";
+    o << "---:|---|\n";
+    for (std::size_t i = 0; i < s.candidates.size(); ++i) {
+      o << "| " << s.candidates[i] << " |";
+      for (LabelId c : classes) o << " " << fmt("%.3f", cellF1(s.counts[i], c)) << " |";
+      o << " " << fmt("%.4f", s.scores[i]) << " | "
+        << (static_cast<int>(i) == s.chosen ? "**chosen**" : s.notes[i]) << " |\n";
+    }
+    o << "\n";
+  }
+  return o.str();
+}
+
+std::string selectionCsv(const SweepResult& r) {
+  std::ostringstream o;
+  const std::vector<LabelId> classes = scoredClasses(r.labels);
+  o << "feature_set,optimiser,score_name,candidate,chosen,score";
+  for (LabelId c : classes) o << ",f1_" << r.labels.name(c);
+  o << ",model,note\n";
+  for (const auto& s : r.selections)
+    for (std::size_t i = 0; i < s.candidates.size(); ++i) {
+      o << csvField(s.feature_set) << "," << csvField(s.optimiser) << "," << s.score << ","
+        << csvField(s.candidates[i]) << "," << (static_cast<int>(i) == s.chosen ? 1 : 0) << ","
+        << csvNum(s.scores[i]);
+      for (LabelId c : classes) o << "," << csvNum(cellF1(s.counts[i], c));
+      o << "," << csvField(s.models[i]) << "," << csvField(s.notes[i]) << "\n";
+    }
   return o.str();
 }
 
@@ -416,7 +470,22 @@ std::string resultsJson(const SweepResult& r) {
       << ", \"trained\": " << (m.trained ? "true" : "false")
       << ", \"reason\": " << jsonQuote(m.reason) << ", \"frames\": " << m.frames
       << ", \"labelled_frames\": " << m.labelled_frames << ", \"train\": " << list(m.train_items)
-      << ", \"not_learnt\": " << list(m.missing) << "}";
+      << ", \"not_learnt\": " << list(m.missing)
+      << ", \"selected\": " << (m.selected.empty() ? "null" : jsonQuote(m.selected)) << "}";
+  }
+  o << "\n  ],\n  \"validation\": " << list(r.validation_items) << ",\n  \"selection\": [";
+  for (std::size_t i = 0; i < r.selections.size(); ++i) {
+    const auto& s = r.selections[i];
+    o << (i ? "," : "") << "\n    {\"feature_set\": " << jsonQuote(s.feature_set)
+      << ", \"optimiser\": " << jsonQuote(s.optimiser) << ", \"score\": " << jsonQuote(s.score)
+      << ", \"tie\": " << jsonNum(s.tie) << ", \"chosen\": "
+      << (s.chosen < 0 ? std::string("null") : jsonQuote(s.candidates[s.chosen]))
+      << ", \"candidates\": [";
+    for (std::size_t k = 0; k < s.candidates.size(); ++k)
+      o << (k ? ", " : "") << "{\"candidate\": " << jsonQuote(s.candidates[k])
+        << ", \"score\": " << jsonNum(s.scores[k]) << ", \"model\": " << jsonQuote(s.models[k])
+        << ", \"note\": " << jsonQuote(s.notes[k]) << "}";
+    o << "]}";
   }
   o << "\n  ],\n  \"runs\": [";
   for (std::size_t i = 0; i < r.runs.size(); ++i) {
@@ -455,7 +524,6 @@ std::string resultsJson(const SweepResult& r) {
 }  // namespace
 }  // namespace sweep_detail
 
-using sweep_detail::Stats;
 using sweep_detail::accuracyCsv;
 using sweep_detail::capitalise;
 using sweep_detail::energiesCsv;
@@ -473,6 +541,9 @@ using sweep_detail::runsSection;
 using sweep_detail::runtimeCsv;
 using sweep_detail::sanitize;
 using sweep_detail::scoredClasses;
+using sweep_detail::selectionCsv;
+using sweep_detail::selectionSection;
+using sweep_detail::Stats;
 using sweep_detail::stats;
 using sweep_detail::statusCell;
 using sweep_detail::utcNow;
@@ -543,6 +614,10 @@ void writeSweepReport(const SweepResult& r, const std::string& dir) {
   head << "# Sweep '" << r.name << "'\n\n- sweep file: " << r.sweep_path
        << "\n- created: " << utcNow() << " (terramrf " << TERRAMRF_VERSION << ")\n- train split:";
   for (const auto& t : r.train_items) head << " " << t << ";";
+  if (!r.validation_items.empty()) {
+    head << "\n- validation split (select:):";
+    for (const auto& t : r.validation_items) head << " " << t << ";";
+  }
   head << "\n- test datasets:";
   for (const auto& t : r.datasets) head << " " << t << ";";
   if (r.limit) head << "\n- at most " << r.limit << " frame(s) per split item (--limit)";
@@ -559,8 +634,13 @@ void writeSweepReport(const SweepResult& r, const std::string& dir) {
   const std::string per_scan = perScanSection(r);
   writeFileAtomic(dir + "/evaluation.md", evaluation);
   writeFileAtomic(dir + "/per_scan.md", per_scan);
-  writeFileAtomic(dir + "/summary.md", head.str() + acc.str() + per_scan + rt.str() + roc +
-                                           energies + runs + evaluation);
+  const std::string selection = selectionSection(r);
+  writeFileAtomic(dir + "/summary.md", head.str() + selection + acc.str() + per_scan + rt.str() +
+                                           roc + energies + runs + evaluation);
+  if (!r.selections.empty()) {
+    writeFileAtomic(dir + "/selection.md", selection);
+    writeFileAtomic(dir + "/selection.csv", selectionCsv(r));
+  }
   writeFileAtomic(dir + "/accuracy.csv", accuracyCsv(r));
   writeFileAtomic(dir + "/evaluation.csv", evaluationCsv(r));
   writeFileAtomic(dir + "/per_scan.csv", perScanCsv(r));

@@ -198,7 +198,8 @@ bool parseItem(const YAML::Node& n, const std::map<std::string, YAML::Node>* dat
   return true;
 }
 
-void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& test, Diags& d) {
+void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& test, Diags& d,
+                   const std::string& test_role, const std::string& train_role) {
   for (const Item* t : test) {
     for (const Item* r : train) {
       std::string why;
@@ -222,8 +223,9 @@ void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& te
       if (why.empty()) continue;
       std::string where;
       if (r->mark.line >= 0) where = " at line " + std::to_string(r->mark.line + 1);
-      d.add(t->mark, "split: test item " + itemText(*t) + " overlaps train item " + itemText(*r) +
-                         where + ": " + why + "; train and test sets must be disjoint");
+      d.add(t->mark, "split: " + test_role + " item " + itemText(*t) + " overlaps " + train_role +
+                         " item " + itemText(*r) + where + ": " + why + "; " + train_role +
+                         " and " + test_role + " sets must be disjoint");
     }
   }
 }
@@ -253,15 +255,19 @@ void prepareItem(Item& it, PluginRegistry& reg, const Frame0& f0, const std::str
 void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>* datasets,
                 const YAML::Node& base_source, const std::string& base_dir, Diags& d,
                 std::vector<std::unique_ptr<Item>>& train, std::vector<std::unique_ptr<Item>>& test,
-                bool need_both) {
+                bool need_both, std::vector<std::unique_ptr<Item>>* validation) {
   if (!split.IsMap()) {
     d.add(split.Mark(), "'split' must be a map {train: [...], test: [...]}");
     return;
   }
-  detail::checkKeys(d, split, {"train", "test"}, "split", kKeyHint);
+  if (validation)
+    detail::checkKeys(d, split, {"train", "validation", "test"}, "split", kKeyHint);
+  else
+    detail::checkKeys(d, split, {"train", "test"}, "split", kKeyHint);
   auto list = [&](const char* key, std::vector<std::unique_ptr<Item>>& out) {
     const YAML::Node l = split[key];
     if (!l) {
+      if (std::string(key) == "validation") return;  // optional
       if (need_both || std::string(key) == "train")
         d.add(split.Mark(), std::string("split: missing '") + key + ": [...]'");
       return;
@@ -276,6 +282,7 @@ void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>
     }
   };
   list("train", train);
+  if (validation) list("validation", *validation);
   list("test", test);
 }
 

@@ -130,6 +130,23 @@ struct ModelRecord {
   std::vector<std::string> train_items;  ///< what it was trained on
   std::size_t frames = 0, labelled_frames = 0;
   std::vector<std::string> missing;
+  std::string selected;  ///< with `select:`: the candidate chosen on validation ("components=4")
+};
+
+/// How `select:` chose one feature set's training and energy parameters: every candidate was
+/// trained on the train split and scored on the validation split (never on the test split) with
+/// one optimiser; the first candidate within `tie` of the best score won.
+struct SelectionRecord {
+  std::string feature_set;
+  std::string optimiser;  ///< the optimiser that scored the candidates
+  std::string score;      ///< "macro_f1" or "f1_<class>" (cell-wise, paper 001 §VI-B rules)
+  double tie = 0;         ///< scores this close to the best count as ties
+  std::vector<std::string> candidates;  ///< "components=2, beta=0.8", in sweep order
+  std::vector<std::string> models;      ///< model file each candidate used
+  std::vector<EvalCounts> counts;       ///< per candidate, summed over the validation items
+  std::vector<double> scores;           ///< per candidate; NaN = it failed (see notes)
+  std::vector<std::string> notes;       ///< per candidate: why it failed, or ""
+  int chosen = -1;                      ///< index into candidates, -1 = none could be scored
 };
 
 struct SweepResult {
@@ -139,7 +156,9 @@ struct SweepResult {
   std::vector<std::string> feature_sets;  ///< in sweep order
   std::vector<std::string> optimisers;    ///< in sweep order
   std::vector<std::string> train_items;   ///< descriptions of the train split
+  std::vector<std::string> validation_items;  ///< descriptions of the validation split
   std::vector<ModelRecord> models;
+  std::vector<SelectionRecord> selections;  ///< one per feature set that `select:` tuned
   std::vector<RunRecord> runs;  ///< dataset-major, then feature set, then optimiser
   std::size_t limit = 0;
   const RunRecord* find(const std::string& dataset, const std::string& feature_set,
@@ -156,18 +175,22 @@ struct SweepPlan {
   std::string name;
   std::vector<std::string> runs;
   std::vector<std::pair<std::string, std::string>> skipped;  ///< run, reason
+  /// With `select:`: "L: sim_val × icm [components=2]", one per feature set, candidate and
+  /// validation item, run before the test runs.
+  std::vector<std::string> selection_runs;
 };
 SweepPlan planSweep(const std::string& sweep_path,
                     const std::vector<std::string>& plugin_dirs = {});
 
 /// Trains one model per feature set on the train split (unless the sweep gives one), runs every
 /// test item × feature set × optimiser, and writes the report (writeSweepReport) to the output
-/// folder. Throws ConfigError for a bad sweep file (nothing run).
+/// folder. With `select:`, each feature set's parameters are first chosen on the validation split
+/// (SelectionRecord). Throws ConfigError for a bad sweep file (nothing run).
 SweepResult runSweep(const CompareOptions& options);
 
 /// Writes summary.md (all tables), accuracy.{md,csv}, runtime.{md,csv}, evaluation.{md,csv},
-/// energies.{md,csv}, roc_auc.csv, roc/<run>.{csv,svg}, roc/<dataset>__<optimiser>.svg and
-/// results.json into `dir`.
+/// energies.{md,csv}, roc_auc.csv, roc/<run>.{csv,svg}, roc/<dataset>__<optimiser>.svg,
+/// selection.{md,csv} (with `select:`) and results.json into `dir`.
 void writeSweepReport(const SweepResult& result, const std::string& dir);
 
 /// Table shaped like paper 000 Tables 1–2: rows "<Class>/TPR", "<Class>/FPR" (cell-wise), one

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -331,6 +332,163 @@ TEST(SweepRun, TinySimulatorSweepWritesTheTables) {
   EXPECT_NE(
       readFile(out + "/runs/sim_test__L__icm/resolved_config.yaml").find(out + "/models/L.yaml"),
       std::string::npos);
+}
+
+// ---- select: parameters chosen on a validation split -------------------------------------------
+
+/// tinySweep with a validation world (seed 3) and `select_yaml` appended.
+std::string selectSweep(const std::string& select_yaml) {
+  std::string s = tinySweep("  icm: {type: icm}");
+  const std::string test_line = "  test: [sim_test]\n";
+  s.replace(s.find(test_line), test_line.size(), "  validation: [sim_val]\n" + test_line);
+  const std::string ds = "  sim_test:";
+  s.insert(s.find(ds), std::string("  sim_val: {type: simulator, params: {seed: 3, frames: 1, ") +
+                           kSim + "}}\n");
+  return s + select_yaml;
+}
+
+TEST(SweepSelect, TheBestCandidateOnValidationIsUsedForTheTestRuns) {
+  test::TempDir dir;
+  // The first candidate makes every cell an obstacle (a huge bonus for that class): it must lose.
+  const std::string sweep = put(dir, "select.yaml", selectSweep(R"(select:
+  energy: {class_cost: [[0, 0, -1000], [0, 0, 0]]}
+)"));
+  CompareOptions o;
+  o.sweep_path = sweep;
+  o.output_dir = dir.str() + "/out";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  std::ostringstream log;
+  o.log = &log;
+  const SweepResult r = runSweep(o);
+  ASSERT_EQ(r.exitCode(), 0) << log.str();
+  EXPECT_EQ(r.validation_items, (std::vector<std::string>{"sim_val (all frames)"}));
+  ASSERT_EQ(r.selections.size(), 2u);  // L0 and L
+  for (const auto& s : r.selections) {
+    SCOPED_TRACE(s.feature_set);
+    ASSERT_EQ(s.candidates,
+              (std::vector<std::string>{"class_cost=[0, 0, -1000]", "class_cost=[0, 0, 0]"}));
+    EXPECT_EQ(s.optimiser, "icm");  // the first optimiser, by default
+    ASSERT_EQ(s.scores.size(), 2u);
+    EXPECT_LT(s.scores[0], s.scores[1]);
+    EXPECT_EQ(s.chosen, 1);
+    EXPECT_EQ(s.counts[1].scans, 1u);  // scored on the validation scan, not on the test scan
+    // Training does not depend on the energy: both candidates used one model.
+    EXPECT_EQ(s.models[0], s.models[1]);
+  }
+  for (const auto& m : r.models) EXPECT_EQ(m.selected, "class_cost=[0, 0, 0]");
+  const std::string run_cfg =
+      readFile(o.output_dir + "/runs/sim_test__L__icm/resolved_config.yaml");
+  EXPECT_NE(run_cfg.find("class_cost: [0.0, 0.0, 0.0]"), std::string::npos) << run_cfg;
+  EXPECT_NE(run_cfg.find(o.output_dir + "/models/L.yaml"), std::string::npos);
+  const std::string csv = readFile(o.output_dir + "/selection.csv");
+  EXPECT_EQ(csv.rfind("feature_set,optimiser,score_name,candidate,chosen,score,f1_road,", 0), 0u)
+      << csv;
+  EXPECT_NE(csv.find("L,icm,macro_f1,\"class_cost=[0, 0, 0]\",1,"), std::string::npos) << csv;
+  const std::string summary = readFile(o.output_dir + "/summary.md");
+  EXPECT_NE(summary.find("## Parameters selected on validation"), std::string::npos);
+  EXPECT_NE(summary.find("selected on validation: class_cost=[0, 0, 0]"), std::string::npos);
+  const YAML::Node js = YAML::LoadFile(o.output_dir + "/results.json");
+  EXPECT_EQ(js["selection"].size(), 2u);
+  EXPECT_EQ(js["selection"][1]["chosen"].as<std::string>(), "class_cost=[0, 0, 0]");
+  // The models name the validation data as held out, with the test data.
+  const YAML::Node model = YAML::LoadFile(o.output_dir + "/models/L.yaml");
+  EXPECT_EQ(model["trained_from"]["held_out"][1].as<std::string>(),
+            "sim_val (all frames, validation)");
+}
+
+TEST(SweepSelect, CandidatesTrainedAlikeTieAndTheFirstListedWins) {
+  test::TempDir dir;
+  // Same training, two spellings of the defaults: equal scores.
+  const std::string sweep = put(dir, "tie.yaml", selectSweep(R"(select:
+  training: {min_labelled_points: [3, 3]}
+  tie: 0
+)"));
+  CompareOptions o;
+  o.sweep_path = sweep;
+  o.output_dir = dir.str() + "/out";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  std::ostringstream log;
+  o.log = &log;
+  const SweepResult r = runSweep(o);
+  ASSERT_EQ(r.exitCode(), 0) << log.str();
+  ASSERT_EQ(r.selections.size(), 2u);
+  EXPECT_EQ(r.selections[0].scores[0], r.selections[0].scores[1]);
+  EXPECT_EQ(r.selections[0].chosen, 0);
+}
+
+TEST(SweepSelect, BadSelectionsAreReportedWithTheirPlace) {
+  test::TempDir dir;
+  std::string text = selectSweep(R"(training: {components: 2}
+select:
+  training: {componets: [1, 2], components: [1, 0], min_purity: [0.9]}
+  energy: {beta: 0.8, model: [a.yaml]}
+  optimiser: icn
+  score: accuracy
+)");
+  const std::string sweep = put(dir, "bad_select.yaml", text);
+  const ConfigError e = expectConfigError(sweep);
+  const std::string all = e.what();
+  auto line_of = [&](const std::string& needle) {
+    const std::size_t at = text.find(needle);
+    return std::to_string(std::count(text.begin(), text.begin() + at, '\n') + 1);
+  };
+  const std::string sel_line = line_of("  training: {componets");
+  EXPECT_NE(
+      all.find(sweep + ":" + sel_line +
+               ":14: unknown key 'componets' in select.training (did you mean 'components'?)"),
+      std::string::npos)
+      << all;
+  EXPECT_NE(all.find("select.training.components: also set in 'training'"), std::string::npos)
+      << all;
+  // components 0 is out of feature_stats' range: reported at the value.
+  EXPECT_NE(all.find(sweep + ":" + sel_line +
+                     ":49: select.training.components: candidate 0: value 0 out of range"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(all.find("select.energy.beta: expected a non-empty list of candidate values"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(all.find("unknown key 'model' in select.energy"), std::string::npos) << all;
+  EXPECT_NE(
+      all.find(
+          "select.optimiser: 'icn' is not one of the sweep's optimisers (did you mean 'icm'?)"),
+      std::string::npos)
+      << all;
+  EXPECT_NE(all.find("select.score: 'accuracy'; expected macro_f1"), std::string::npos) << all;
+}
+
+TEST(SweepSelect, SelectNeedsAValidationSplitDisjointFromTrainAndTest) {
+  test::TempDir dir;
+  // No validation split at all.
+  const std::string none =
+      put(dir, "none.yaml",
+          tinySweep("  icm: {type: icm}") + "select: {energy: {beta_diagonal: [0.4, 0.8]}}\n");
+  EXPECT_NE(std::string(expectConfigError(none).what())
+                .find("select needs split.validation: the candidates are scored there, never on "
+                      "the test split"),
+            std::string::npos);
+  // Validation = the test world, then = the training world.
+  for (const char* world : {"seed: 1", "seed: 7"}) {
+    std::string text = selectSweep("select: {energy: {beta_diagonal: [0.4, 0.8]}}\n");
+    text.replace(text.find("seed: 3"), 7, world);
+    const std::string sweep = put(dir, "overlap.yaml", text);
+    const std::string all = expectConfigError(sweep).what();
+    const bool test_world = std::string(world) == "seed: 1";
+    EXPECT_NE(
+        all.find(test_world ? "split: test item 'sim_test'" : "split: validation item 'sim_val'"),
+        std::string::npos)
+        << all;
+    EXPECT_NE(all.find(test_world ? "overlaps validation item 'sim_val'"
+                                  : "overlaps train item 'sim_train'"),
+              std::string::npos)
+        << all;
+    EXPECT_NE(all.find(test_world ? "validation and test sets must be disjoint"
+                                  : "train and validation sets must be disjoint"),
+              std::string::npos)
+        << all;
+  }
 }
 
 // ---- train ----------------------------------------------------------------------------------
