@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "cached_source.hpp"
 #include "config_internal.hpp"
 #include "terramrf/config.hpp"
 #include "terramrf/pipeline.hpp"
@@ -171,9 +172,11 @@ bool parseItem(const YAML::Node& n, const std::map<std::string, YAML::Node>* dat
 void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& test, Diags& d,
                    const std::string& test_role = "test", const std::string& train_role = "train");
 /// Instantiates and configures the item's source (unless its type is not installed); checks
-/// the frame range against the source's size and applies `limit`.
+/// the frame range against the source's size and applies `limit`. With `cache`, the source keeps
+/// the frames it reads within that budget (CachedSource), for items read by many runs.
 void prepareItem(Item& it, PluginRegistry& reg, const Frame0& f0, const std::string& out_dir,
-                 std::size_t limit, Diags& d, bool tolerate_missing);
+                 std::size_t limit, Diags& d, bool tolerate_missing,
+                 const std::shared_ptr<FrameBudget>& cache = nullptr);
 /// Parses split.train / split.test lists, and split.validation (optional) where `validation` is
 /// given (sweeps; train configs have no validation set).
 void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>* datasets,
@@ -289,6 +292,8 @@ struct Sweep {
   YAML::Mark training_mark;
   std::vector<YAML::Node> outputs;
   std::size_t roc_max_points = 500;
+  /// Frames kept in memory for the runs that read them again (`frame_cache_mb`; 0 = none).
+  std::shared_ptr<FrameBudget> frame_cache;
   std::string roc_fallback = "local_energy";
   std::vector<std::string> notes;
 };

@@ -18,9 +18,9 @@ namespace sweep_detail {
 namespace {
 
 const std::vector<std::string> kSweepKeys = {
-    "version",  "name",   "grid",          "labels",       "plugin_path", "output_dir",
-    "datasets", "split",  "common_stages", "feature_sets", "optimisers",  "energy",
-    "training", "select", "outputs",       "roc"};
+    "version",  "name",   "grid",          "labels",       "plugin_path",   "output_dir",
+    "datasets", "split",  "common_stages", "feature_sets", "optimisers",    "energy",
+    "training", "select", "outputs",       "roc",          "frame_cache_mb"};
 
 /// Candidates `select:` may list before the product is refused (each costs a training and
 /// validation runs per feature set).
@@ -512,6 +512,22 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
       }
     }
   }
+  std::size_t cache_mb = 2048;
+  if (const YAML::Node c = root["frame_cache_mb"]) {
+    try {
+      const long v = c.as<long>();
+      if (v < 0 || v > (1L << 24)) throw YAML::Exception(c.Mark(), "");
+      cache_mb = static_cast<std::size_t>(v);
+    } catch (const YAML::Exception&) {
+      d.add(c.Mark(),
+            "frame_cache_mb: expected megabytes of frames to keep in memory between "
+            "runs, an integer >= 0 (0 = read every frame every time)");
+    }
+  }
+  if (cache_mb > 0) {
+    s->frame_cache = std::make_shared<FrameBudget>();
+    s->frame_cache->left = cache_mb << 20;
+  }
   if (const YAML::Node roc = root["roc"]) {
     if (!roc.IsMap()) {
       d.add(roc.Mark(), "'roc' must be a map {max_points, fallback}");
@@ -553,11 +569,14 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   checkDisjoint(tr, va, d, "validation", "train");
   checkDisjoint(va, te, d, "test", "validation");
   d.throwIfAny();
-  for (auto& it : s->train) prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true);
+  for (auto& it : s->train)
+    prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true, s->frame_cache);
   for (auto& g : s->train_groups)
-    for (auto& it : g) prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true);
-  for (auto& it : s->test) prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true);
-  for (auto& it : s->validation) prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true);
+    for (auto& it : g) prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true, s->frame_cache);
+  for (auto& it : s->test)
+    prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true, s->frame_cache);
+  for (auto& it : s->validation)
+    prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true, s->frame_cache);
   std::set<std::string> used;
   for (auto& it : s->train) used.insert(it->dataset);
   for (auto& g : s->train_groups)

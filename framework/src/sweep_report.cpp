@@ -627,7 +627,12 @@ void writeSweepReport(const SweepResult& r, const std::string& dir) {
     failed += x.status == RunRecord::Status::kFailed;
   }
   head << "\n- runs: " << r.runs.size() << " (" << skipped << " skipped, " << failed
-       << " failed; reasons under Runs)\n\n";
+       << " failed; reasons under Runs)";
+  if (r.cached_frames)
+    head << "\n- frame cache: " << r.cached_frames << " frame(s) kept after their first read ("
+         << fmt("%.0f", r.cached_mb) << " MB), " << r.cache_hits
+         << " read(s) served from memory (their `read` time in timing.md is the copy)";
+  head << "\n\n";
   writeFileAtomic(dir + "/accuracy.md", acc.str());
   writeFileAtomic(dir + "/runtime.md", rt.str());
   writeFileAtomic(dir + "/energies.md", energies);

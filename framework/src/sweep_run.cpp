@@ -626,6 +626,16 @@ SweepResult runSweep(const CompareOptions& o) {
     }
   }
   progress.finish();
+  std::vector<const std::vector<std::unique_ptr<Item>>*> lists = {&s->train, &s->validation,
+                                                                  &s->test};
+  for (const auto& g : s->train_groups) lists.push_back(&g);
+  for (const auto* l : lists)
+    for (const auto& it : *l)
+      if (const auto* c = dynamic_cast<const sweep_detail::CachedSource*>(it->src.get())) {
+        res.cached_frames += c->kept();
+        res.cache_hits += c->hits();
+        res.cached_mb += c->keptBytes() / 1048576.0;
+      }
   writeSweepReport(res, s->output_dir);
   return res;
 }

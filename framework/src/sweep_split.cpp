@@ -231,7 +231,8 @@ void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& te
 }
 
 void prepareItem(Item& it, PluginRegistry& reg, const Frame0& f0, const std::string& out_dir,
-                 std::size_t limit, Diags& d, bool tolerate_missing) {
+                 std::size_t limit, Diags& d, bool tolerate_missing,
+                 const std::shared_ptr<FrameBudget>& cache) {
   Made m = makePlugin(reg, it.source, "source", {PluginKind::kSource}, f0.context(out_dir), d,
                       tolerate_missing);
   if (!m.ok()) {
@@ -239,6 +240,7 @@ void prepareItem(Item& it, PluginRegistry& reg, const Frame0& f0, const std::str
     return;
   }
   it.src.reset(static_cast<Source*>(m.plugin.release()));
+  if (cache) it.src = std::make_unique<CachedSource>(std::move(it.src), cache);
   it.size = it.src->size();
   if (it.frames.first >= it.size) {
     d.add(it.mark, "split item '" + it.label + "' asks for " + it.frames.str() +

@@ -161,6 +161,10 @@ struct SweepResult {
   std::vector<SelectionRecord> selections;  ///< one per feature set that `select:` tuned
   std::vector<RunRecord> runs;  ///< dataset-major, then feature set, then optimiser
   std::size_t limit = 0;
+  /// Frame cache (`frame_cache_mb`): frames kept after their first read, their size, and the
+  /// reads served from memory instead of the source.
+  std::size_t cached_frames = 0, cache_hits = 0;
+  double cached_mb = 0;
   const RunRecord* find(const std::string& dataset, const std::string& feature_set,
                         const std::string& optimiser) const;
   /// 0: every run that could run did (skipped runs are reported, not failures); 3: a run failed

@@ -491,6 +491,100 @@ TEST(SweepSelect, SelectNeedsAValidationSplitDisjointFromTrainAndTest) {
   }
 }
 
+// ---- the frame cache ---------------------------------------------------------------------------
+
+SweepResult runQuiet(const std::string& sweep, const std::string& out, std::ostringstream& log) {
+  CompareOptions o;
+  o.sweep_path = sweep;
+  o.output_dir = out;
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  o.log = &log;
+  return runSweep(o);
+}
+
+TEST(SweepFrameCache, KeptFramesGiveTheSameResultsAsReadingThemAgain) {
+  test::TempDir dir;
+  const std::string text = tinySweep("  icm: {type: icm}");
+  const std::string cached = put(dir, "cached.yaml", text);
+  const std::string uncached = put(dir, "uncached.yaml", text + "frame_cache_mb: 0\n");
+  std::ostringstream log;
+  const SweepResult a = runQuiet(cached, dir.str() + "/a", log);
+  const SweepResult b = runQuiet(uncached, dir.str() + "/b", log);
+  ASSERT_EQ(a.exitCode(), 0) << log.str();
+  ASSERT_EQ(b.exitCode(), 0) << log.str();
+  // Two feature sets: each reads the two training frames and the test frame; kept once.
+  EXPECT_EQ(a.cached_frames, 3u);
+  EXPECT_EQ(a.cache_hits, 3u);
+  EXPECT_GT(a.cached_mb, 0.1);
+  EXPECT_EQ(b.cached_frames, 0u);
+  EXPECT_EQ(b.cache_hits, 0u);
+  ASSERT_EQ(a.runs.size(), b.runs.size());
+  for (std::size_t i = 0; i < a.runs.size(); ++i) {
+    SCOPED_TRACE(a.runs[i].key());
+    EXPECT_TRUE(a.runs[i].counts.cell_wise == b.runs[i].counts.cell_wise);
+    EXPECT_TRUE(a.runs[i].counts.point_wise == b.runs[i].counts.point_wise);
+    EXPECT_EQ(a.runs[i].energies[0].recomputed, b.runs[i].energies[0].recomputed);
+  }
+  const std::string ma = readFile(dir.str() + "/a/models/L.yaml");
+  const std::string mb = readFile(dir.str() + "/b/models/L.yaml");
+  EXPECT_EQ(ma.substr(ma.find("\nclasses:")), mb.substr(mb.find("\nclasses:")));
+  EXPECT_NE(readFile(dir.str() + "/a/summary.md").find("frame cache: 3 frame(s) kept"),
+            std::string::npos);
+}
+
+TEST(SweepFrameCache, AFrameThatFailsToReadFailsInEveryRunAndIsReported) {
+  test::TempDir dir;
+  // A scan folder with one good and one truncated scan.
+  const std::string seq = dir.str() + "/seq";
+  fs::create_directories(seq + "/velodyne");
+  fs::create_directories(seq + "/labels");
+  const std::string fixture = test::dataPath("semantickitti_mmdet3d_fixture/sequences/00");
+  fs::copy_file(fixture + "/velodyne/000000.bin", seq + "/velodyne/000000.bin");
+  fs::copy_file(fixture + "/labels/000000.label", seq + "/labels/000000.label");
+  std::ofstream(seq + "/velodyne/000001.bin") << "12345";  // not a multiple of 16 bytes
+  const std::string sweep = put(dir, "bad_frame.yaml",
+                                std::string(R"(version: 1
+grid: {size_m: 30, cell_m: 0.5}
+datasets:
+  sim_train: {type: simulator, params: {seed: 7, frames: 1, )") +
+                                    kSim + R"(}}
+  scans: {type: semantickitti, params: {path: seq}}
+split: {train: [sim_train], test: [scans]}
+feature_sets:
+  L0:
+    stages: [{name: hdiff, type: height_difference}]
+    features: [height_diff]
+    min_sigma: [0.02]
+optimisers: {icm: {type: icm}, icm_again: {type: icm}}
+)");
+  std::ostringstream log;
+  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
+  EXPECT_EQ(r.exitCode(), 3) << log.str();  // frames were lost: said in the exit status
+  ASSERT_EQ(r.runs.size(), 2u);
+  for (const auto& x : r.runs) {
+    SCOPED_TRACE(x.key());
+    EXPECT_EQ(x.frames_ok, 1u);
+    ASSERT_EQ(x.failed.size(), 1u);
+    EXPECT_EQ(x.failed[0].first, "000001");
+    EXPECT_NE(x.failed[0].second.find("000001.bin"), std::string::npos) << x.failed[0].second;
+  }
+  EXPECT_EQ(r.cached_frames, 2u);  // the training frame and the good scan, not the bad one
+  EXPECT_EQ(r.cache_hits, 1u);     // the second run's good scan
+  EXPECT_NE(log.str().find("1 frame(s) failed and were skipped"), std::string::npos) << log.str();
+}
+
+TEST(SweepFrameCache, BadBudgetIsReportedAtItsLine) {
+  test::TempDir dir;
+  const std::string sweep =
+      put(dir, "budget.yaml", tinySweep("  icm: {type: icm}") + "frame_cache_mb: lots\n");
+  const ConfigError e = expectConfigError(sweep);
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  EXPECT_EQ(e.diagnostics()[0].line, 25);
+  EXPECT_NE(e.diagnostics()[0].message.find("frame_cache_mb: expected megabytes"),
+            std::string::npos);
+}
+
 // ---- train ----------------------------------------------------------------------------------
 
 TEST(Train, SimulatorModelLoadsInPottsGaussianAndNamesItsData) {
