@@ -70,6 +70,17 @@ ConfigError expectConfigError(const std::string& sweep) {
   return ConfigError({});
 }
 
+/// Runs a sweep without a progress bar, logging into `log`.
+SweepResult runQuiet(const std::string& sweep, const std::string& out, std::ostringstream& log) {
+  CompareOptions o;
+  o.sweep_path = sweep;
+  o.output_dir = out;
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  o.log = &log;
+  return runSweep(o);
+}
+
 // ---- split ----------------------------------------------------------------------------------
 
 TEST(SweepSplit, OverlappingFramesOfTheSameSimulatorWorldAreRejected) {
@@ -353,14 +364,9 @@ TEST(SweepSelect, TheBestCandidateOnValidationIsUsedForTheTestRuns) {
   const std::string sweep = put(dir, "select.yaml", selectSweep(R"(select:
   energy: {class_cost: [[0, 0, -1000], [0, 0, 0]]}
 )"));
-  CompareOptions o;
-  o.sweep_path = sweep;
-  o.output_dir = dir.str() + "/out";
-  o.progress = false;
-  o.plugin_dirs = {test::pluginDir()};
   std::ostringstream log;
-  o.log = &log;
-  const SweepResult r = runSweep(o);
+  const std::string out = dir.str() + "/out";
+  const SweepResult r = runQuiet(sweep, out, log);
   ASSERT_EQ(r.exitCode(), 0) << log.str();
   EXPECT_EQ(r.validation_items, (std::vector<std::string>{"sim_val (all frames)"}));
   ASSERT_EQ(r.selections.size(), 2u);  // L0 and L
@@ -377,22 +383,21 @@ TEST(SweepSelect, TheBestCandidateOnValidationIsUsedForTheTestRuns) {
     EXPECT_EQ(s.models[0], s.models[1]);
   }
   for (const auto& m : r.models) EXPECT_EQ(m.selected, "class_cost=[0, 0, 0]");
-  const std::string run_cfg =
-      readFile(o.output_dir + "/runs/sim_test__L__icm/resolved_config.yaml");
+  const std::string run_cfg = readFile(out + "/runs/sim_test__L__icm/resolved_config.yaml");
   EXPECT_NE(run_cfg.find("class_cost: [0.0, 0.0, 0.0]"), std::string::npos) << run_cfg;
-  EXPECT_NE(run_cfg.find(o.output_dir + "/models/L.yaml"), std::string::npos);
-  const std::string csv = readFile(o.output_dir + "/selection.csv");
+  EXPECT_NE(run_cfg.find(out + "/models/L.yaml"), std::string::npos);
+  const std::string csv = readFile(out + "/selection.csv");
   EXPECT_EQ(csv.rfind("feature_set,optimiser,score_name,candidate,chosen,score,f1_road,", 0), 0u)
       << csv;
   EXPECT_NE(csv.find("L,icm,macro_f1,\"class_cost=[0, 0, 0]\",1,"), std::string::npos) << csv;
-  const std::string summary = readFile(o.output_dir + "/summary.md");
+  const std::string summary = readFile(out + "/summary.md");
   EXPECT_NE(summary.find("## Parameters selected on validation"), std::string::npos);
   EXPECT_NE(summary.find("selected on validation: class_cost=[0, 0, 0]"), std::string::npos);
-  const YAML::Node js = YAML::LoadFile(o.output_dir + "/results.json");
+  const YAML::Node js = YAML::LoadFile(out + "/results.json");
   EXPECT_EQ(js["selection"].size(), 2u);
   EXPECT_EQ(js["selection"][1]["chosen"].as<std::string>(), "class_cost=[0, 0, 0]");
   // The models name the validation data as held out, with the test data.
-  const YAML::Node model = YAML::LoadFile(o.output_dir + "/models/L.yaml");
+  const YAML::Node model = YAML::LoadFile(out + "/models/L.yaml");
   EXPECT_EQ(model["trained_from"]["held_out"][1].as<std::string>(),
             "sim_val (all frames, validation)");
 }
@@ -404,14 +409,8 @@ TEST(SweepSelect, CandidatesTrainedAlikeTieAndTheFirstListedWins) {
   training: {min_labelled_points: [3, 3]}
   tie: 0
 )"));
-  CompareOptions o;
-  o.sweep_path = sweep;
-  o.output_dir = dir.str() + "/out";
-  o.progress = false;
-  o.plugin_dirs = {test::pluginDir()};
   std::ostringstream log;
-  o.log = &log;
-  const SweepResult r = runSweep(o);
+  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
   ASSERT_EQ(r.exitCode(), 0) << log.str();
   ASSERT_EQ(r.selections.size(), 2u);
   EXPECT_EQ(r.selections[0].scores[0], r.selections[0].scores[1]);
@@ -492,16 +491,6 @@ TEST(SweepSelect, SelectNeedsAValidationSplitDisjointFromTrainAndTest) {
 }
 
 // ---- the frame cache ---------------------------------------------------------------------------
-
-SweepResult runQuiet(const std::string& sweep, const std::string& out, std::ostringstream& log) {
-  CompareOptions o;
-  o.sweep_path = sweep;
-  o.output_dir = out;
-  o.progress = false;
-  o.plugin_dirs = {test::pluginDir()};
-  o.log = &log;
-  return runSweep(o);
-}
 
 TEST(SweepFrameCache, KeptFramesGiveTheSameResultsAsReadingThemAgain) {
   test::TempDir dir;
