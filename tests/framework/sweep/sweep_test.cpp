@@ -364,6 +364,10 @@ TEST(SweepSelect, TheBestCandidateOnValidationIsUsedForTheTestRuns) {
   const std::string sweep = put(dir, "select.yaml", selectSweep(R"(select:
   energy: {class_cost: [[0, 0, -1000], [0, 0, 0]]}
 )"));
+  // --dry-run lists the validation runs: feature sets × candidates × validation items.
+  const SweepPlan plan = planSweep(sweep, {test::pluginDir()});
+  ASSERT_EQ(plan.selection_runs.size(), 4u);
+  EXPECT_EQ(plan.selection_runs[0], "L0: sim_val × icm [class_cost=[0, 0, -1000]]");
   std::ostringstream log;
   const std::string out = dir.str() + "/out";
   const SweepResult r = runQuiet(sweep, out, log);
