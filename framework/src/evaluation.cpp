@@ -33,6 +33,14 @@ double mergeGeometry(double a, double b) {
 
 // ---- ClassScores / ConfusionMatrix ----------------------------------------------------------
 
+Interval wilsonInterval(uint64_t successes, uint64_t trials, double z) {
+  if (trials == 0) return {kNaN, kNaN};
+  const double n = static_cast<double>(trials), p = successes / n, z2 = z * z;
+  const double centre = (p + z2 / (2 * n)) / (1 + z2 / n);
+  const double half = z * std::sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / (1 + z2 / n);
+  return {std::max(0.0, centre - half), std::min(1.0, centre + half)};
+}
+
 double ClassScores::precision() const { return ratio(tp, tp + fp); }
 double ClassScores::recall() const { return ratio(tp, tp + fn); }
 double ClassScores::fpr() const { return ratio(fp, fp + tn); }
@@ -272,7 +280,10 @@ void jsonScores(std::ostringstream& o, const ConfusionMatrix& m, const LabelSet&
     o << indent << "  {\"id\": " << c << ", \"name\": " << jsonQuote(labels.name(c))
       << ", \"tp\": " << s.tp << ", \"fp\": " << s.fp << ", \"fn\": " << s.fn
       << ", \"tn\": " << s.tn << ", \"precision\": " << jsonNumber(s.precision())
-      << ", \"recall\": " << jsonNumber(s.recall()) << ", \"tpr\": " << jsonNumber(s.tpr())
+      << ", \"recall\": " << jsonNumber(s.recall()) << ", \"precision_ci95\": ["
+      << jsonNumber(s.precisionCi95().lo) << ", " << jsonNumber(s.precisionCi95().hi)
+      << "], \"recall_ci95\": [" << jsonNumber(s.recallCi95().lo) << ", "
+      << jsonNumber(s.recallCi95().hi) << "], \"tpr\": " << jsonNumber(s.tpr())
       << ", \"fpr\": " << jsonNumber(s.fpr()) << "}" << (c + 1 < labels.size() ? "," : "") << "\n";
   }
   o << indent << "],\n";

@@ -333,10 +333,17 @@ std::string accuracyCsv(const SweepResult& r) {
   return o.str();
 }
 
+/// "p_lo,p_hi,r_lo,r_hi": 95 % Wilson intervals of precision and recall.
+std::string ci95Csv(const ClassScores& s) {
+  const Interval p = s.precisionCi95(), r = s.recallCi95();
+  return csvNum(p.lo) + "," + csvNum(p.hi) + "," + csvNum(r.lo) + "," + csvNum(r.hi);
+}
+
 std::string evaluationCsv(const SweepResult& r) {
   std::ostringstream o;
   o << "dataset,optimiser,feature_set,status,level,class,tp,fp,fn,tn,precision,recall,tpr,fpr,"
-       "scans,points,labelled_points,classified_points,cells_scored\n";
+       "scans,points,labelled_points,classified_points,cells_scored,precision_ci95_lo,"
+       "precision_ci95_hi,recall_ci95_lo,recall_ci95_hi\n";
   for (const auto& x : r.runs) {
     if (x.status != RunRecord::Status::kOk) continue;
     for (const char* level : {"point", "cell"})
@@ -348,7 +355,7 @@ std::string evaluationCsv(const SweepResult& r) {
           << "," << s.tn << "," << csvNum(s.precision()) << "," << csvNum(s.recall()) << ","
           << csvNum(s.tpr()) << "," << csvNum(s.fpr()) << "," << x.counts.scans << ","
           << x.counts.points << "," << x.counts.labelled_points << "," << x.counts.classified_points
-          << "," << x.counts.cells_scored << "\n";
+          << "," << x.counts.cells_scored << "," << ci95Csv(s) << "\n";
       }
   }
   return o.str();
@@ -357,16 +364,17 @@ std::string evaluationCsv(const SweepResult& r) {
 /// Cell-wise precision/recall of every class, one row per scan (paper 001's rules).
 std::string perScanCsv(const SweepResult& r) {
   std::ostringstream o;
-  o << "dataset,feature_set,optimiser,frame,level,class,tp,fp,fn,precision,recall\n";
+  o << "dataset,feature_set,optimiser,frame,level,class,tp,fp,fn,precision,recall,"
+       "precision_ci95_lo,precision_ci95_hi,recall_ci95_lo,recall_ci95_hi\n";
   for (const auto& x : r.runs)
     for (const auto& [frame, counts] : x.per_scan)
       for (const char* level : {"point", "cell"})
         for (LabelId c : scoredClasses(r.labels)) {
           const ClassScores s = (level[0] == 'p' ? counts.point_wise : counts.cell_wise).scores(c);
-          o << csvField(x.dataset) << "," << csvField(x.feature_set) << "," << csvField(x.optimiser) << ","
-            << csvField(frame) << "," << level << "," << r.labels.name(c) << "," << s.tp << ","
-            << s.fp << "," << s.fn << "," << csvNum(s.precision()) << "," << csvNum(s.recall())
-            << "\n";
+          o << csvField(x.dataset) << "," << csvField(x.feature_set) << "," << csvField(x.optimiser)
+            << "," << csvField(frame) << "," << level << "," << r.labels.name(c) << "," << s.tp
+            << "," << s.fp << "," << s.fn << "," << csvNum(s.precision()) << ","
+            << csvNum(s.recall()) << "," << ci95Csv(s) << "\n";
         }
   return o.str();
 }

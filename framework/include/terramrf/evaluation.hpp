@@ -15,6 +15,17 @@
 
 namespace terramrf {
 
+/// A two-sided confidence interval of a proportion; NaN bounds when there were no trials.
+struct Interval {
+  double lo, hi;
+};
+
+/// Wilson score interval of `successes` out of `trials` at normal quantile `z` (1.96: 95 %).
+/// Unlike p ± z·σ it stays inside [0, 1] and is not empty at 0 or n successes. It treats the
+/// trials as independent; neighbouring cells of a scan are not (the MRF smooths them), so read it
+/// as a lower bound on the uncertainty of one scan's precision or recall.
+Interval wilsonInterval(uint64_t successes, uint64_t trials, double z = 1.959964);
+
 /// Counts for one class, one-vs-rest over the scored items (points or cells).
 struct ClassScores {
   uint64_t tp = 0;  ///< truly and predicted this class
@@ -29,6 +40,9 @@ struct ClassScores {
   double tpr() const { return recall(); }
   /// FP/(FP+TN) (paper 000 §5); NaN when undefined.
   double fpr() const;
+  /// 95 % Wilson intervals of precision and recall (wilsonInterval).
+  Interval precisionCi95() const { return wilsonInterval(tp, tp + fp); }
+  Interval recallCi95() const { return wilsonInterval(tp, tp + fn); }
 };
 
 /// Square matrix of counts indexed [true LabelId][predicted LabelId]. The predicted column

@@ -68,6 +68,25 @@ TEST(ClassScores, RatiosAndUndefinedValues) {
   EXPECT_TRUE(std::isnan(none.fpr()));
 }
 
+TEST(ClassScores, WilsonIntervalsHaveTheTextbookValues) {
+  // Wilson (1927), z = 1.96: 50 of 100 → [0.4038, 0.5962]; 10 of 10 → [0.7225, 1].
+  const Interval half = wilsonInterval(50, 100);
+  EXPECT_NEAR(half.lo, 0.4038, 1e-4);
+  EXPECT_NEAR(half.hi, 0.5962, 1e-4);
+  const Interval all = wilsonInterval(10, 10);
+  EXPECT_NEAR(all.lo, 0.7225, 1e-4);
+  EXPECT_DOUBLE_EQ(all.hi, 1.0);
+  EXPECT_DOUBLE_EQ(wilsonInterval(0, 10).lo, 0.0);  // not empty at 0 successes
+  EXPECT_GT(wilsonInterval(0, 10).hi, 0.2);
+  EXPECT_TRUE(std::isnan(wilsonInterval(0, 0).lo));
+  // Narrower with more cells, around the same proportion.
+  const Interval many = wilsonInterval(970, 1000);
+  EXPECT_LT(many.hi - many.lo, wilsonInterval(97, 100).hi - wilsonInterval(97, 100).lo);
+  const ClassScores s{6, 2, 3, 9};
+  EXPECT_DOUBLE_EQ(s.precisionCi95().lo, wilsonInterval(6, 8).lo);
+  EXPECT_DOUBLE_EQ(s.recallCi95().hi, wilsonInterval(6, 9).hi);
+}
+
 TEST(ConfusionMatrix, OneVsRestCounts) {
   ConfusionMatrix m(4);
   m.add(kRoad, kRoad, 10);
