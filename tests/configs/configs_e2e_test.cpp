@@ -292,6 +292,32 @@ TEST(SweepsE2E, SimulatorSweepMeetsTheTargets) {
   EXPECT_EQ(chosen, (std::map<std::string, int>{{"L", 1}, {"L+C", 1}, {"L+FH", 1}, {"L+H", 1}}));
 }
 
+// docs/own_data.md's example, as shipped, on three simulated drives made as its header says.
+TEST(DocsExamplesE2E, OwnDataSweepRunsOnThreeSimulatedDrives) {
+  test::TempDir dir;
+  const std::string example = test::sourceDir() + "/docs/examples/own_data";
+  for (const char* f : {"sweep.yaml", "label_map.yaml"})
+    std::filesystem::copy_file(example + "/" + f, dir.str() + "/" + f);
+  for (const char* seed : {"7", "3", "1"}) {
+    const Result r = sh(test::cli() + " simulate --config " + test::sourceDir() +
+                        "/configs/demo.yaml --out " + dir.str() + "/my_scans/drive_" + seed +
+                        " --seed " + seed + " --frames 3");
+    ASSERT_EQ(r.status, 0) << r.out;
+  }
+  const Result r = sh(test::cli() + " compare " + dir.str() + "/sweep.yaml --no-progress --out " +
+                      dir.str() + "/out");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("selected on validation for L: components="), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("selected on validation for L+C: components="), std::string::npos);
+  for (const char* f : {"accuracy.md", "runtime.md", "evaluation.md", "per_scan.csv", "selection.md",
+                        "roc/drive_test__L+C__alpha_expansion.svg", "models/L+C.yaml"})
+    EXPECT_TRUE(std::filesystem::exists(dir.str() + "/out/" + f)) << f;
+  // Scored with the example's label map; the laser set finds the obstacles and the road.
+  for (const auto& row : readCsv(dir.str() + "/out/evaluation.csv"))
+    if (row.at("level") == "cell" && row.at("feature_set") == "L" && row.at("class") != "rough")
+      EXPECT_GE(std::stod(row.at("recall")), 0.9) << row.at("optimiser") << " " << row.at("class");
+}
+
 // ---- shipped mesh configs -------------------------------------------------------------------
 namespace {
 void expectMeshExport(const std::string& dir) {
