@@ -5,6 +5,8 @@
 //   sweep_pipeline.cpp  plugins from YAML entries, pipelines assembled from them
 //   sweep_training.cpp  learning a model with feature_stats (`terramrf train`)
 //   sweep_run.cpp       running the grid of a sweep (`terramrf compare`)
+//   sweep_select.cpp    `select:`: candidates trained, scored on split.validation, one chosen
+//   cached_source.hpp   frames kept between the runs of a sweep
 //   sweep_report.cpp    Markdown/CSV/JSON/SVG reports
 //
 // Pipelines are assembled from YAML snippets of the train config / sweep file (so errors point at
@@ -301,5 +303,60 @@ struct Sweep {
 /// Parses and validates everything; sources of split items are configured (kept for the runs).
 std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
                                  const std::string& output_dir, std::size_t limit);
+
+// ---- running a sweep (sweep_run.cpp, sweep_select.cpp) ------------------------------------------
+
+/// What the steps of one `terramrf compare` share while it runs.
+struct SweepRun {
+  Sweep& s;
+  PluginRegistry& reg;
+  const LabelSet& labels;
+  Progress& progress;
+  std::ostream& log;
+  std::string sweep_path;  ///< absolute (models name it)
+  std::size_t done = 0;    ///< frames processed so far (progress bar)
+};
+
+/// The items a feature set trains on: its own `train:`, else split.train.
+const std::vector<std::unique_ptr<Item>>& trainItems(const Sweep& s, const FeatureSet& f);
+
+/// Everything one run needs besides the sweep: which data, features, optimiser, model, energy.
+struct RunSpec {
+  Item* item = nullptr;
+  const FeatureSet* features = nullptr;
+  const OptimiserDef* optimiser = nullptr;
+  std::string model;
+  YAML::Node energy_params;  ///< overrides of the energy's parameters (select:), may be null
+  bool with_outputs = true;  ///< the sweep's `outputs:` (test runs only)
+};
+
+/// Runs one item × feature set × optimiser and fills `rec` (status, counts, times, energies);
+/// `rec.output_dir` must be set. Failures are recorded in `rec` and logged, not thrown.
+void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec);
+
+/// Trains feature set `f` on its train items with the sweep's `training:` and `overrides` on top,
+/// writes the model to `model_path` and advances the progress bar by the training frames (also
+/// when it throws: ConfigError for bad parameters, std::runtime_error otherwise).
+TrainResult trainFeatureSet(SweepRun& run, const FeatureSet& f, const YAML::Node& overrides,
+                            const std::string& model_path, const std::string& run_root,
+                            const std::string& what);
+
+/// Distinct training overrides of the candidates, in first-use order; `of[c]` = index of
+/// candidate c's (candidates that differ only in energy parameters share a model).
+std::vector<const Candidate*> distinctTraining(const Selection& sel, std::vector<std::size_t>& of);
+
+/// Outcome of `select:` for one feature set.
+struct Selected {
+  SelectionRecord record;  ///< every candidate's validation counts and score, and the choice
+  TrainResult model;       ///< the chosen candidate's model (not set for a given `model:`)
+  YAML::Node energy;       ///< the chosen candidate's energy parameters
+  std::string error;       ///< why none could be chosen ("" = record.chosen >= 0)
+};
+
+/// Trains every distinct training candidate of `select:` for `f` (unless it has a given model),
+/// runs every candidate on every validation item with the selection optimiser and chooses the
+/// first candidate within `tie` of the best score. ConfigError propagates; other failures of a
+/// candidate are noted in the record.
+Selected selectParameters(SweepRun& run, const FeatureSet& f);
 
 }  // namespace terramrf::sweep_detail

@@ -14,12 +14,12 @@ namespace terramrf {
 namespace fs = std::filesystem;
 
 namespace sweep_detail {
-namespace {
 
-/// The items a feature set trains on.
 const std::vector<std::unique_ptr<Item>>& trainItems(const Sweep& s, const FeatureSet& f) {
   return f.train_group >= 0 ? s.train_groups[f.train_group] : s.train;
 }
+
+namespace {
 
 std::string trainUnavailable(const Sweep& s, const FeatureSet& f) {
   if (!f.model.empty()) return "";
@@ -221,45 +221,9 @@ int SweepResult::exitCode() const {
 }
 
 namespace sweep_detail {
-namespace {
 
-/// Scores `counts` by `score`: cell-wise F1 of one class ("f1_<class>") or averaged over the
-/// classes that occur in the validation data or were predicted there ("macro_f1").
-double selectionScore(const EvalCounts& counts, const LabelSet& labels, const std::string& score) {
-  auto f1 = [&](LabelId c) {
-    const ClassScores cs = counts.cell_wise.scores(c);
-    const double den = 2.0 * cs.tp + cs.fp + cs.fn;
-    return den > 0 ? 2.0 * cs.tp / den : kNaN;
-  };
-  if (score.rfind("f1_", 0) == 0) {
-    const int c = labels.find(score.substr(3));
-    return c > 0 ? f1(static_cast<LabelId>(c)) : kNaN;
-  }
-  double sum = 0;
-  int n = 0;
-  for (std::size_t c = 1; c < labels.size(); ++c) {
-    const double v = f1(static_cast<LabelId>(c));
-    if (std::isnan(v)) continue;
-    sum += v;
-    ++n;
-  }
-  return n ? sum / n : kNaN;
-}
-
-/// Everything one run needs besides the sweep: which data, features, optimiser, model, energy.
-struct RunSpec {
-  Item* item = nullptr;
-  const FeatureSet* features = nullptr;
-  const OptimiserDef* optimiser = nullptr;
-  std::string model;
-  YAML::Node energy_params;  ///< overrides of the energy's parameters (select:), may be null
-  bool with_outputs = true;  ///< the sweep's `outputs:` (test runs only)
-};
-
-/// Runs one item × feature set × optimiser and fills `rec` (status, counts, times, energies).
-/// Failures are recorded in `rec`, not thrown.
-void executeRun(Sweep& s, PluginRegistry& reg, const LabelSet& labels, const RunSpec& spec,
-                RunRecord& rec, Progress& progress, std::ostream& log) {
+void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec) {
+  Sweep& s = run.s;
   Item& t = *spec.item;
   const FeatureSet& f = *spec.features;
   const std::string what = rec.dataset + " × " + f.name + " × " + rec.optimiser + ":";
@@ -277,17 +241,17 @@ void executeRun(Sweep& s, PluginRegistry& reg, const LabelSet& labels, const Run
     stages.push_back(energy);
     stages.push_back(spec.optimiser->entry);
     std::vector<std::unique_ptr<Output>> extra;
-    auto collector = std::make_unique<RunCollector>(labels, s.roc_fallback == "local_energy", rec,
-                                                    progress, what);
+    auto collector = std::make_unique<RunCollector>(run.labels, s.roc_fallback == "local_energy",
+                                                    rec, run.progress, what);
     collector->setMaxPoints(s.roc_max_points);
     extra.push_back(std::move(collector));
-    Pipeline p =
-        assemble(reg, s.f0, t, stages, spec.with_outputs ? s.outputs : std::vector<YAML::Node>{},
-                 std::move(extra), rec.output_dir);
+    Pipeline p = assemble(run.reg, s.f0, t, stages,
+                          spec.with_outputs ? s.outputs : std::vector<YAML::Node>{},
+                          std::move(extra), rec.output_dir);
     RunResult rr;
     {
       SourceLoan loan(t, p);
-      rr = runPipeline(p, runOptions(t, &log));
+      rr = runPipeline(p, runOptions(t, &run.log));
     }
     rec.frames_ok = rr.summary.frames_ok;
     rec.failed = rr.summary.failed;
@@ -303,42 +267,71 @@ void executeRun(Sweep& s, PluginRegistry& reg, const LabelSet& labels, const Run
       rec.reason += (rec.reason.empty() ? "" : "; ") + e;
     }
     if (!rec.failed.empty()) {
-      progress.breakLine();
-      log << what << " " << rec.failed.size() << " frame(s) failed and were skipped\n";
+      run.progress.breakLine();
+      run.log << what << " " << rec.failed.size() << " frame(s) failed and were skipped\n";
     }
   } catch (const std::exception& e) {
     rec.status = RunRecord::Status::kFailed;
     rec.reason = e.what();
   }
   if (rec.status == RunRecord::Status::kFailed) {
-    progress.breakLine();
-    log << what << " failed: " << rec.reason << "\n";
+    run.progress.breakLine();
+    run.log << what << " failed: " << rec.reason << "\n";
   }
 }
 
-/// Distinct training overrides of the candidates, in first-use order; `of[c]` = index of
-/// candidate c's. A feature set with a given model trains nothing: one entry, unused.
-std::vector<const Candidate*> distinctTraining(const Selection& sel, std::vector<std::size_t>& of) {
-  std::vector<const Candidate*> distinct;
-  of.assign(sel.candidates.size(), 0);
-  for (std::size_t c = 0; c < sel.candidates.size(); ++c) {
-    std::size_t k = 0;
-    while (k < distinct.size() && distinct[k]->training_text != sel.candidates[c].training_text)
-      ++k;
-    if (k == distinct.size()) distinct.push_back(&sel.candidates[c]);
-    of[c] = k;
+TrainResult trainFeatureSet(SweepRun& run, const FeatureSet& f, const YAML::Node& overrides,
+                            const std::string& model_path, const std::string& run_root,
+                            const std::string& what) {
+  const Sweep& s = run.s;
+  TrainJob job;
+  job.f0 = &s.f0;
+  job.stages = s.common_stages;
+  job.stages.insert(job.stages.end(), f.stages.begin(), f.stages.end());
+  for (auto& t : trainItems(s, f)) job.items.push_back(t.get());
+  job.features = f.features;
+  job.features_mark = f.features_mark;
+  job.stats_params = s.training ? YAML::Clone(s.training) : YAML::Node(YAML::NodeType::Map);
+  if (f.min_sigma) job.stats_params["min_sigma"] = f.min_sigma;
+  if (overrides)
+    for (auto it = overrides.begin(); it != overrides.end(); ++it)
+      job.stats_params[it->first.Scalar()] = YAML::Clone(it->second);
+  job.model_path = model_path;
+  job.run_root = run_root;
+  job.origin = "sweep " + run.sweep_path + ", feature set " + f.name;
+  for (const auto& t : s.test) job.held_out.push_back(t->label + " (" + t->frames.str() + ")");
+  for (const auto& t : s.validation)
+    job.held_out.push_back(t->label + " (" + t->frames.str() + ", validation)");
+  job.what = what;
+  auto advance = [&] {
+    for (const auto& t : trainItems(s, f)) run.done += t->count;
+    run.progress.advanceTo(run.done, "trained " + f.name);
+  };
+  try {
+    TrainResult r = runTraining(job, run.reg, run.progress, run.log);
+    if (!r.missing.empty()) {
+      run.progress.breakLine();
+      run.log << "note: feature set " << f.name << ": no statistics for";
+      for (const auto& m : r.missing) run.log << " " << m;
+      run.log << " (fewer than two training cells)\n";
+    }
+    advance();
+    return r;
+  } catch (...) {
+    advance();
+    throw;
   }
-  return distinct;
 }
 
-}  // namespace
 }  // namespace sweep_detail
 
 using sweep_detail::Candidate;
 using sweep_detail::distinctTraining;
 using sweep_detail::executeRun;
 using sweep_detail::RunSpec;
-using sweep_detail::selectionScore;
+using sweep_detail::selectParameters;
+using sweep_detail::SweepRun;
+using sweep_detail::trainFeatureSet;
 
 SweepResult runSweep(const CompareOptions& o) {
   std::ostream& log = o.log ? *o.log : std::cerr;
@@ -362,11 +355,8 @@ SweepResult runSweep(const CompareOptions& o) {
 
   const sweep_detail::Selection& sel = s->select;
   const bool selecting = !sel.candidates.empty();
-  const sweep_detail::OptimiserDef* sel_opt = nullptr;
-  for (const auto& op : s->optimisers)
-    if (op.name == sel.optimiser) sel_opt = &op;
   std::vector<std::size_t> training_of;
-  const std::vector<const Candidate*> trainings = distinctTraining(sel, training_of);
+  const std::size_t trainings = distinctTraining(sel, training_of).size();
   std::size_t validation_frames = 0;
   for (const auto& v : s->validation) validation_frames += v->count;
 
@@ -384,8 +374,7 @@ SweepResult runSweep(const CompareOptions& o) {
     fs_train_reason[i] = why;
     if (!why.empty()) continue;
     if (f.model.empty())
-      for (const auto& t : trainItems(*s, f))
-        total += t->count * (selecting ? trainings.size() : 1);
+      for (const auto& t : trainItems(*s, f)) total += t->count * (selecting ? trainings : 1);
     if (selecting) total += validation_frames * sel.candidates.size();
   }
   for (const auto& t : s->test)
@@ -393,41 +382,9 @@ SweepResult runSweep(const CompareOptions& o) {
       for (const auto& op : s->optimisers)
         if (skipReason(*s, *t, f, op).empty()) total += t->count;
   progress.setTotal(total);
-  std::size_t done = 0;
+  SweepRun run{*s, reg, res.labels, progress, log, res.sweep_path};
 
-  // Trains feature set f with the sweep's training parameters, `overrides` on top.
-  auto train = [&](const FeatureSet& f, const YAML::Node& overrides, const std::string& model_path,
-                   const std::string& run_root, const std::string& what) {
-    TrainJob job;
-    job.f0 = &s->f0;
-    job.stages = s->common_stages;
-    job.stages.insert(job.stages.end(), f.stages.begin(), f.stages.end());
-    for (auto& t : trainItems(*s, f)) job.items.push_back(t.get());
-    job.features = f.features;
-    job.features_mark = f.features_mark;
-    job.stats_params = s->training ? YAML::Clone(s->training) : YAML::Node(YAML::NodeType::Map);
-    if (f.min_sigma) job.stats_params["min_sigma"] = f.min_sigma;
-    if (overrides)
-      for (auto it = overrides.begin(); it != overrides.end(); ++it)
-        job.stats_params[it->first.Scalar()] = YAML::Clone(it->second);
-    job.model_path = model_path;
-    job.run_root = run_root;
-    job.origin = "sweep " + res.sweep_path + ", feature set " + f.name;
-    for (const auto& t : s->test) job.held_out.push_back(t->label + " (" + t->frames.str() + ")");
-    for (const auto& t : s->validation)
-      job.held_out.push_back(t->label + " (" + t->frames.str() + ", validation)");
-    job.what = what;
-    return runTraining(job, reg, progress, log);
-  };
-  auto noteMissing = [&](const FeatureSet& f, const TrainResult& tr) {
-    if (tr.missing.empty()) return;
-    progress.breakLine();
-    log << "note: feature set " << f.name << ": no statistics for";
-    for (const auto& m : tr.missing) log << " " << m;
-    log << " (fewer than two training cells)\n";
-  };
-
-  // 1. One model per feature set (with select: the candidates' models, the best on validation).
+  // 1. One model per feature set; with select: the candidate best on validation.
   std::vector<std::string> model_of(s->feature_sets.size());
   std::vector<YAML::Node> energy_of(s->feature_sets.size());
   std::vector<bool> train_failed(s->feature_sets.size(), false);
@@ -437,6 +394,20 @@ SweepResult runSweep(const CompareOptions& o) {
     mr.feature_set = f.name;
     for (const auto& t : trainItems(*s, f))
       mr.train_items.push_back(t->label + " (" + t->frames.str() + ")");
+    const std::string model_path = s->output_dir + "/models/" + sanitize(f.name) + ".yaml";
+    auto record = [&](const TrainResult& tr) {
+      mr.trained = true;
+      mr.frames = tr.frames;
+      mr.labelled_frames = tr.labelled_frames;
+      mr.missing = tr.missing;
+    };
+    auto fail = [&](const std::string& why) {
+      mr.reason = why;
+      mr.path.clear();
+      train_failed[i] = true;
+      progress.breakLine();
+      log << "feature set " << f.name << ": " << why << "\n";
+    };
     if (!f.model.empty()) {
       mr.path = f.model;
       mr.reason = "given in the sweep";
@@ -444,147 +415,37 @@ SweepResult runSweep(const CompareOptions& o) {
     } else if (!fs_train_reason[i].empty()) {
       mr.reason = "not trained: " + fs_train_reason[i];
     }
-    const bool can_run = mr.reason.empty() || !f.model.empty();
-    if (!selecting || !can_run || !fs_train_reason[i].empty()) {
-      if (mr.reason.empty()) {
-        try {
-          const TrainResult tr = train(
-              f, YAML::Node(), s->output_dir + "/models/" + sanitize(f.name) + ".yaml",
-              s->output_dir + "/models/" + sanitize(f.name) + ".train", "train " + f.name + ": ");
-          mr.path = tr.model_path;
-          mr.trained = true;
-          mr.frames = tr.frames;
-          mr.labelled_frames = tr.labelled_frames;
-          mr.missing = tr.missing;
-          noteMissing(f, tr);
-        } catch (const ConfigError&) {
-          throw;
-        } catch (const std::exception& e) {
-          mr.reason = std::string("training failed: ") + e.what();
-          train_failed[i] = true;
-          progress.breakLine();
-          log << "feature set " << f.name << ": " << mr.reason << "\n";
+    if (selecting && fs_train_reason[i].empty()) {
+      sweep_detail::Selected chosen = selectParameters(run, f);
+      if (!chosen.error.empty()) {
+        fail(chosen.error);
+      } else {
+        energy_of[i] = chosen.energy;
+        mr.selected = chosen.record.candidates[chosen.record.chosen];
+        if (f.model.empty()) {
+          // The winner's model under the feature set's usual name.
+          fs::create_directories(s->output_dir + "/models");
+          writeFileAtomic(model_path, readFile(chosen.model.model_path));
+          mr.path = model_path;
+          record(chosen.model);
         }
-        for (const auto& t : trainItems(*s, f)) done += t->count;
-        progress.advanceTo(done, "trained " + f.name);
       }
-      model_of[i] = mr.path;
-      res.models.push_back(mr);
-      continue;
-    }
-
-    // select: train each distinct training candidate, score every candidate on validation.
-    SelectionRecord sr;
-    sr.feature_set = f.name;
-    sr.optimiser = sel.optimiser;
-    sr.score = sel.score;
-    sr.tie = sel.tie;
-    const std::string dir = s->output_dir + "/select/" + sanitize(f.name);
-    std::vector<TrainResult> trained(trainings.size());
-    std::vector<std::string> train_error(trainings.size());
-    if (f.model.empty()) {
-      for (std::size_t k = 0; k < trainings.size(); ++k) {
-        const std::string tag =
-            trainings[k]->training_text.empty() ? "default" : std::to_string(k + 1);
-        try {
-          trained[k] = train(f, trainings[k]->training, dir + "/model_" + tag + ".yaml",
-                             dir + "/model_" + tag + ".train",
-                             "train " + f.name + " [" + trainings[k]->training_text + "]: ");
-        } catch (const ConfigError&) {
-          throw;
-        } catch (const std::exception& e) {
-          train_error[k] = std::string("training failed: ") + e.what();
-          progress.breakLine();
-          log << "feature set " << f.name << " [" << trainings[k]->training_text
-              << "]: " << train_error[k] << "\n";
-        }
-        for (const auto& t : trainItems(*s, f)) done += t->count;
-        progress.advanceTo(done, "trained " + f.name);
+      res.selections.push_back(std::move(chosen.record));
+    } else if (mr.reason.empty()) {
+      try {
+        const TrainResult tr = trainFeatureSet(
+            run, f, YAML::Node(), model_path,
+            s->output_dir + "/models/" + sanitize(f.name) + ".train", "train " + f.name + ": ");
+        mr.path = tr.model_path;
+        record(tr);
+      } catch (const ConfigError&) {
+        throw;
+      } catch (const std::exception& e) {
+        fail(std::string("training failed: ") + e.what());
       }
-    }
-    for (std::size_t c = 0; c < sel.candidates.size(); ++c) {
-      const Candidate& cand = sel.candidates[c];
-      const std::size_t k = training_of[c];
-      const std::string model = f.model.empty() ? trained[k].model_path : f.model;
-      sr.candidates.push_back(cand.text());
-      sr.models.push_back(model);
-      EvalCounts sum(res.labels.size());
-      std::string note = f.model.empty() ? train_error[k] : "";
-      for (auto& v : s->validation) {
-        if (!note.empty()) break;
-        RunRecord rec;
-        rec.dataset = v->label;
-        rec.feature_set = f.name;
-        rec.optimiser = sel.optimiser + " [" + cand.text() + "]";
-        rec.frames = v->count;
-        rec.counts = EvalCounts(res.labels.size());
-        rec.output_dir = dir + "/runs/" + std::to_string(c + 1) + "__" + sanitize(v->label);
-        RunSpec spec;
-        spec.item = v.get();
-        spec.features = &f;
-        spec.optimiser = sel_opt;
-        spec.model = model;
-        spec.energy_params = cand.energy;
-        spec.with_outputs = false;
-        if (!v->unavailable.empty()) {
-          note = "validation item '" + v->label + "': " + v->unavailable;
-        } else {
-          executeRun(*s, reg, res.labels, spec, rec, progress, log);
-          if (rec.status == RunRecord::Status::kFailed)
-            note = "validation run on '" + v->label + "' failed: " + rec.reason;
-          else if (!rec.failed.empty())
-            note = std::to_string(rec.failed.size()) + " validation frame(s) of '" + v->label +
-                   "' failed";
-          else
-            sum += rec.counts;
-        }
-        done += v->count;
-        progress.advanceTo(done, "validated " + f.name);
-      }
-      if (note.empty() && sum.scans == 0) note = "no validation frame with ground truth";
-      sr.counts.push_back(sum);
-      sr.scores.push_back(note.empty() ? selectionScore(sum, res.labels, sel.score) : kNaN);
-      sr.notes.push_back(note);
-    }
-    // The first candidate within `tie` of the best score: a few cells are noise, not a reason
-    // for a larger model.
-    double best = -INFINITY;
-    for (double v : sr.scores)
-      if (!std::isnan(v)) best = std::max(best, v);
-    for (std::size_t c = 0; c < sr.scores.size() && sr.chosen < 0; ++c)
-      if (!std::isnan(sr.scores[c]) && sr.scores[c] >= best - sel.tie)
-        sr.chosen = static_cast<int>(c);
-    if (sr.chosen < 0) {
-      mr.reason = "select: no candidate could be scored on the validation split";
-      for (const auto& n : sr.notes)
-        if (!n.empty()) {
-          mr.reason += " (first: " + n + ")";
-          break;
-        }
-      train_failed[i] = true;
-      mr.path.clear();
-      progress.breakLine();
-      log << "feature set " << f.name << ": " << mr.reason << "\n";
-    } else {
-      const Candidate& win = sel.candidates[sr.chosen];
-      energy_of[i] = win.energy;
-      if (f.model.empty()) {
-        // The winner's model under the feature set's usual name.
-        const TrainResult& tr = trained[training_of[sr.chosen]];
-        mr.path = s->output_dir + "/models/" + sanitize(f.name) + ".yaml";
-        fs::create_directories(s->output_dir + "/models");
-        writeFileAtomic(mr.path, readFile(tr.model_path));
-        mr.trained = true;
-        mr.frames = tr.frames;
-        mr.labelled_frames = tr.labelled_frames;
-        mr.missing = tr.missing;
-        noteMissing(f, tr);
-      }
-      mr.selected = win.text();
     }
     model_of[i] = mr.path;
     res.models.push_back(mr);
-    res.selections.push_back(std::move(sr));
   }
 
   // 2. Every test item × feature set × optimiser.
@@ -618,9 +479,9 @@ SweepResult runSweep(const CompareOptions& o) {
         spec.optimiser = &op;
         spec.model = model_of[fi];
         spec.energy_params = energy_of[fi];
-        executeRun(*s, reg, res.labels, spec, rec, progress, log);
-        done += t.count;
-        progress.advanceTo(done, rec.dataset + " × " + f.name + " × " + op.name + ": done");
+        executeRun(run, spec, rec);
+        run.done += t.count;
+        progress.advanceTo(run.done, rec.dataset + " × " + f.name + " × " + op.name + ": done");
         res.runs.push_back(std::move(rec));
       }
     }

@@ -1,0 +1,163 @@
+// `select:` of `terramrf compare`: every candidate (training and energy parameters) trained on the
+// train split and scored on the validation split; the test split is not read here.
+#include <cmath>
+
+#include "sweep_internal.hpp"
+
+namespace terramrf::sweep_detail {
+namespace {
+
+/// Scores `counts` by `score`: cell-wise F1 of one class ("f1_<class>") or averaged over the
+/// classes that occur in the validation data or were predicted there ("macro_f1").
+double selectionScore(const EvalCounts& counts, const LabelSet& labels, const std::string& score) {
+  auto f1 = [&](LabelId c) {
+    const ClassScores cs = counts.cell_wise.scores(c);
+    const double den = 2.0 * cs.tp + cs.fp + cs.fn;
+    return den > 0 ? 2.0 * cs.tp / den : kNaN;
+  };
+  if (score.rfind("f1_", 0) == 0) {
+    const int c = labels.find(score.substr(3));
+    return c > 0 ? f1(static_cast<LabelId>(c)) : kNaN;
+  }
+  double sum = 0;
+  int n = 0;
+  for (std::size_t c = 1; c < labels.size(); ++c) {
+    const double v = f1(static_cast<LabelId>(c));
+    if (std::isnan(v)) continue;
+    sum += v;
+    ++n;
+  }
+  return n ? sum / n : kNaN;
+}
+
+/// The validation counts of one candidate summed over the validation items, or why there are
+/// none.
+std::string validate(SweepRun& run, const FeatureSet& f, const Candidate& cand,
+                     const std::string& model, const std::string& run_dir, EvalCounts& sum) {
+  const Sweep& s = run.s;
+  const OptimiserDef* opt = nullptr;
+  for (const auto& op : s.optimisers)
+    if (op.name == s.select.optimiser) opt = &op;
+  std::string note;
+  for (const auto& v : s.validation) {
+    if (note.empty()) {
+      RunRecord rec;
+      rec.dataset = v->label;
+      rec.feature_set = f.name;
+      rec.optimiser = s.select.optimiser + " [" + cand.text() + "]";
+      rec.frames = v->count;
+      rec.counts = EvalCounts(run.labels.size());
+      rec.output_dir = run_dir + "__" + sanitize(v->label);
+      if (!v->unavailable.empty()) {
+        note = "validation item '" + v->label + "': " + v->unavailable;
+      } else {
+        RunSpec spec;
+        spec.item = v.get();
+        spec.features = &f;
+        spec.optimiser = opt;
+        spec.model = model;
+        spec.energy_params = cand.energy;
+        spec.with_outputs = false;
+        executeRun(run, spec, rec);
+        if (rec.status == RunRecord::Status::kFailed)
+          note = "validation run on '" + v->label + "' failed: " + rec.reason;
+        else if (!rec.failed.empty())
+          note = std::to_string(rec.failed.size()) + " validation frame(s) of '" + v->label +
+                 "' failed";
+        else
+          sum += rec.counts;
+      }
+    }
+    run.done += v->count;
+    run.progress.advanceTo(run.done, "validated " + f.name);
+  }
+  if (note.empty() && sum.scans == 0) note = "no validation frame with ground truth";
+  return note;
+}
+
+}  // namespace
+
+std::vector<const Candidate*> distinctTraining(const Selection& sel, std::vector<std::size_t>& of) {
+  std::vector<const Candidate*> distinct;
+  of.assign(sel.candidates.size(), 0);
+  for (std::size_t c = 0; c < sel.candidates.size(); ++c) {
+    std::size_t k = 0;
+    while (k < distinct.size() && distinct[k]->training_text != sel.candidates[c].training_text)
+      ++k;
+    if (k == distinct.size()) distinct.push_back(&sel.candidates[c]);
+    of[c] = k;
+  }
+  return distinct;
+}
+
+Selected selectParameters(SweepRun& run, const FeatureSet& f) {
+  const Sweep& s = run.s;
+  const Selection& sel = s.select;
+  Selected out;
+  SelectionRecord& sr = out.record;
+  sr.feature_set = f.name;
+  sr.optimiser = sel.optimiser;
+  sr.score = sel.score;
+  sr.tie = sel.tie;
+  const std::string dir = s.output_dir + "/select/" + sanitize(f.name);
+  std::vector<std::size_t> training_of;
+  const std::vector<const Candidate*> trainings = distinctTraining(sel, training_of);
+  std::vector<TrainResult> trained(trainings.size());
+  std::vector<std::string> train_error(trainings.size());
+  if (f.model.empty()) {
+    for (std::size_t k = 0; k < trainings.size(); ++k) {
+      const std::string tag = std::to_string(k + 1);
+      try {
+        trained[k] = trainFeatureSet(run, f, trainings[k]->training, dir + "/model_" + tag + ".yaml",
+                                     dir + "/model_" + tag + ".train",
+                                     "train " + f.name + " [" + trainings[k]->training_text + "]: ");
+      } catch (const ConfigError&) {
+        throw;
+      } catch (const std::exception& e) {
+        train_error[k] = std::string("training failed: ") + e.what();
+        run.progress.breakLine();
+        run.log << "feature set " << f.name << " [" << trainings[k]->training_text
+                << "]: " << train_error[k] << "\n";
+      }
+    }
+  }
+  for (std::size_t c = 0; c < sel.candidates.size(); ++c) {
+    const Candidate& cand = sel.candidates[c];
+    const std::size_t k = training_of[c];
+    const std::string model = f.model.empty() ? trained[k].model_path : f.model;
+    sr.candidates.push_back(cand.text());
+    sr.models.push_back(model);
+    EvalCounts sum(run.labels.size());
+    std::string note = f.model.empty() ? train_error[k] : "";
+    if (note.empty()) {
+      note = validate(run, f, cand, model, dir + "/runs/" + std::to_string(c + 1), sum);
+    } else {
+      for (const auto& v : s.validation) run.done += v->count;  // not run: its frames count as done
+      run.progress.advanceTo(run.done, "validated " + f.name);
+    }
+    sr.counts.push_back(sum);
+    sr.scores.push_back(note.empty() ? selectionScore(sum, run.labels, sel.score) : kNaN);
+    sr.notes.push_back(note);
+  }
+  // The first candidate within `tie` of the best score: a few cells are noise, not a reason for
+  // a larger model.
+  double best = -INFINITY;
+  for (double v : sr.scores)
+    if (!std::isnan(v)) best = std::max(best, v);
+  for (std::size_t c = 0; c < sr.scores.size() && sr.chosen < 0; ++c)
+    if (!std::isnan(sr.scores[c]) && sr.scores[c] >= best - sel.tie) sr.chosen = static_cast<int>(c);
+  if (sr.chosen < 0) {
+    out.error = "select: no candidate could be scored on the validation split";
+    for (const auto& n : sr.notes)
+      if (!n.empty()) {
+        out.error += " (first: " + n + ")";
+        break;
+      }
+    return out;
+  }
+  out.energy = sel.candidates[sr.chosen].energy;
+  if (f.model.empty()) out.model = trained[training_of[sr.chosen]];
+  return out;
+}
+
+}  // namespace terramrf::sweep_detail
