@@ -44,6 +44,7 @@ Interval wilsonInterval(uint64_t successes, uint64_t trials, double z) {
 double ClassScores::precision() const { return ratio(tp, tp + fp); }
 double ClassScores::recall() const { return ratio(tp, tp + fn); }
 double ClassScores::fpr() const { return ratio(fp, fp + tn); }
+double ClassScores::f1() const { return ratio(2 * tp, 2 * tp + fp + fn); }
 
 uint64_t ConfusionMatrix::total() const {
   uint64_t s = 0;

@@ -266,11 +266,7 @@ std::string runsSection(const SweepResult& r) {
 }
 
 /// F1 of class c from cell-wise counts; NaN if undefined.
-double cellF1(const EvalCounts& e, LabelId c) {
-  const ClassScores s = e.cell_wise.scores(c);
-  const double den = 2.0 * s.tp + s.fp + s.fn;
-  return den > 0 ? 2.0 * s.tp / den : std::numeric_limits<double>::quiet_NaN();
-}
+double cellF1(const EvalCounts& e, LabelId c) { return e.cell_wise.scores(c).f1(); }
 
 std::string selectionSection(const SweepResult& r) {
   if (r.selections.empty()) return "";

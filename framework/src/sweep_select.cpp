@@ -10,11 +10,7 @@ namespace {
 /// Scores `counts` by `score`: cell-wise F1 of one class ("f1_<class>") or averaged over the
 /// classes that occur in the validation data or were predicted there ("macro_f1").
 double selectionScore(const EvalCounts& counts, const LabelSet& labels, const std::string& score) {
-  auto f1 = [&](LabelId c) {
-    const ClassScores cs = counts.cell_wise.scores(c);
-    const double den = 2.0 * cs.tp + cs.fp + cs.fn;
-    return den > 0 ? 2.0 * cs.tp / den : kNaN;
-  };
+  auto f1 = [&](LabelId c) { return counts.cell_wise.scores(c).f1(); };
   if (score.rfind("f1_", 0) == 0) {
     const int c = labels.find(score.substr(3));
     return c > 0 ? f1(static_cast<LabelId>(c)) : kNaN;

@@ -40,6 +40,8 @@ struct ClassScores {
   double tpr() const { return recall(); }
   /// FP/(FP+TN) (paper 000 §5); NaN when undefined.
   double fpr() const;
+  /// F1 = 2·TP/(2·TP+FP+FN), the harmonic mean of precision and recall; NaN when undefined.
+  double f1() const;
   /// 95 % Wilson intervals of precision and recall (wilsonInterval).
   Interval precisionCi95() const { return wilsonInterval(tp, tp + fp); }
   Interval recallCi95() const { return wilsonInterval(tp, tp + fn); }

@@ -62,10 +62,12 @@ TEST(ClassScores, RatiosAndUndefinedValues) {
   EXPECT_DOUBLE_EQ(s.recall(), 6.0 / 9.0);     // 6/(6+3)
   EXPECT_DOUBLE_EQ(s.tpr(), 6.0 / 9.0);
   EXPECT_DOUBLE_EQ(s.fpr(), 2.0 / 11.0);  // 2/(2+9)
+  EXPECT_DOUBLE_EQ(s.f1(), 12.0 / 17.0);  // 2·6/(2·6+2+3)
   ClassScores none{};
   EXPECT_TRUE(std::isnan(none.precision()));
   EXPECT_TRUE(std::isnan(none.recall()));
   EXPECT_TRUE(std::isnan(none.fpr()));
+  EXPECT_TRUE(std::isnan(none.f1()));
 }
 
 TEST(ClassScores, WilsonIntervalsHaveTheTextbookValues) {
