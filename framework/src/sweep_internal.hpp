@@ -267,6 +267,8 @@ struct Selection {
   /// Scores closer than this to the best are ties, which the candidate listed first wins: a
   /// difference of a few cells is noise, not a reason for a larger model.
   double tie = 0.001;
+  /// Learn the chosen candidate's model again on train + validation for the test runs.
+  bool refit = false;
 };
 
 struct OptimiserDef {
@@ -337,9 +339,10 @@ void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec);
 /// Trains feature set `f` on its train items with the sweep's `training:` and `overrides` on top,
 /// writes the model to `model_path` and advances the progress bar by the training frames (also
 /// when it throws: ConfigError for bad parameters, std::runtime_error otherwise).
+/// With `with_validation` the validation items are training data too (select: refit).
 TrainResult trainFeatureSet(SweepRun& run, const FeatureSet& f, const YAML::Node& overrides,
                             const std::string& model_path, const std::string& run_root,
-                            const std::string& what);
+                            const std::string& what, bool with_validation = false);
 
 /// Distinct training overrides of the candidates, in first-use order; `of[c]` = index of
 /// candidate c's (candidates that differ only in energy parameters share a model).

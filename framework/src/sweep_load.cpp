@@ -71,7 +71,7 @@ void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d)
           "[values]}, optimiser, score}");
     return;
   }
-  detail::checkKeys(d, sel, {"training", "energy", "optimiser", "score", "tie"}, "select",
+  detail::checkKeys(d, sel, {"training", "energy", "optimiser", "score", "tie", "refit"}, "select",
                     kKeyHint);
   struct Axis {
     bool energy;
@@ -191,6 +191,13 @@ void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d)
       d.add(sel["optimiser"] ? sel["optimiser"].Mark() : sel.Mark(),
             "select: optimiser '" + od.name + "', which scores the candidates, is not installed (" +
                 od.unavailable + ")");
+  if (const YAML::Node refit = sel["refit"]) {
+    try {
+      s.select.refit = refit.as<bool>();
+    } catch (const YAML::Exception&) {
+      d.add(refit.Mark(), "select.refit: expected true or false, got '" + refit.Scalar() + "'");
+    }
+  }
   if (const YAML::Node tie = sel["tie"]) {
     try {
       s.select.tie = tie.as<double>();

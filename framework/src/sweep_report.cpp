@@ -281,7 +281,8 @@ std::string selectionSection(const SweepResult& r) {
   const std::vector<LabelId> classes = scoredClasses(r.labels);
   for (const auto& s : r.selections) {
     o << "### " << s.feature_set << " (optimiser " << s.optimiser << ", score " << s.score
-      << ", tie " << fmt("%g", s.tie) << ")\n\n| candidate |";
+      << ", tie " << fmt("%g", s.tie) << (s.refit ? ", refit on train + validation" : "")
+      << ")\n\n| candidate |";
     for (LabelId c : classes) o << " " << r.labels.name(c) << " F1 |";
     o << " score | |\n|---|";
     for (std::size_t k = 0; k < classes.size(); ++k) o << "---:|";
@@ -482,7 +483,8 @@ std::string resultsJson(const SweepResult& r) {
     const auto& s = r.selections[i];
     o << (i ? "," : "") << "\n    {\"feature_set\": " << jsonQuote(s.feature_set)
       << ", \"optimiser\": " << jsonQuote(s.optimiser) << ", \"score\": " << jsonQuote(s.score)
-      << ", \"tie\": " << jsonNum(s.tie) << ", \"chosen\": "
+      << ", \"tie\": " << jsonNum(s.tie) << ", \"refit\": " << (s.refit ? "true" : "false")
+      << ", \"chosen\": "
       << (s.chosen < 0 ? std::string("null") : jsonQuote(s.candidates[s.chosen]))
       << ", \"candidates\": [";
     for (std::size_t k = 0; k < s.candidates.size(); ++k)

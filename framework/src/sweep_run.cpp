@@ -282,13 +282,15 @@ void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec) {
 
 TrainResult trainFeatureSet(SweepRun& run, const FeatureSet& f, const YAML::Node& overrides,
                             const std::string& model_path, const std::string& run_root,
-                            const std::string& what) {
+                            const std::string& what, bool with_validation) {
   const Sweep& s = run.s;
   TrainJob job;
   job.f0 = &s.f0;
   job.stages = s.common_stages;
   job.stages.insert(job.stages.end(), f.stages.begin(), f.stages.end());
   for (auto& t : trainItems(s, f)) job.items.push_back(t.get());
+  if (with_validation)
+    for (auto& t : s.validation) job.items.push_back(t.get());
   job.features = f.features;
   job.features_mark = f.features_mark;
   job.stats_params = s.training ? YAML::Clone(s.training) : YAML::Node(YAML::NodeType::Map);
@@ -300,11 +302,12 @@ TrainResult trainFeatureSet(SweepRun& run, const FeatureSet& f, const YAML::Node
   job.run_root = run_root;
   job.origin = "sweep " + run.sweep_path + ", feature set " + f.name;
   for (const auto& t : s.test) job.held_out.push_back(t->label + " (" + t->frames.str() + ")");
-  for (const auto& t : s.validation)
-    job.held_out.push_back(t->label + " (" + t->frames.str() + ", validation)");
+  if (!with_validation)
+    for (const auto& t : s.validation)
+      job.held_out.push_back(t->label + " (" + t->frames.str() + ", validation)");
   job.what = what;
   auto advance = [&] {
-    for (const auto& t : trainItems(s, f)) run.done += t->count;
+    for (const Item* t : job.items) run.done += t->count;
     run.progress.advanceTo(run.done, "trained " + f.name);
   };
   try {
@@ -373,9 +376,11 @@ SweepResult runSweep(const CompareOptions& o) {
     if (why.empty() && !s->energy_unavailable.empty() && selecting) why = s->energy_unavailable;
     fs_train_reason[i] = why;
     if (!why.empty()) continue;
-    if (f.model.empty())
-      for (const auto& t : trainItems(*s, f)) total += t->count * (selecting ? trainings : 1);
+    std::size_t train_frames = 0;
+    for (const auto& t : trainItems(*s, f)) train_frames += t->count;
+    if (f.model.empty()) total += train_frames * (selecting ? trainings : 1);
     if (selecting) total += validation_frames * sel.candidates.size();
+    if (selecting && sel.refit && f.model.empty()) total += train_frames + validation_frames;
   }
   for (const auto& t : s->test)
     for (const auto& f : s->feature_sets)
@@ -422,7 +427,24 @@ SweepResult runSweep(const CompareOptions& o) {
       } else {
         energy_of[i] = chosen.energy;
         mr.selected = chosen.record.candidates[chosen.record.chosen];
-        if (f.model.empty()) {
+        if (f.model.empty() && sel.refit) {
+          // The winner's parameters, learnt again with the validation data.
+          try {
+            const TrainResult tr =
+                trainFeatureSet(run, f, sel.candidates[chosen.record.chosen].training, model_path,
+                                s->output_dir + "/models/" + sanitize(f.name) + ".train",
+                                "refit " + f.name + " [" + mr.selected + "]: ", true);
+            mr.path = tr.model_path;
+            record(tr);
+            for (const auto& t : s->validation)
+              mr.train_items.push_back(t->label + " (" + t->frames.str() + ", validation)");
+            mr.selected += " (refit on train + validation)";
+          } catch (const ConfigError&) {
+            throw;
+          } catch (const std::exception& e) {
+            fail(std::string("refit failed: ") + e.what());
+          }
+        } else if (f.model.empty()) {
           // The winner's model under the feature set's usual name.
           fs::create_directories(s->output_dir + "/models");
           writeFileAtomic(model_path, readFile(chosen.model.model_path));

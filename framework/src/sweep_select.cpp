@@ -95,6 +95,7 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
   sr.optimiser = sel.optimiser;
   sr.score = sel.score;
   sr.tie = sel.tie;
+  sr.refit = sel.refit;
   const std::string dir = s.output_dir + "/select/" + sanitize(f.name);
   std::vector<std::size_t> training_of;
   const std::vector<const Candidate*> trainings = distinctTraining(sel, training_of);

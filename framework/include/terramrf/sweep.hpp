@@ -141,6 +141,7 @@ struct SelectionRecord {
   std::string optimiser;  ///< the optimiser that scored the candidates
   std::string score;      ///< "macro_f1" or "f1_<class>" (cell-wise, paper 001 §VI-B rules)
   double tie = 0;         ///< scores this close to the best count as ties
+  bool refit = false;     ///< the test runs used the choice learnt again on train + validation
   std::vector<std::string> candidates;  ///< "components=2, beta=0.8", in sweep order
   std::vector<std::string> models;      ///< model file each candidate used
   std::vector<EvalCounts> counts;       ///< per candidate, summed over the validation items

@@ -421,12 +421,39 @@ TEST(SweepSelect, CandidatesTrainedAlikeTieAndTheFirstListedWins) {
   EXPECT_EQ(r.selections[0].chosen, 0);
 }
 
+TEST(SweepSelect, RefitLearnsTheChoiceAgainWithTheValidationData) {
+  test::TempDir dir;
+  const std::string sweep = put(dir, "refit.yaml", selectSweep(R"(select:
+  training: {components: [1, 2]}
+  refit: true
+)"));
+  std::ostringstream log;
+  const std::string out = dir.str() + "/out";
+  const SweepResult r = runQuiet(sweep, out, log);
+  ASSERT_EQ(r.exitCode(), 0) << log.str();
+  ASSERT_EQ(r.models.size(), 2u);
+  for (const auto& m : r.models) {
+    SCOPED_TRACE(m.feature_set);
+    EXPECT_NE(m.selected.find("(refit on train + validation)"), std::string::npos) << m.selected;
+    EXPECT_EQ(m.labelled_frames, 3u);  // two training frames and the validation frame
+    EXPECT_EQ(m.train_items.back(), "sim_val (all frames, validation)");
+  }
+  // The model the test runs use names the validation world as training data, not as held out.
+  const YAML::Node model = YAML::LoadFile(out + "/models/L.yaml");
+  ASSERT_EQ(model["trained_from"]["data"].size(), 2u);
+  EXPECT_EQ(model["trained_from"]["data"][1]["item"].as<std::string>(), "sim_val");
+  ASSERT_EQ(model["trained_from"]["held_out"].size(), 1u);
+  EXPECT_EQ(model["trained_from"]["held_out"][0].as<std::string>(), "sim_test (all frames)");
+  EXPECT_TRUE(YAML::LoadFile(out + "/results.json")["selection"][0]["refit"].as<bool>());
+}
+
 TEST(SweepSelect, BadSelectionsAreReportedWithTheirPlace) {
   test::TempDir dir;
   std::string text = selectSweep(R"(training: {components: 2}
 select:
   training: {componets: [1, 2], components: [1, 0], min_purity: [0.9]}
   energy: {beta: 0.8, model: [a.yaml]}
+  refit: maybe
   optimiser: icn
   score: accuracy
 )");
@@ -460,6 +487,8 @@ select:
       std::string::npos)
       << all;
   EXPECT_NE(all.find("select.score: 'accuracy'; expected macro_f1"), std::string::npos) << all;
+  EXPECT_NE(all.find("select.refit: expected true or false, got 'maybe'"), std::string::npos)
+      << all;
 }
 
 TEST(SweepSelect, SelectNeedsAValidationSplitDisjointFromTrainAndTest) {
