@@ -447,6 +447,38 @@ TEST(SweepSelect, RefitLearnsTheChoiceAgainWithTheValidationData) {
   EXPECT_TRUE(YAML::LoadFile(out + "/results.json")["selection"][0]["refit"].as<bool>());
 }
 
+TEST(SweepSelect, ValidationDataWithoutLabelsFailsTheFeatureSetsAndSaysWhy) {
+  test::TempDir dir;
+  std::string text = selectSweep("select: {training: {components: [1, 2]}}\n");
+  // Validation scans read without their labels: nothing to score the candidates by.
+  const std::size_t at = text.find("  sim_val:");
+  text.replace(at, text.find('\n', at) - at,
+               "  sim_val: {type: semantickitti, params: {use_labels: false, path: " +
+                   test::dataPath("semantickitti_mmdet3d_fixture/sequences/00") + "}}");
+  const std::string sweep = put(dir, "unlabelled.yaml", text);
+  std::ostringstream log;
+  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
+  EXPECT_EQ(r.exitCode(), 3);
+  ASSERT_EQ(r.selections.size(), 2u);
+  for (const auto& s : r.selections) {
+    SCOPED_TRACE(s.feature_set);
+    EXPECT_EQ(s.chosen, -1);
+    EXPECT_TRUE(std::isnan(s.scores[0]));
+    // L0 runs on the scans but has nothing to score; L's roughness cannot run without rings.
+    EXPECT_EQ(s.notes[0].find(s.feature_set == "L0" ? "no validation frame with ground truth"
+                                                    : "validation run on 'sim_val' failed: "),
+              0u)
+        << s.notes[0];
+  }
+  for (const auto& x : r.runs) {
+    EXPECT_EQ(x.status, RunRecord::Status::kFailed);
+    EXPECT_NE(
+        x.reason.find("select: no candidate could be scored on the validation split (first: "),
+        std::string::npos)
+        << x.reason;
+  }
+}
+
 TEST(SweepSelect, BadSelectionsAreReportedWithTheirPlace) {
   test::TempDir dir;
   std::string text = selectSweep(R"(training: {components: 2}
