@@ -156,6 +156,9 @@ struct Item {
   std::string unavailable;           ///< why the source cannot be made (type not installed)
   std::size_t size = 0;              ///< frames of the source
   std::size_t first = 0, count = 0;  ///< frames to run after range and limit
+  /// "sim_train (frames 0-9)": the label and the frames the runs read (after --limit), with
+  /// `note` appended inside the brackets.
+  std::string described(const std::string& note = "") const;
 };
 
 /// Fills the item's data identity: the canonical `path` if the source has one; else the type and

@@ -301,10 +301,9 @@ TrainResult trainFeatureSet(SweepRun& run, const FeatureSet& f, const YAML::Node
   job.model_path = model_path;
   job.run_root = run_root;
   job.origin = "sweep " + run.sweep_path + ", feature set " + f.name;
-  for (const auto& t : s.test) job.held_out.push_back(t->label + " (" + t->frames.str() + ")");
+  for (const auto& t : s.test) job.held_out.push_back(t->described());
   if (!with_validation)
-    for (const auto& t : s.validation)
-      job.held_out.push_back(t->label + " (" + t->frames.str() + ", validation)");
+    for (const auto& t : s.validation) job.held_out.push_back(t->described("validation"));
   job.what = what;
   auto advance = [&] {
     for (const Item* t : job.items) run.done += t->count;
@@ -350,9 +349,8 @@ SweepResult runSweep(const CompareOptions& o) {
   for (const auto& t : s->test) res.datasets.push_back(t->label);
   for (const auto& f : s->feature_sets) res.feature_sets.push_back(f.name);
   for (const auto& op : s->optimisers) res.optimisers.push_back(op.name);
-  for (const auto& t : s->train) res.train_items.push_back(t->label + " (" + t->frames.str() + ")");
-  for (const auto& t : s->validation)
-    res.validation_items.push_back(t->label + " (" + t->frames.str() + ")");
+  for (const auto& t : s->train) res.train_items.push_back(t->described());
+  for (const auto& t : s->validation) res.validation_items.push_back(t->described());
   fs::create_directories(s->output_dir);
   writeFileAtomic(s->output_dir + "/sweep.yaml", readFile(o.sweep_path));
 
@@ -397,8 +395,7 @@ SweepResult runSweep(const CompareOptions& o) {
     const FeatureSet& f = s->feature_sets[i];
     ModelRecord mr;
     mr.feature_set = f.name;
-    for (const auto& t : trainItems(*s, f))
-      mr.train_items.push_back(t->label + " (" + t->frames.str() + ")");
+    for (const auto& t : trainItems(*s, f)) mr.train_items.push_back(t->described());
     const std::string model_path = s->output_dir + "/models/" + sanitize(f.name) + ".yaml";
     auto record = [&](const TrainResult& tr) {
       mr.trained = true;
@@ -437,7 +434,7 @@ SweepResult runSweep(const CompareOptions& o) {
             mr.path = tr.model_path;
             record(tr);
             for (const auto& t : s->validation)
-              mr.train_items.push_back(t->label + " (" + t->frames.str() + ", validation)");
+              mr.train_items.push_back(t->described("validation"));
             mr.selected += " (refit on train + validation)";
           } catch (const ConfigError&) {
             throw;

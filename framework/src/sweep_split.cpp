@@ -230,6 +230,13 @@ void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& te
   }
 }
 
+std::string Item::described(const std::string& note) const {
+  FrameRange r = frames;
+  const std::size_t end = frames.last == FrameRange::npos ? size : frames.last + 1;
+  if (count > 0 && first + count < end) r = FrameRange{first, first + count - 1};  // --limit
+  return label + " (" + r.str() + (note.empty() ? "" : ", " + note) + ")";
+}
+
 void prepareItem(Item& it, PluginRegistry& reg, const Frame0& f0, const std::string& out_dir,
                  std::size_t limit, Diags& d, bool tolerate_missing,
                  const std::shared_ptr<FrameBudget>& cache) {

@@ -411,7 +411,7 @@ TrainResult trainModel(const TrainOptions& o) {
   } else {
     checkDisjoint(tr, te, d);
   }
-  for (auto& it : test) job.held_out.push_back(it->label + " (" + it->frames.str() + ")");
+  for (auto& it : test) job.held_out.push_back(it->described());
   d.throwIfAny();
 
   const std::string model_dir = fs::absolute(o.model_out).parent_path().string();
