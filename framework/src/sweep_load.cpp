@@ -26,18 +26,18 @@ const std::vector<std::string> kSweepKeys = {
 /// validation runs per feature set).
 constexpr std::size_t kMaxCandidates = 64;
 
-/// What a sweep's `training:` may set: the parameters feature_stats declares, except those compare
-/// sets per feature set (its features and the model file). Empty if feature_stats is not installed
-/// (no model can be trained then; the runs that need one say so).
-std::vector<std::string> trainingKeys(PluginRegistry& reg) {
+/// The parameters of plugin `type` a sweep may set (`training:` for feature_stats, `energy:` and
+/// `select:`): those it declares, except the ones compare sets per feature set (`features`, and
+/// the `model` file). Empty if the type is not installed (the runs that need it say so).
+std::vector<std::string> settableKeys(PluginRegistry& reg, const std::string& type) {
   std::vector<std::string> keys;
-  if (!reg.find(kStatsPlugin)) return keys;
+  if (type.empty() || !reg.find(type)) return keys;
   try {
-    const auto stats = reg.create(kStatsPlugin);
-    for (const auto& spec : declaredParams(*stats))
+    const auto p = reg.create(type);
+    for (const auto& spec : declaredParams(*p))
       if (spec.name != "features" && spec.name != "model") keys.push_back(spec.name);
   } catch (const std::exception&) {
-    // Reported when training needs it.
+    // Reported where the plugin is made.
   }
   return keys;
 }
@@ -48,18 +48,6 @@ std::string flow(const YAML::Node& v) {
   YAML::Emitter e;
   e << YAML::Flow << v;
   return e.c_str();
-}
-
-/// The parameter names a plugin type declares; empty if it is not installed.
-std::vector<std::string> declaredNames(PluginRegistry& reg, const std::string& type) {
-  std::vector<std::string> names;
-  if (type.empty() || !reg.find(type)) return names;
-  try {
-    const auto p = reg.create(type);
-    for (const auto& spec : declaredParams(*p)) names.push_back(spec.name);
-  } catch (const std::exception&) {
-  }
-  return names;
 }
 
 /// `select:` — candidate values of training (feature_stats) and energy parameters, scored on
@@ -89,14 +77,9 @@ void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d)
       return;
     }
     // Allowed: what the plugin declares, except what compare sets per feature set.
-    std::vector<std::string> allowed;
+    const std::vector<std::string> allowed =
+        settableKeys(reg, energy ? s.energy["type"].Scalar() : std::string(kStatsPlugin));
     const YAML::Node base = energy ? s.energy["params"] : s.training;
-    if (energy) {
-      for (const auto& n : declaredNames(reg, s.energy["type"].Scalar()))
-        if (n != "model" && n != "features") allowed.push_back(n);
-    } else {
-      allowed = trainingKeys(reg);
-    }
     if (!allowed.empty()) detail::checkKeys(d, m, allowed, what, kKeyHint);
     for (auto it = m.begin(); it != m.end(); ++it) {
       const std::string key = it->first.Scalar();
@@ -494,7 +477,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
     if (!tr.IsMap()) {
       d.add(tr.Mark(), "'training' must be a map of feature_stats parameters");
     } else {
-      const std::vector<std::string> keys = trainingKeys(reg);
+      const std::vector<std::string> keys = settableKeys(reg, kStatsPlugin);
       if (!keys.empty()) detail::checkKeys(d, tr, keys, "training", kKeyHint);
       s->training = tr;
       s->training_mark = tr.Mark();
