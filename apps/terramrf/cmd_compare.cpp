@@ -65,6 +65,14 @@ int cmdCompare(const Args& args) {
         std::cout << "  " << (x.status == RunRecord::Status::kSkipped ? "skipped " : "failed  ")
                   << x.dataset << " × " << x.feature_set << " × " << x.optimiser << ": " << x.reason
                   << "\n";
+    for (const auto& m : r.models)
+      for (const auto& [frame, why] : m.failed)
+        std::cout << "  training frame " << frame << " of feature set " << m.feature_set
+                  << " failed and was skipped: " << why << "\n";
+    for (const auto& x : r.runs)
+      for (const auto& [frame, why] : x.failed)
+        std::cout << "  frame " << frame << " of " << x.dataset << " × " << x.feature_set << " × "
+                  << x.optimiser << " failed and was skipped: " << why << "\n";
     std::cout << "report: " << r.output_dir << "/summary.md\n";
     return r.exitCode();
   } catch (const ConfigError& e) {

@@ -259,6 +259,15 @@ std::string runsSection(const SweepResult& r) {
       o << "; not learnt:";
       for (const auto& x : m.missing) o << " " << x;
     }
+    if (!m.failed.empty()) {
+      o << "; **" << m.failed.size() << " training frame(s) failed and were skipped:**";
+      for (const auto& x : m.failed) {
+        std::string why = x.second;
+        for (auto& ch : why)
+          if (ch == '\n' || ch == '|') ch = ' ';
+        o << " " << x.first << " (" << why << ")";
+      }
+    }
     o << " |\n";
   }
   o << "\n";
@@ -452,6 +461,15 @@ std::string timesJson(const std::vector<double>& v) {
   return o.str();
 }
 
+/// [{"frame": …, "reason": …}, …]
+std::string failedJson(const std::vector<std::pair<std::string, std::string>>& failed) {
+  std::string s = "[";
+  for (std::size_t k = 0; k < failed.size(); ++k)
+    s += (k ? ", " : "") + ("{\"frame\": " + jsonQuote(failed[k].first)) +
+         ", \"reason\": " + jsonQuote(failed[k].second) + "}";
+  return s + "]";
+}
+
 std::string resultsJson(const SweepResult& r) {
   auto list = [](const std::vector<std::string>& v) {
     std::string s = "[";
@@ -475,7 +493,7 @@ std::string resultsJson(const SweepResult& r) {
       << ", \"trained\": " << (m.trained ? "true" : "false")
       << ", \"reason\": " << jsonQuote(m.reason) << ", \"frames\": " << m.frames
       << ", \"labelled_frames\": " << m.labelled_frames << ", \"train\": " << list(m.train_items)
-      << ", \"not_learnt\": " << list(m.missing)
+      << ", \"not_learnt\": " << list(m.missing) << ", \"failed\": " << failedJson(m.failed)
       << ", \"selected\": " << (m.selected.empty() ? "null" : jsonQuote(m.selected)) << "}";
   }
   o << "\n  ],\n  \"validation\": " << list(r.validation_items) << ",\n  \"selection\": [";
@@ -499,12 +517,10 @@ std::string resultsJson(const SweepResult& r) {
     o << (i ? "," : "") << "\n    {\"dataset\": " << jsonQuote(x.dataset)
       << ", \"feature_set\": " << jsonQuote(x.feature_set)
       << ", \"optimiser\": " << jsonQuote(x.optimiser) << ", \"status\": \"" << statusName(x.status)
-      << "\", \"reason\": " << jsonQuote(x.reason) << ", \"output_dir\": " << jsonQuote(x.output_dir)
-      << ", \"frames\": " << x.frames << ", \"frames_ok\": " << x.frames_ok << ", \"failed\": [";
-    for (std::size_t k = 0; k < x.failed.size(); ++k)
-      o << (k ? ", " : "") << "{\"frame\": " << jsonQuote(x.failed[k].first)
-        << ", \"reason\": " << jsonQuote(x.failed[k].second) << "}";
-    o << "],\n     \"times_ms\": {\"processing\": " << timesJson(x.times.processing)
+      << "\", \"reason\": " << jsonQuote(x.reason)
+      << ", \"output_dir\": " << jsonQuote(x.output_dir) << ", \"frames\": " << x.frames
+      << ", \"frames_ok\": " << x.frames_ok << ", \"failed\": " << failedJson(x.failed)
+      << ",\n     \"times_ms\": {\"processing\": " << timesJson(x.times.processing)
       << ",\n                  \"features\": " << timesJson(x.times.features)
       << ",\n                  \"mrf\": " << timesJson(x.times.mrf)
       << ",\n                  \"total\": " << timesJson(x.times.total)

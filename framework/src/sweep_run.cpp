@@ -217,6 +217,8 @@ const RunRecord* SweepResult::find(const std::string& dataset, const std::string
 int SweepResult::exitCode() const {
   for (const auto& r : runs)
     if (r.status == RunRecord::Status::kFailed || !r.failed.empty()) return 3;
+  for (const auto& m : models)
+    if (!m.failed.empty()) return 3;
   return 0;
 }
 
@@ -402,6 +404,7 @@ SweepResult runSweep(const CompareOptions& o) {
       mr.frames = tr.frames;
       mr.labelled_frames = tr.labelled_frames;
       mr.missing = tr.missing;
+      mr.failed = tr.failed;
     };
     auto fail = [&](const std::string& why) {
       mr.reason = why;

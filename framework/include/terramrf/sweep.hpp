@@ -130,6 +130,8 @@ struct ModelRecord {
   std::vector<std::string> train_items;  ///< what it was trained on
   std::size_t frames = 0, labelled_frames = 0;
   std::vector<std::string> missing;
+  /// Training frames that failed to read or process (frame, reason): skipped, never silently.
+  std::vector<std::pair<std::string, std::string>> failed;
   std::string selected;  ///< with `select:`: the candidate chosen on validation ("components=4")
 };
 

@@ -628,6 +628,82 @@ optimisers: {icm: {type: icm}, icm_again: {type: icm}}
   EXPECT_NE(log.str().find("1 frame(s) failed and were skipped"), std::string::npos) << log.str();
 }
 
+TEST(SweepTraining, ATrainingFrameThatFailsIsReportedAndSetsTheExitStatus) {
+  test::TempDir dir;
+  // Training on one good and one truncated scan: the model is learnt from the good one, and the
+  // lost frame must show in the report and the exit status, not only inside the model file.
+  const std::string seq = dir.str() + "/seq";
+  fs::create_directories(seq + "/velodyne");
+  fs::create_directories(seq + "/labels");
+  const std::string fixture = test::dataPath("semantickitti_seq00_000000-000005/sequences/00");
+  fs::copy_file(fixture + "/velodyne/000000.bin", seq + "/velodyne/000000.bin");
+  fs::copy_file(fixture + "/labels/000000.label", seq + "/labels/000000.label");
+  std::ofstream(seq + "/velodyne/000001.bin") << "12345";  // not a multiple of 16 bytes
+  const std::string sweep = put(dir, "bad_train_frame.yaml",
+                                std::string(R"(version: 1
+grid: {size_m: 30, cell_m: 0.5}
+datasets:
+  scans: {type: semantickitti, params: {path: seq}}
+  sim_test: {type: simulator, params: {seed: 1, frames: 1, )") +
+                                    kSim + R"(}}
+split: {train: [scans], test: [sim_test]}
+feature_sets:
+  L0:
+    stages: [{name: hdiff, type: height_difference}]
+    features: [height_diff]
+    min_sigma: [0.02]
+optimisers: {icm: {type: icm}}
+)");
+  std::ostringstream log;
+  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
+  EXPECT_EQ(r.exitCode(), 3) << log.str();
+  ASSERT_EQ(r.models.size(), 1u);
+  EXPECT_TRUE(r.models[0].trained);
+  EXPECT_EQ(r.models[0].frames, 1u);
+  ASSERT_EQ(r.models[0].failed.size(), 1u);
+  EXPECT_EQ(r.models[0].failed[0].first, "000001");
+  EXPECT_NE(r.models[0].failed[0].second.find("000001.bin"), std::string::npos);
+  ASSERT_EQ(r.runs.size(), 1u);
+  EXPECT_EQ(r.runs[0].status, RunRecord::Status::kOk) << r.runs[0].reason;  // still ran
+  const std::string summary = readFile(dir.str() + "/out/summary.md");
+  EXPECT_NE(summary.find("1 training frame(s) failed and were skipped:** 000001"),
+            std::string::npos)
+      << summary;
+  const std::string json = readFile(dir.str() + "/out/results.json");
+  EXPECT_NE(json.find("\"failed\": [{\"frame\": \"000001\""), std::string::npos) << json;
+}
+
+TEST(SweepTraining, AModelWithoutALearntClassFailsAtTrainingWithTheReason) {
+  test::TempDir dir;
+  // The mmdet3d fixture holds 50 points: no class gets two training cells.
+  const std::string sweep = put(dir, "tiny_train.yaml",
+                                std::string(R"(version: 1
+grid: {size_m: 30, cell_m: 0.5}
+datasets:
+  scans: {type: semantickitti, params: {path: )") +
+                                    test::dataPath("semantickitti_mmdet3d_fixture") + R"(}}
+  sim_test: {type: simulator, params: {seed: 1, frames: 1, )" +
+                                    kSim + R"(}}
+split: {train: [scans], test: [sim_test]}
+feature_sets:
+  L0:
+    stages: [{name: hdiff, type: height_difference}]
+    features: [height_diff]
+    min_sigma: [0.02]
+optimisers: {icm: {type: icm}}
+)");
+  std::ostringstream log;
+  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
+  EXPECT_EQ(r.exitCode(), 3);
+  ASSERT_EQ(r.models.size(), 1u);
+  EXPECT_NE(r.models[0].reason.find("no class got statistics"), std::string::npos)
+      << r.models[0].reason;
+  ASSERT_EQ(r.runs.size(), 1u);
+  EXPECT_EQ(r.runs[0].status, RunRecord::Status::kFailed);
+  EXPECT_NE(r.runs[0].reason.find("no class got statistics"), std::string::npos)
+      << r.runs[0].reason;
+}
+
 TEST(SweepFrameCache, BadBudgetIsReportedAtItsLine) {
   test::TempDir dir;
   const std::string sweep =
