@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -77,18 +78,40 @@ void checkKeys(Diags& d, const YAML::Node& map, const std::vector<std::string>& 
   }
 }
 
+void checkDuplicateKeys(const YAML::Node& n, Diags& d) {
+  if (n.IsMap()) {
+    std::map<std::string, YAML::Mark> seen;
+    for (auto it = n.begin(); it != n.end(); ++it) {
+      if (it->first.IsScalar()) {
+        const auto [at, fresh] = seen.emplace(it->first.Scalar(), it->first.Mark());
+        if (!fresh)
+          d.add(it->first.Mark(), "duplicate key '" + it->first.Scalar() + "' (first at line " +
+                                      std::to_string(at->second.line + 1) +
+                                      "): only one of the two would be used");
+      }
+      checkDuplicateKeys(it->second, d);
+    }
+  } else if (n.IsSequence()) {
+    for (const auto& e : n) checkDuplicateKeys(e, d);
+  }
+}
+
 YAML::Node loadYamlFile(const std::string& path, Diags& d, const std::string& what) {
   if (!fs::exists(path)) {
     d.add(YAML::Mark::null_mark(), what + " does not exist");
     d.throwIfAny();
   }
+  YAML::Node root;
   try {
-    return YAML::LoadFile(path);
+    root = YAML::LoadFile(path);
   } catch (const YAML::Exception& e) {
     d.add(e.mark, "YAML syntax error: " + e.msg);
     d.throwIfAny();
   }
-  return {};
+  // yaml-cpp keeps both entries of a repeated key and lookups return the first: a second
+  // `icm:` or `L:` would silently be ignored, or mix its results with the first one's.
+  checkDuplicateKeys(root, d);
+  return root;
 }
 
 void checkVersion(const YAML::Node& root, Diags& d) {

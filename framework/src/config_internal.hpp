@@ -40,8 +40,11 @@ void checkKeys(Diags& d, const YAML::Node& map, const std::vector<std::string>& 
                const std::string& what, KeyHint hint = KeyHint::kNearest,
                const std::string& stage = "", const std::string& type = "");
 
+/// Reports every repeated key of every map under `n` at the repeat.
+void checkDuplicateKeys(const YAML::Node& n, Diags& d);
+
 /// The YAML of `path`; a missing file ("<what> does not exist") or a syntax error throws
-/// ConfigError.
+/// ConfigError; repeated keys are added to `d`.
 YAML::Node loadYamlFile(const std::string& path, Diags& d, const std::string& what);
 
 /// `version: 1` is required.

@@ -277,6 +277,7 @@ struct Selection {
 struct OptimiserDef {
   std::string name;
   YAML::Node entry;
+  YAML::Mark mark;  ///< where the sweep names it
   std::string unavailable;
 };
 

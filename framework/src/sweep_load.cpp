@@ -415,10 +415,11 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   // optimisers
   if (const YAML::Node on = root["optimisers"];
       on && (on.IsMap() || on.IsSequence()) && on.size() > 0) {
-    auto add = [&](const std::string& name, const YAML::Node& entry) {
+    auto add = [&](const std::string& name, const YAML::Node& entry, const YAML::Mark& mark) {
       OptimiserDef od;
       od.name = name;
       od.entry = entry;
+      od.mark = mark;
       Made m = makePlugin(reg, entry, "optimiser '" + name + "'", {PluginKind::kOptimiser}, ctx, d,
                           true);
       od.unavailable = m.not_installed;
@@ -436,7 +437,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
           e.reset(YAML::Clone(e));
           e["name"] = it->first.Scalar();
         }
-        add(it->first.Scalar(), e);
+        add(it->first.Scalar(), e, it->first.Mark());
       }
     } else {
       for (const auto& item : on) {
@@ -444,15 +445,41 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
         if (e.IsScalar()) {
           YAML::Node m(YAML::NodeType::Map);
           m["type"] = e.Scalar();
-          add(e.Scalar(), m);
+          add(e.Scalar(), m, e.Mark());
         } else {
-          add(e["name"] ? e["name"].Scalar() : (e["type"] ? e["type"].Scalar() : "?"), e);
+          add(e["name"] ? e["name"].Scalar() : (e["type"] ? e["type"].Scalar() : "?"), e, e.Mark());
         }
       }
     }
   } else {
     d.add(root["optimisers"] ? root["optimisers"].Mark() : root.Mark(),
           "'optimisers' must name at least one optimiser (e.g. {icm: {type: icm}})");
+  }
+  // Names become folder and file names (models/<set>.yaml, runs/<data>__<set>__<optimiser>): two
+  // that are equal after sanitising would overwrite each other's results.
+  // Equal names in a map are repeated keys, which loadYamlFile reported already.
+  auto distinctNames = [&](const std::vector<std::pair<std::string, YAML::Mark>>& names,
+                           const std::string& what, bool from_map) {
+    for (std::size_t i = 0; i < names.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        if (sanitize(names[i].first) == sanitize(names[j].first) &&
+            !(from_map && names[i].first == names[j].first)) {
+          d.add(names[i].second, what + " '" + names[i].first + "' has the same " +
+                                     (names[i].first == names[j].first ? "name" : "file name") +
+                                     " as '" + names[j].first + "' (line " +
+                                     std::to_string(names[j].second.line + 1) +
+                                     "): their results would overwrite each other");
+          break;
+        }
+  };
+  {
+    std::vector<std::pair<std::string, YAML::Mark>> names;
+    for (const auto& f : s->feature_sets) names.emplace_back(f.name, f.mark);
+    distinctNames(names, "feature set", true);
+    names.clear();
+    for (const auto& op : s->optimisers) names.emplace_back(op.name, op.mark);
+    const YAML::Node on = root["optimisers"];
+    distinctNames(names, "optimiser", on && on.IsMap());
   }
   // energy
   if (const YAML::Node en = root["energy"]) {

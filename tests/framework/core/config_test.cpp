@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "config_fixture.hpp"
@@ -134,6 +135,21 @@ TEST(Config, SyntaxErrorAndMissingFile) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("absent.yaml: config file does not exist"), std::string::npos);
   }
+}
+
+TEST(Config, RepeatedKeysAreRejectedAtTheRepeat) {
+  // yaml-cpp keeps both entries and lookups return the first: the second would be ignored.
+  test::ConfigFixture f;
+  std::string text = test::ConfigFixture::validPipeline();
+  const std::size_t at = text.find("grid:");
+  ASSERT_NE(at, std::string::npos);
+  const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
+  text.insert(at, "grid: {size_m: 10, cell_m: 1.0}\n");
+  const auto errs = errorsOf(f, text);
+  EXPECT_TRUE(contains(errs, "c.yaml:" + std::to_string(line + 1) +
+                                 ":1: duplicate key 'grid' (first at line " + std::to_string(line) +
+                                 ")"))
+      << joined(errs);
 }
 
 TEST(Config, ShippedConfigsValidate) {

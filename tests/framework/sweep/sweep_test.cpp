@@ -256,6 +256,37 @@ optimisers: {icm: {type: icm}}
       << e.what();
 }
 
+TEST(SweepDiagnostics, RepeatedNamesAreRejectedBecauseOneWouldBeIgnoredOrOverwritten) {
+  test::TempDir dir;
+  // A repeated key: yaml-cpp keeps both, lookups find the first.
+  ConfigError e =
+      expectConfigError(put(dir, "dup_key.yaml", tinySweep("  icm: {type: icm}\n  icm: gibbs")));
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  EXPECT_EQ(e.diagnostics()[0].line, 24);
+  EXPECT_NE(e.diagnostics()[0].message.find("duplicate key 'icm' (first at line 23)"),
+            std::string::npos)
+      << e.what();
+  // The list form repeats a name without repeating a key.
+  e = expectConfigError(put(dir, "dup_list.yaml", tinySweep("  - icm\n  - icm")));
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  EXPECT_EQ(e.diagnostics()[0].line, 24);
+  EXPECT_NE(e.diagnostics()[0].message.find("optimiser 'icm' has the same name as 'icm' (line 23)"),
+            std::string::npos)
+      << e.what();
+  // Names that become the same folder name.
+  std::string text = tinySweep("  icm: {type: icm}");
+  text.replace(text.find("  L0:"), 5, "  L_0:");
+  text.replace(text.find("extends: L0"), 11, "extends: L_0");
+  text.replace(text.find("  L:"), 4, "  \"L 0\":");
+  e = expectConfigError(put(dir, "dup_file.yaml", text));
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  EXPECT_EQ(e.diagnostics()[0].line, 17);
+  EXPECT_NE(e.diagnostics()[0].message.find(
+                "feature set 'L 0' has the same file name as 'L_0' (line 13)"),
+            std::string::npos)
+      << e.what();
+}
+
 // ---- a tiny sweep end to end ----------------------------------------------------------------
 
 TEST(SweepRun, TinySimulatorSweepWritesTheTables) {
