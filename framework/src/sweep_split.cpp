@@ -249,9 +249,13 @@ void prepareItem(Item& it, PluginRegistry& reg, const Frame0& f0, const std::str
   it.src.reset(static_cast<Source*>(m.plugin.release()));
   if (cache) it.src = std::make_unique<CachedSource>(std::move(it.src), cache);
   it.size = it.src->size();
-  if (it.frames.first >= it.size) {
+  // A range past the end is an error, not a shorter range: the split would silently hold fewer
+  // frames than the sweep says. Only an open range (no `frames:`) takes what there is.
+  if (it.frames.first >= it.size ||
+      (it.frames.last != FrameRange::npos && it.frames.last >= it.size)) {
     d.add(it.mark, "split item '" + it.label + "' asks for " + it.frames.str() +
-                       " but the source has " + std::to_string(it.size) + " frame(s)");
+                       " but the source has " + std::to_string(it.size) + " frame(s)" +
+                       (it.size ? " (0–" + std::to_string(it.size - 1) + ")" : std::string()));
     it.src.reset();
     return;
   }

@@ -156,6 +156,32 @@ optimisers: {icm: {type: icm}, later: {type: not_built_yet}}
   EXPECT_NE(plan.skipped[0].second.find("'not_built_yet' is not installed"), std::string::npos);
 }
 
+TEST(SweepSplit, ARangePastTheEndOfItsSourceIsAnError) {
+  test::TempDir dir;
+  // Clamping it would run fewer frames than the sweep says, without a word.
+  const std::string sweep = put(dir, "past_end.yaml",
+                                std::string(R"(version: 1
+datasets:
+  sim: {type: simulator, params: {seed: 7, frames: 2, )") +
+                                    kSim + R"(}}
+  other: {type: simulator, params: {seed: 8, frames: 2, )" +
+                                    kSim + R"(}}
+split:
+  train: [other]
+  test: [{dataset: sim, frames: [0, 9]}]
+feature_sets:
+  L: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
+optimisers: {icm: {type: icm}}
+)");
+  const ConfigError e = expectConfigError(sweep);
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  EXPECT_EQ(e.diagnostics()[0].line, 7);
+  EXPECT_NE(e.diagnostics()[0].message.find(
+                "split item 'sim' asks for frames 0-9 but the source has 2 frame(s) (0–1)"),
+            std::string::npos)
+      << e.what();
+}
+
 TEST(SweepSplit, SameDataFolderOverlapsAndNestedFoldersToo) {
   test::TempDir dir;
   const std::string root = test::dataPath("semantickitti_seq00_000000-000005");
