@@ -19,8 +19,7 @@ int cmdCompare(const Args& args) {
   o.sweep_path = a[0];
   a.erase(a.begin());
   o.output_dir = takeOption(a, "--out");
-  const std::string limit = takeOption(a, "--limit");
-  if (!limit.empty()) o.limit = std::stoul(limit);
+  if (!takeCount(a, "--limit", "compare", 1, o.limit)) return kUsage;
   const bool dry = takeFlag(a, "--dry-run");
   o.progress = !takeFlag(a, "--no-progress");
   if (!a.empty()) {

@@ -48,9 +48,9 @@ int parseRunArgs(const Args& args, const char* command, RunArgs& out) {
   if (!parseConfigArgs(a, command, out.config)) return kUsage;
   out.load.data_override = takeOption(a, "--data");
   out.load.output_dir = takeOption(a, "--out");
-  const std::string first = takeOption(a, "--first"), limit = takeOption(a, "--limit");
-  if (!first.empty()) out.run.first = std::stoul(first);
-  if (!limit.empty()) out.run.limit = std::stoul(limit);
+  if (!takeCount(a, "--first", command, 0, out.run.first) ||
+      !takeCount(a, "--limit", command, 1, out.run.limit))
+    return kUsage;
   out.run.progress = !takeFlag(a, "--no-progress");
   if (!a.empty()) {
     std::cerr << "terramrf " << command << ": unexpected argument '" << a[0] << "'\n";

@@ -23,8 +23,7 @@ int cmdTrain(const Args& args) {
   std::stringstream feats(takeOption(a, "--features"));
   for (std::string f; std::getline(feats, f, ',');)
     if (!f.empty()) o.features.push_back(f);
-  const std::string limit = takeOption(a, "--limit");
-  if (!limit.empty()) o.limit = std::stoul(limit);
+  if (!takeCount(a, "--limit", "train", 1, o.limit)) return kUsage;
   o.progress = !takeFlag(a, "--no-progress");
   if (!a.empty()) {
     std::cerr << "terramrf train: unexpected argument '" << a[0] << "'\n";

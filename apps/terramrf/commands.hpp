@@ -25,6 +25,11 @@ enum Exit { kOk = 0, kError = 1, kUsage = 2, kSomeFramesFailed = 3, kFailed = 4 
 /// Value of `--name VALUE` (or "--name=VALUE") in args; "" if absent. Removes it from args.
 std::string takeOption(Args& args, const std::string& name);
 bool takeFlag(Args& args, const std::string& name);
+/// `--name N` as a whole number >= `min` into `out` (left alone if the option is absent). Prints
+/// "terramrf <command>: --name: expected …, got '…'" and returns false for anything else
+/// ("5x", "-1", "abc"), so a typo is never read as a different number.
+bool takeCount(Args& args, const std::string& name, const char* command, std::size_t min,
+               std::size_t& out);
 
 /// CONFIG [--data DIR] [--out DIR] [--first N] [--limit N] [--no-progress], shared by the
 /// commands that run a pipeline. Returns kOk, or kUsage after printing what is wrong.

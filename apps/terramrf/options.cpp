@@ -1,4 +1,6 @@
 #include <algorithm>
+#include <cctype>
+#include <iostream>
 #include <stdexcept>
 
 #include "commands.hpp"
@@ -20,6 +22,29 @@ std::string takeOption(Args& args, const std::string& name) {
     }
   }
   return "";
+}
+
+bool takeCount(Args& args, const std::string& name, const char* command, std::size_t min,
+               std::size_t& out) {
+  const std::string v = takeOption(args, name);
+  if (v.empty()) return true;
+  const bool digits = std::all_of(v.begin(), v.end(), [](unsigned char c) { return std::isdigit(c); });
+  std::size_t n = 0;
+  bool ok = digits;
+  if (ok) {
+    try {
+      n = std::stoull(v);
+    } catch (const std::out_of_range&) {
+      ok = false;
+    }
+  }
+  if (!ok || n < min) {
+    std::cerr << "terramrf " << command << ": " << name << ": expected a whole number >= " << min
+              << ", got '" << v << "'\n";
+    return false;
+  }
+  out = n;
+  return true;
 }
 
 bool takeFlag(Args& args, const std::string& name) {

@@ -444,7 +444,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
         const YAML::Node e = item;
         if (e.IsScalar()) {
           YAML::Node m(YAML::NodeType::Map);
-          m["type"] = e.Scalar();
+          m["type"] = e;  // the node itself, so errors keep its position
           add(e.Scalar(), m, e.Mark());
         } else {
           add(e["name"] ? e["name"].Scalar() : (e["type"] ? e["type"].Scalar() : "?"), e, e.Mark());

@@ -42,10 +42,11 @@ Made makePlugin(PluginRegistry& reg, const YAML::Node& e, const std::string& sec
   const std::string& name = ep.name;
   const std::string& type = ep.type;
   if (ep.unknown_type) {
-    // A sweep may name plugins that are not built: the runs that need them are skipped.
+    // A sweep may name plugins that are not built: the runs that need them are skipped. A name
+    // close to an installed plugin is a typo, though, and skipping it would hide it.
     std::string why = "plugin type '" + type + "' is not installed";
     if (!ep.suggestion.empty()) why += " (did you mean '" + ep.suggestion + "'?)";
-    if (tolerate_missing) {
+    if (tolerate_missing && ep.suggestion.empty()) {
       m.not_installed = why;
     } else {
       d.add(e["type"].Mark(), why + "; run 'terramrf plugins' for the list", name, type);

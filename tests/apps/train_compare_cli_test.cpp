@@ -37,6 +37,30 @@ TEST(TrainCli, UsageErrors) {
   const std::string config = put(dir, "t.yaml", kTrainConfig);
   EXPECT_EQ(cli::cmdTrain({config}), cli::kUsage);  // no --out
   EXPECT_EQ(cli::cmdTrain({config, "--out", dir.str() + "/m.yaml", "--bogus"}), cli::kUsage);
+  for (const char* n : {"5x", "-1", "0", "abc"})
+    EXPECT_EQ(cli::cmdTrain({config, "--out", dir.str() + "/m.yaml", "--limit", n}), cli::kUsage)
+        << n;
+  EXPECT_FALSE(fs::exists(dir.str() + "/m.yaml"));
+}
+
+TEST(CliOptions, CountsAreWholeNumbersOrAnError) {
+  // std::stoul read "5x" as 5 and "-1" as 2^64-1 (no limit at all).
+  Args a = {"--limit", "12", "--first=0"};
+  std::size_t limit = 0, first = 7;
+  EXPECT_TRUE(cli::takeCount(a, "--limit", "run", 1, limit));
+  EXPECT_TRUE(cli::takeCount(a, "--first", "run", 0, first));
+  EXPECT_EQ(limit, 12u);
+  EXPECT_EQ(first, 0u);
+  EXPECT_TRUE(a.empty());
+  std::size_t untouched = 3;
+  EXPECT_TRUE(cli::takeCount(a, "--limit", "run", 1, untouched));  // absent: left alone
+  EXPECT_EQ(untouched, 3u);
+  for (const char* bad : {"5x", "-1", "1.5", "99999999999999999999999", "0"}) {
+    Args b = {"--limit", bad};
+    std::size_t v = 3;
+    EXPECT_FALSE(cli::takeCount(b, "--limit", "run", 1, v)) << bad;
+    EXPECT_EQ(v, 3u) << bad;
+  }
 }
 
 TEST(TrainCli, BadConfigIsAUsageError) {
@@ -72,6 +96,30 @@ optimisers: [icm, not_built]
   EXPECT_EQ(cli::cmdCompare({bad, "--no-progress"}), cli::kUsage);
   EXPECT_EQ(cli::cmdCompare({}), cli::kUsage);
   EXPECT_EQ(cli::cmdCompare({sweep, "--what"}), cli::kUsage);
+  EXPECT_EQ(cli::cmdCompare({sweep, "--dry-run", "--limit", "abc"}), cli::kUsage);
+  EXPECT_EQ(cli::cmdCompare({sweep, "--dry-run", "--limit", "-1"}), cli::kUsage);
+}
+
+TEST(CompareCli, ATypoInAPluginTypeIsAnErrorNotASkippedRun) {
+  // A type nothing installed resembles is a plugin not built yet: its runs are skipped. One a
+  // letter away from an installed plugin is a typo.
+  test::TempDir dir;
+  const std::string sweep = put(dir, "typo.yaml", R"(version: 1
+datasets:
+  a: {type: simulator, params: {seed: 7, frames: 1, enable_camera: false}}
+  b: {type: simulator, params: {seed: 1, frames: 1, enable_camera: false}}
+split: {train: [a], test: [b]}
+feature_sets:
+  L: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
+optimisers: [icm, icmm]
+)");
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(cli::cmdCompare({sweep, "--dry-run"}), cli::kUsage);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("typo.yaml:8:19: stage 'icmm' (icmm): plugin type 'icmm' is not installed "
+                     "(did you mean 'icm'?)"),
+            std::string::npos)
+      << err;
 }
 
 }  // namespace

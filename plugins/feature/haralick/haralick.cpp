@@ -9,6 +9,7 @@
 // offsets that have at least one pair (default: 0°, 45°, 90°, 135° at distance 1).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -89,19 +90,21 @@ class Haralick final : public Stage {
     const uint32_t* b = cp.begin(cell);
     const uint32_t* e = cp.end(cell);
     const int w = cp.width;
-    // Pixels are sorted by row, so the first and last give the row range.
-    const int v0 = int(*b / w), v1 = int(*(e - 1) / w);
-    int u0 = w, u1 = -1;
+    // Bounding box by scanning: CellPixels only groups pixels by cell, it does not order them
+    // (camera_fusion happens to sort them; taking the first and last pixel's rows would write
+    // past the box for any other order). Costs nothing measurable next to the pair counting.
+    int u0 = w, u1 = -1, v0 = std::numeric_limits<int>::max(), v1 = -1;
     for (const uint32_t* it = b; it != e; ++it) {
-      const int u = int(*it % w);
+      const int v = int(*it / w), u = int(*it) - v * w;
       u0 = std::min(u0, u), u1 = std::max(u1, u);
+      v0 = std::min(v0, v), v1 = std::max(v1, v);
     }
     // Level of every cell pixel in a box around the cell; pixels not in the cell get the
     // accumulator's "outside" level, whose counts are ignored (branch-free counting).
     const int bw = u1 - u0 + 1, bh = v1 - v0 + 1;
     box_.assign(std::size_t(bw) * bh, uint16_t(glcm_.outside()));
-    // First and one-past-last member column of each box row (pixels are sorted by row, then
-    // column), so the pair loops skip the box's empty corners.
+    // First and one-past-last member column of each box row (min/max, so in any pixel order),
+    // so the pair loops skip the box's empty corners.
     row_lo_.assign(bh, bw);
     row_hi_.assign(bh, 0);
     const uint8_t* gp = grey.ptr<uint8_t>(0);
