@@ -78,6 +78,13 @@ void checkKeys(Diags& d, const YAML::Node& map, const std::vector<std::string>& 
   }
 }
 
+YAML::Node copyMapKeepingPositions(const YAML::Node& map) {
+  YAML::Node out(YAML::NodeType::Map);
+  if (map && map.IsMap())
+    for (auto it = map.begin(); it != map.end(); ++it) out[it->first] = it->second;
+  return out;
+}
+
 void checkDuplicateKeys(const YAML::Node& n, Diags& d) {
   if (n.IsMap()) {
     std::map<std::string, YAML::Mark> seen;

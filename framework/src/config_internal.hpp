@@ -40,6 +40,12 @@ void checkKeys(Diags& d, const YAML::Node& map, const std::vector<std::string>& 
                const std::string& what, KeyHint hint = KeyHint::kNearest,
                const std::string& stage = "", const std::string& type = "");
 
+/// A new map holding the very key and value nodes of `map`, so diagnostics on it keep their file
+/// positions (YAML::Clone loses them). Entries may be added to it or removed from it without
+/// touching `map`; to replace one, remove it first — assigning to a shared entry would write
+/// through to `map`. A null or non-map `map` gives an empty map.
+YAML::Node copyMapKeepingPositions(const YAML::Node& map);
+
 /// Reports every repeated key of every map under `n` at the repeat.
 void checkDuplicateKeys(const YAML::Node& n, Diags& d);
 

@@ -42,6 +42,35 @@ std::vector<std::string> settableKeys(PluginRegistry& reg, const std::string& ty
   return keys;
 }
 
+/// What is wrong with `value` as parameter `key` of plugin `type` (its declared type, range and
+/// choices), or "" if it is fine or cannot be checked (type not installed: reported elsewhere).
+std::string declaredValueError(PluginRegistry& reg, const std::string& type, const std::string& key,
+                               const YAML::Node& value) {
+  if (type.empty() || !reg.find(type)) return "";
+  std::unique_ptr<Plugin> p;
+  try {
+    p = reg.create(type);
+  } catch (const std::exception&) {
+    return "";  // reported where the plugin is made
+  }
+  ParamDecl decl;
+  p->declare(decl);
+  const ParamSpec* spec = decl.find(key);
+  return spec ? detail::checkParamValue(*spec, value) : "";
+}
+
+/// Every declared parameter set in `params` checked now, at its value: the plugin itself is only
+/// configured when a run starts (the energy needs the model that training writes), and a bad
+/// value must not surface after every model has been trained.
+void checkDeclaredValues(PluginRegistry& reg, const std::string& type, const YAML::Node& params,
+                         const std::string& what, Diags& d) {
+  if (!params || !params.IsMap()) return;
+  for (auto it = params.begin(); it != params.end(); ++it) {
+    const std::string err = declaredValueError(reg, type, it->first.Scalar(), it->second);
+    if (!err.empty()) d.add(it->second.Mark(), what + "." + it->first.Scalar() + ": " + err);
+  }
+}
+
 /// A YAML value on one line ("[0.02, 0.05]").
 std::string flow(const YAML::Node& v) {
   if (v.IsScalar()) return v.Scalar();
@@ -119,19 +148,8 @@ void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d)
   // Every value as the plugin would take it (type, range, choices), reported at the value.
   for (const auto& a : axes) {
     const std::string type = a.energy ? s.energy["type"].Scalar() : std::string(kStatsPlugin);
-    if (!reg.find(type)) continue;
-    std::unique_ptr<Plugin> p;
-    try {
-      p = reg.create(type);
-    } catch (const std::exception&) {
-      continue;  // reported where the plugin is made
-    }
-    ParamDecl decl;
-    p->declare(decl);
-    const ParamSpec* spec = decl.find(a.key);
-    if (!spec) continue;
     for (const auto& v : a.values) {
-      const std::string err = detail::checkParamValue(*spec, v);
+      const std::string err = declaredValueError(reg, type, a.key, v);
       if (!err.empty())
         d.add(v.Mark(), std::string("select.") + (a.energy ? "energy." : "training.") + a.key +
                             ": candidate " + flow(v) + ": " + err);
@@ -434,7 +452,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
           e.reset(m);
         }
         if (e.IsMap() && !e["name"]) {
-          e.reset(YAML::Clone(e));
+          e.reset(detail::copyMapKeepingPositions(e));  // errors keep their place
           e["name"] = it->first.Scalar();
         }
         add(it->first.Scalar(), e, it->first.Mark());
@@ -498,6 +516,9 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
     if (!s->energy["name"]) s->energy["name"] = "mrf";
     Made m = makePlugin(reg, s->energy, "energy", {PluginKind::kEnergy}, ctx, d, true, false);
     s->energy_unavailable = m.not_installed;
+    // The file's own node (s->energy is a clone, without positions).
+    if (const YAML::Node en = root["energy"]; en && en["type"])
+      checkDeclaredValues(reg, en["type"].Scalar(), en["params"], "energy.params", d);
   }
   // training, outputs, roc
   if (const YAML::Node tr = root["training"]) {
@@ -506,6 +527,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
     } else {
       const std::vector<std::string> keys = settableKeys(reg, kStatsPlugin);
       if (!keys.empty()) detail::checkKeys(d, tr, keys, "training", kKeyHint);
+      checkDeclaredValues(reg, kStatsPlugin, tr, "training", d);
       s->training = tr;
       s->training_mark = tr.Mark();
     }

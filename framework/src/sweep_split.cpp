@@ -168,19 +168,25 @@ bool parseItem(const YAML::Node& n, const std::map<std::string, YAML::Node>* dat
     base.reset(f->second);  // reset: operator= would overwrite the shared node
   }
   if (!base || !base.IsMap()) return false;
-  it.source = YAML::Clone(base);
-  if (!it.source["params"] || it.source["params"].IsNull())
-    it.source["params"] = YAML::Node(YAML::NodeType::Map);
+  // Copies that keep the file positions, so a bad parameter is reported where it is written;
+  // the dataset's own nodes stay untouched for the other items that use it.
+  it.source = detail::copyMapKeepingPositions(base);
+  YAML::Node params = detail::copyMapKeepingPositions(base["params"]);
+  it.source.remove("params");
+  it.source["params"] = params;
   if (params_override)
-    for (auto p = params_override.begin(); p != params_override.end(); ++p)
-      it.source["params"][p->first.Scalar()] = p->second;
+    for (auto p = params_override.begin(); p != params_override.end(); ++p) {
+      params.remove(p->first.Scalar());
+      params[p->first] = p->second;
+    }
   if (!path_override.empty()) {
     const std::string abs = absPath(base_dir, path_override);
     if (!fs::exists(abs)) {
       d.add(n.Mark(), "data folder '" + abs + "' does not exist");
       return false;
     }
-    it.source["params"]["path"] = abs;
+    params.remove("path");
+    params["path"] = abs;
   }
   it.type = it.source["type"] ? it.source["type"].Scalar() : "";
   // Display name.

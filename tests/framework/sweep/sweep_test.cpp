@@ -313,6 +313,48 @@ TEST(SweepDiagnostics, RepeatedNamesAreRejectedBecauseOneWouldBeIgnoredOrOverwri
       << e.what();
 }
 
+TEST(SweepDiagnostics, EveryParameterValueIsCheckedBeforeAnythingRunsAtItsPlace) {
+  // The energy and feature_stats are configured only when a run starts; a bad value must not
+  // wait until every model has been trained, nor be reported at line 1 of a generated config.
+  test::TempDir dir;
+  const std::string sweep = put(dir, "values.yaml",
+                                std::string(R"(version: 1
+datasets:
+  a: {type: simulator, params: {seed: 7, frames: 1, )") +
+                                    kSim + R"(}}
+  b: {type: simulator, params: {seed: 8, frames: 1, enable_camera: fals}}
+split: {train: [a], test: [{dataset: b, params: {range_noise_m: loud}}]}
+feature_sets:
+  L: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
+optimisers:
+  icm: {type: icm, params: {max_sweep: 3}}
+energy: {type: potts_gaussian, params: {beta: high, alpha: -1}}
+training: {min_purity: 7}
+)");
+  const ConfigError e = expectConfigError(sweep);
+  const std::string all = e.what();
+  for (const std::string& want :
+       {sweep + ":9:29: stage 'icm' (icm): unknown parameter 'max_sweep' (did you mean "
+                "'max_sweeps'?)",
+        sweep + ":10:47: energy.params.beta: expected float, got 'high'",
+        sweep + ":10:60: energy.params.alpha: value -1 out of range",
+        sweep + ":11:24: training.min_purity: value 7 out of range: expected in [0.5, 1]"})
+    EXPECT_NE(all.find(want), std::string::npos) << "want: " << want << "\ngot:\n" << all;
+  // The sources are made once the rest is clean; their parameters keep their positions too.
+  std::string text = readFile(sweep);
+  text = text.substr(0, text.find("optimisers:")) + "optimisers: {icm: {type: icm}}\n";
+  const ConfigError e2 = expectConfigError(put(dir, "values2.yaml", text));
+  const std::string all2 = e2.what();
+  EXPECT_NE(all2.find(":4:68: stage 'simulator' (simulator): parameter 'enable_camera': expected "
+                      "bool"),
+            std::string::npos)
+      << all2;
+  EXPECT_NE(all2.find(":5:65: stage 'simulator' (simulator): parameter 'range_noise_m': "
+                      "expected float, got 'loud'"),
+            std::string::npos)
+      << all2;
+}
+
 // ---- a tiny sweep end to end ----------------------------------------------------------------
 
 TEST(SweepRun, TinySimulatorSweepWritesTheTables) {
