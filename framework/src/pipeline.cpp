@@ -20,7 +20,7 @@ double StageTiming::mean() const {
   return ms.empty() ? NAN : std::accumulate(ms.begin(), ms.end(), 0.0) / ms.size();
 }
 double StageTiming::stddev() const {
-  if (ms.size() < 2) return 0;
+  if (ms.size() < 2) return NAN;  // undefined from one scan, not 0
   const double m = mean();
   double s = 0;
   for (double v : ms) s += (v - m) * (v - m);
@@ -195,8 +195,13 @@ std::string timingTable(const RunResult& r) {
   o << "|---|---:|---:|---:|---:|---:|\n";
   for (const auto& t : r.timings) {
     if (t.ms.empty()) continue;
-    std::snprintf(buf, sizeof buf, "| %s | %.3f | %.3f | %.3f | %.3f | %.3f |\n", t.name.c_str(),
-                  t.mean(), t.stddev(), t.min(), t.max(), t.median());
+    std::string sd = "–";
+    if (!std::isnan(t.stddev())) {
+      std::snprintf(buf, sizeof buf, "%.3f", t.stddev());
+      sd = buf;
+    }
+    std::snprintf(buf, sizeof buf, "| %s | %.3f | %s | %.3f | %.3f | %.3f |\n", t.name.c_str(),
+                  t.mean(), sd.c_str(), t.min(), t.max(), t.median());
     o << buf;
   }
   return o.str();

@@ -314,7 +314,9 @@ std::string rocCsv(const std::vector<RocCurve>& curves, const std::string& run) 
   for (const auto& c : curves) {
     for (const auto& p : c.points) {
       if (!run.empty()) o << run << ",";
-      o << c.class_name << "," << num(p.threshold) << "," << num(p.fpr) << "," << num(p.tpr) << ","
+      // Scores are floats: 9 digits tell every distinct threshold apart (6 merged e.g.
+      // 0.99999994 with 1).
+      o << c.class_name << "," << num(p.threshold, "%.9g") << "," << num(p.fpr) << "," << num(p.tpr) << ","
         << p.tp << "," << p.fp << "," << c.positives << "," << c.negatives << "\n";
     }
   }

@@ -14,6 +14,7 @@ struct StageTiming {
   std::string name;         ///< stage instance name ("read", "grid" for the runner's own steps)
   std::vector<double> ms;   ///< one entry per processed frame [ms]
   double mean() const;
+  /// Sample standard deviation (n − 1) [ms]; NaN with fewer than two frames.
   double stddev() const;
   double min() const;
   double max() const;

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <sstream>
 
@@ -24,6 +25,21 @@ RunResult runSynthetic(test::ConfigFixture& f, const std::string& source_params,
   return runPipeline(p, ro);
 }
 }  // namespace
+
+TEST(StageTiming, StatisticsAreSampleStatisticsAndUndefinedStdFromOneScan) {
+  StageTiming t;
+  t.ms = {4.0};
+  EXPECT_TRUE(std::isnan(t.stddev()));  // not 0: one scan says nothing about the spread
+  EXPECT_DOUBLE_EQ(t.mean(), 4.0);
+  t.ms = {1.0, 2.0, 6.0};
+  EXPECT_DOUBLE_EQ(t.mean(), 3.0);
+  EXPECT_DOUBLE_EQ(t.stddev(), std::sqrt(7.0));  // ((4 + 1 + 9) / (3 - 1))^0.5
+  EXPECT_DOUBLE_EQ(t.median(), 2.0);
+  RunResult r;
+  r.timings.push_back({"solve", {4.0}});
+  EXPECT_NE(timingTable(r).find("| solve | 4.000 | – | 4.000 | 4.000 | 4.000 |"), std::string::npos)
+      << timingTable(r);
+}
 
 TEST(Pipeline, ClassifiesPlaneAndBox) {
   test::ConfigFixture f;

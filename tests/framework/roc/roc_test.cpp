@@ -240,5 +240,15 @@ TEST(RocWriters, CsvSvgJson) {
   EXPECT_NE(js.find("\"auc\": 1"), std::string::npos) << js;
 }
 
+TEST(RocWriters, CsvThresholdsStayDistinct) {
+  // Two scores one float step apart are two points of the curve, and two rows of the CSV.
+  RocAccumulator acc(LabelSet::defaults());
+  acc.add(labels::kRoad, 1.0f, true, true);
+  acc.add(labels::kRoad, 0.99999994f, false, false);
+  const std::string csv = rocCsv(acc.curves(), "");
+  EXPECT_NE(csv.find("road,1,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("road,0.99999994,"), std::string::npos) << csv;
+}
+
 }  // namespace
 }  // namespace terramrf
