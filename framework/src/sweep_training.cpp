@@ -224,6 +224,9 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
     r.labelled_frames += rec.labelled_frames;
     r.items.push_back(rec);
   }
+  if (r.labelled_frames == 0 && r.frames == 0 && !r.failed.empty())
+    throw std::runtime_error("every training frame failed (" + std::to_string(r.failed.size()) +
+                             "); the first, " + r.failed[0].first + ": " + r.failed[0].second);
   if (r.labelled_frames == 0) {
     std::string what;
     for (const auto& it : r.items) what += (what.empty() ? "" : ", ") + it.label;

@@ -930,5 +930,47 @@ TEST(Train, DataFolderOfRealScansIsRecordedWithItsLabelMap) {
   EXPECT_NE(m["provenance"].as<std::string>().find("converted_semantickitti"), std::string::npos);
 }
 
+TEST(Train, ALabelMapMissingAnIdOfTheDataFailsEveryFrameAndSaysWhichFileAndId) {
+  // The label map without road's id 40: every scan of seq 00 holds road points.
+  test::TempDir dir;
+  std::string map = readFile(test::sourceDir() + "/configs/label_maps/semantickitti.yaml");
+  const std::size_t at = map.find("road: [40, ");
+  ASSERT_NE(at, std::string::npos);
+  map.replace(at, 11, "road: [");
+  const std::string map_path = put(dir, "no_road_id.yaml", map);
+  const std::string config = put(dir, "train.yaml", R"(version: 1
+grid: {size_m: 40, cell_m: 0.5}
+source:
+  type: semantickitti
+  params: {path: )" + test::dataPath("semantickitti_seq00_000000-000005") +
+                                                      R"(, label_map: )" + map_path + R"(}
+split: {train: [{frames: [0, 1]}]}
+stages:
+  - {name: hdiff, type: height_difference}
+outputs:
+  - {type: feature_stats, params: {features: [height_diff], min_sigma: [0.02]}}
+)");
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/m.yaml";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  std::ostringstream log;
+  o.log = &log;
+  try {
+    trainModel(o);
+    FAIL() << "expected the training to fail";
+  } catch (const ConfigError& e) {
+    FAIL() << e.what();
+  } catch (const std::exception& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("every training frame failed (2)"), std::string::npos) << what;
+    EXPECT_NE(what.find(map_path), std::string::npos) << what;
+    EXPECT_NE(what.find("raw label id 40 (road)"), std::string::npos) << what;
+    EXPECT_NE(what.find("is not listed in the label map"), std::string::npos) << what;
+  }
+  EXPECT_FALSE(fs::exists(o.model_out));  // no model from nothing
+}
+
 }  // namespace
 }  // namespace terramrf
