@@ -122,8 +122,9 @@ std::string composeModel(const std::string& stats_text, const TrainJob& job, con
     em << YAML::EndMap;
   }
   em << YAML::EndSeq;
-  if (!job.held_out.empty())
-    em << YAML::Key << "held_out" << YAML::Value << YAML::Flow << job.held_out;
+  // Always written: an empty list says that nothing was declared held out, so no test scan can
+  // be proven unseen by this model.
+  em << YAML::Key << "held_out" << YAML::Value << YAML::Flow << job.held_out;
   if (!r.missing.empty()) em << YAML::Key << "not_learnt" << YAML::Value << YAML::Flow << r.missing;
   em << YAML::EndMap << YAML::EndMap;
   return "# Per-class Gaussian feature model (paper 000 §4.6), learnt from annotated cells by\n"
@@ -394,6 +395,11 @@ TrainResult trainModel(const TrainOptions& o) {
       train.push_back(std::move(it));
     }
   } else if (train.empty()) {
+    // Explicit in the config (its source is the training data) but worth saying: nothing is
+    // held out, and the model records that.
+    log << "note: " << o.config_path
+        << " has no split: training on every frame of its source; no test data is held out "
+           "(give split: {train: [...], test: [...]} to record one)\n";
     auto it = std::make_unique<Item>();
     it->source = YAML::Clone(source);
     it->type = it->source["type"] ? it->source["type"].Scalar() : "";

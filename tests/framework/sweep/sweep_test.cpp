@@ -930,6 +930,35 @@ TEST(Train, DataFolderOfRealScansIsRecordedWithItsLabelMap) {
   EXPECT_NE(m["provenance"].as<std::string>().find("converted_semantickitti"), std::string::npos);
 }
 
+TEST(Train, WithoutASplitTheModelSaysNothingIsHeldOut) {
+  test::TempDir dir;
+  const std::string config = put(dir, "nosplit.yaml",
+                                 std::string(R"(version: 1
+grid: {size_m: 30, cell_m: 0.5}
+source: {type: simulator, params: {seed: 7, frames: 1, )") +
+                                     kSim + R"(}}
+stages:
+  - {name: hdiff, type: height_difference}
+outputs:
+  - {type: feature_stats, params: {features: [height_diff], min_sigma: [0.02]}}
+)");
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/m.yaml";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  std::ostringstream log;
+  o.log = &log;
+  trainModel(o);
+  EXPECT_NE(log.str().find("has no split: training on every frame of its source; no test data is "
+                           "held out"),
+            std::string::npos)
+      << log.str();
+  const YAML::Node held = YAML::LoadFile(o.model_out)["trained_from"]["held_out"];
+  ASSERT_TRUE(held.IsSequence());
+  EXPECT_EQ(held.size(), 0u);
+}
+
 TEST(Train, ALabelMapMissingAnIdOfTheDataFailsEveryFrameAndSaysWhichFileAndId) {
   // The label map without road's id 40: every scan of seq 00 holds road points.
   test::TempDir dir;
