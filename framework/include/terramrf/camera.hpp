@@ -23,6 +23,10 @@ struct CameraModel {
   std::array<double, 5> distortion{0, 0, 0, 0, 0};
   /// LiDAR → camera (for KITTI: R0_rect · Tr_velo_to_cam).
   Eigen::Isometry3d T_camera_lidar = Eigen::Isometry3d::Identity();
+  /// Where P and T_camera_lidar came from, in the dataset's own terms, so a bad-calibration error
+  /// can name it: the file(s) and the entries used, e.g. ".../calib/000000.txt (P2, R0_rect,
+  /// Tr_velo_to_cam)". Empty for a camera not read from files (the simulator's, a test's).
+  std::string calibration;
 
   /// Pixel (u, v) [px] of a LiDAR-frame point, or nullopt if behind the camera or outside the image.
   std::optional<Eigen::Vector2d> project(const Eigen::Vector3d& p_lidar) const;

@@ -233,6 +233,9 @@ CameraModel kittiCamera(const KittiCalib& calib, int index, int width_px, int he
   m.height = height_px;
   m.P = calib.P[index];
   m.T_camera_lidar = calib.T_cam_velo;
+  m.calibration = (calib.path.empty() ? std::string("KITTI calibration") : calib.path) + " (P" +
+                  std::to_string(index) +
+                  (calib.object_format ? ", R0_rect, Tr_velo_to_cam)" : ", Tr)");
   return m;
 }
 

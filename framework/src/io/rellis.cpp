@@ -153,6 +153,8 @@ CameraModel rellisCamera(const std::string& camera_info, const std::string& tran
   m.height = height_px;
   m.P = readRellisIntrinsics(camera_info);
   m.T_camera_lidar = readRellisCameraFromLidar(transforms);
+  m.calibration =
+      camera_info + " (fx fy cx cy) and " + transforms + " (os1_cloud_node-pylon_camera_node)";
   return m;
 }
 

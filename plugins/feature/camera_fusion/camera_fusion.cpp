@@ -133,11 +133,13 @@ class CameraFusion final : public Stage {
       throw InputError(file, "camera '" + cam_name + "' of frame " + f.id +
                                  " has no image; camera_fusion needs the image the features read");
     const Image& img = *cam.image;
+    // The dataset's names for the calibration (file and entries), else the model's own.
+    const std::string calib = m.calibration.empty() ? "P and T_camera_lidar" : m.calibration;
     if (m.width <= 0 || m.height <= 0 || img.width != m.width || img.height != m.height)
-      throw InputError(file, "image is " + std::to_string(img.width) + "x" +
-                                 std::to_string(img.height) + " px but its calibration ('" +
-                                 cam_name + "') is for " + std::to_string(m.width) + "x" +
-                                 std::to_string(m.height) + " px");
+      throw InputError(
+          file, "image is " + std::to_string(img.width) + "x" + std::to_string(img.height) +
+                    " px but the calibration of camera '" + cam_name + "' (" + calib + ") is for " +
+                    std::to_string(m.width) + "x" + std::to_string(m.height) + " px");
 
     CellPixels out;
     out.camera = cam_index;
@@ -150,11 +152,12 @@ class CameraFusion final : public Stage {
     out.pixel_of_point.assign(n, -1);
     const std::size_t visible = projectScan(m, pc, out.pixel_of_point.data());
     if (n > 0 && visible == 0)
-      throw InputError(file, "the calibration of camera '" + cam_name + "' projects none of the " +
-                                 std::to_string(n) + " points of frame " + f.id + " into the " +
+      throw InputError(file, "the calibration of camera '" + cam_name + "' (" + calib +
+                                 ") projects none of the " + std::to_string(n) +
+                                 " points of frame " + f.id + " into the " +
                                  std::to_string(m.width) + "x" + std::to_string(m.height) +
-                                 " px image (all behind the camera or outside it); check P and "
-                                 "T_camera_lidar");
+                                 " px image (all behind the camera or outside it); check that "
+                                 "calibration, and that it belongs to this scan and image");
 
     // Pixels per cell (CSR).
     const GridGeometry& geom = g.geometry();

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "terramrf/adapters/opencv_image.hpp"
+#include "terramrf/io/calibration_check.hpp"
 #include "terramrf/io/kitti.hpp"
 #include "terramrf/io/label_map.hpp"
 #include "terramrf/io/rellis.hpp"
@@ -48,6 +49,11 @@ class Rellis3dSource : public Source {
     d.add("use_images", use_images_,
           "read the camera image with camera_info.txt and transforms.yaml (missing files are "
           "errors)");
+    d.add("image_size", image_size_,
+          "with use_images: [width, height] of the images the calibration was made for; another "
+          "size is an error. Empty: not checked exactly (the files store no size), but the "
+          "principal point must lie in the middle half of the image")
+        .unit("px");
     d.add("use_image_labels", use_image_labels_,
           "with use_images: map the pixel label image (when it exists) into the camera's truth");
     d.add("drop_no_return", drop_no_return_,
@@ -60,6 +66,7 @@ class Rellis3dSource : public Source {
 
   void configure(const PluginContext& ctx) override {
     layout_ = resolveRellisLayout(path_);
+    expected_image_size_ = imageSizeParam(image_size_);
     const LabelSet defaults = LabelSet::defaults();
     const LabelSet& labels = ctx.labels ? *ctx.labels : defaults;
     map_.reset();
@@ -111,6 +118,8 @@ class Rellis3dSource : public Source {
       auto image = std::make_shared<Image>(readImage(files.image));
       cam.model = rellisCamera(info_file, tf_file, image->width, image->height);
       cam.source_path = files.image;
+      cam.image = image;
+      checkCalibrationFitsImage(cam, expected_image_size_);
       if (use_image_labels_ && !files.image_label.empty()) {
         const Image raw = readImage(files.image_label);
         if (raw.channels != 1 || raw.width != image->width || raw.height != image->height)
@@ -123,7 +132,6 @@ class Rellis3dSource : public Source {
         map_->mapAll(raw.data.data(), raw.data.size(), truth->data.data(), files.image_label);
         cam.truth = std::move(truth);
       }
-      cam.image = std::move(image);
       f.cameras.push_back(std::move(cam));
     }
     return f;
@@ -134,11 +142,13 @@ class Rellis3dSource : public Source {
   std::string label_map_;
   bool use_labels_ = true;
   bool use_images_ = false;
+  std::vector<double> image_size_;
   bool use_image_labels_ = true;
   bool drop_no_return_ = true;
   int rings_ = 64;
 
   RellisLayout layout_;
+  std::optional<ImageSize> expected_image_size_;
   std::unique_ptr<LabelMap> map_;
 };
 

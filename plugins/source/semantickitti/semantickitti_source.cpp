@@ -9,6 +9,7 @@
 #include <string>
 
 #include "terramrf/adapters/opencv_image.hpp"
+#include "terramrf/io/calibration_check.hpp"
 #include "terramrf/io/kitti.hpp"
 #include "terramrf/io/label_map.hpp"
 #include "terramrf/io/ring_recovery.hpp"
@@ -38,6 +39,11 @@ class SemanticKittiSource : public Source {
     d.add("use_labels", use_labels_, "read labels/<id>.label when it exists");
     d.add("use_images", use_images_,
           "read image_2/<id>.png with its calibration (missing files are errors)");
+    d.add("image_size", image_size_,
+          "with use_images: [width, height] of the images the calibration was made for; another "
+          "size is an error. Empty: not checked exactly (the files store no size), but the "
+          "principal point must lie in the middle half of the image")
+        .unit("px");
     d.add("use_poses", use_poses_,
           "LiDAR pose from poses.txt (Tr^-1 P Tr with Tr from calib.txt) when the file exists");
     d.add("drop_no_return", drop_no_return_, "drop points exactly at (0, 0, 0) (counted)");
@@ -63,6 +69,7 @@ class SemanticKittiSource : public Source {
 
   void configure(const PluginContext& ctx) override {
     layout_ = resolveKittiLayout(path_, sequence_);
+    expected_image_size_ = imageSizeParam(image_size_);
     if (layout_.stems.empty())
       throw ParamError("path", "no .bin scans in '" + layout_.root + "/velodyne'");
     const LabelSet defaults = LabelSet::defaults();
@@ -137,6 +144,7 @@ class SemanticKittiSource : public Source {
       cam.model = kittiCamera(calib(i), 2, image->width, image->height);
       cam.image = std::move(image);
       cam.source_path = img;
+      checkCalibrationFitsImage(cam, expected_image_size_);
       f.cameras.push_back(std::move(cam));
     }
 
@@ -198,6 +206,7 @@ class SemanticKittiSource : public Source {
   std::string label_map_;
   bool use_labels_ = true;
   bool use_images_ = false;
+  std::vector<double> image_size_;
   bool use_poses_ = true;
   bool drop_no_return_ = true;
   std::string recentre_ = "none";
@@ -207,6 +216,7 @@ class SemanticKittiSource : public Source {
   double ring_z_offset_m_ = 0.2;
 
   KittiLayout layout_;
+  std::optional<ImageSize> expected_image_size_;
   std::unique_ptr<LabelMap> map_;
   std::vector<Eigen::Isometry3d> poses_;
   std::vector<double> times_;

@@ -81,7 +81,8 @@ struct KittiCalib {
 KittiCalib readKittiCalib(const std::string& path);
 
 /// Camera model of camera `index` (2 = image_2, the left colour camera): P = P_index,
-/// T_camera_lidar = calib.T_cam_velo, size [px] from the image.
+/// T_camera_lidar = calib.T_cam_velo, size [px] from the image (calib.txt stores none; see
+/// checkCalibrationFitsImage), calibration = "<path> (P2, R0_rect, Tr_velo_to_cam)" or "(P2, Tr)".
 CameraModel kittiCamera(const KittiCalib& calib, int index, int width_px, int height_px);
 
 /// poses.txt: camera-0 poses (T_world_cam0), one per line. Throws InputError naming the file and

@@ -47,7 +47,8 @@ Matrix34d readRellisIntrinsics(const std::string& path);
 /// T_camera_lidar. Throws InputError naming the file.
 Eigen::Isometry3d readRellisCameraFromLidar(const std::string& path);
 
-/// Camera model "pylon_camera" from the two calibration files and the image size [px].
+/// Camera model "pylon_camera" from the two calibration files and the image size [px] (the files
+/// store none; see checkCalibrationFitsImage); calibration names both files.
 CameraModel rellisCamera(const std::string& camera_info, const std::string& transforms,
                          int width_px, int height_px);
 

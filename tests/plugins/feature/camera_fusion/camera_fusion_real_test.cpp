@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -194,6 +195,62 @@ TEST(CameraFusionReal, SimulatorPointsLandOnPixelsOfTheirClass) {
   EXPECT_GT(mean("haralick_asm", labels::kRoad), 2.0 * mean("haralick_asm", labels::kRough));
   EXPECT_GT(mean("haralick_idm", labels::kRoad), mean("haralick_idm", labels::kRough) + 0.1);
   EXPECT_GT(mean("colour_s", labels::kRough), 3.0 * mean("colour_s", labels::kRoad));
+}
+
+/// camera_fusion's InputError on `f`, "" if none.
+std::string fusionError(Frame& f) {
+  StageRunner r(grid40());
+  r.add("camera_fusion");
+  try {
+    r.run(f);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// A calibration that fits the image (principal point central) but puts the camera 1 km ahead of
+// the LiDAR: no point is in front of it. The error must name the dataset's calibration file and
+// entries, not only the image.
+TEST(CameraFusionReal, CalibrationProjectingNothingIsNamedInTheDatasetsTerms) {
+  const std::string real = test::dataPath("kitti_object_fusion/training");
+  test::TempDir dir;
+  const std::string root = dir.str() + "/training";
+  for (const char* sub : {"velodyne", "image_2", "calib"})
+    std::filesystem::create_directories(root + "/" + sub);
+  std::filesystem::create_symlink(real + "/velodyne/000001.bin", root + "/velodyne/000001.bin");
+  std::filesystem::create_symlink(real + "/image_2/000001.png", root + "/image_2/000001.png");
+  {
+    std::ifstream in(real + "/calib/000001.txt");
+    std::ofstream out(root + "/calib/000001.txt");
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.rfind("Tr_velo_to_cam:", 0) == 0)
+        line = "Tr_velo_to_cam: 0 -1 0 0 0 0 -1 0 1 0 0 -1000";
+      out << line << "\n";
+    }
+  }
+  Frame k = readFrame("semantickitti", "{path: " + root + ", use_images: true, use_labels: false}");
+  std::string what = fusionError(k);
+  EXPECT_NE(what.find(root + "/image_2/000001.png"), std::string::npos) << what;
+  EXPECT_NE(what.find("projects none"), std::string::npos) << what;
+  EXPECT_NE(what.find(root + "/calib/000001.txt (P2, R0_rect, Tr_velo_to_cam)"), std::string::npos)
+      << what;
+
+  // RELLIS-3D: transforms.yaml with the camera 1 km ahead (it looks along the Ouster's −x).
+  const std::string rel = test::dataPath("rellis3d_example_000104");
+  test::TempDir rdir;
+  for (const char* f : {"000104.bin", "camera_info.txt", "frame000104-1581624663_149.jpg"})
+    std::filesystem::create_symlink(rel + "/" + f, rdir.str() + "/" + f);
+  std::ofstream(rdir.str() + "/transforms.yaml")
+      << "os1_cloud_node-pylon_camera_node:\n  q: {w: -0.50507811, x: 0.51206185, y: 0.49024953, "
+         "z: -0.49228464}\n  t: {x: -1000, y: 0, z: 0}\n";
+  Frame r =
+      readFrame("rellis3d", "{path: " + rdir.str() + ", use_images: true, use_labels: false}");
+  what = fusionError(r);
+  EXPECT_NE(what.find("projects none"), std::string::npos) << what;
+  EXPECT_NE(what.find(rdir.str() + "/camera_info.txt"), std::string::npos) << what;
+  EXPECT_NE(what.find(rdir.str() + "/transforms.yaml"), std::string::npos) << what;
 }
 
 }  // namespace

@@ -321,7 +321,8 @@ TEST(CameraFusion, OneCellPixelsPerCamera) {
 
 // ---- bad input ---------------------------------------------------------------------------------
 
-void expectInputError(Frame& f, const std::string& file, const std::string& needle) {
+void expectInputError(Frame& f, const std::string& file, const std::string& needle,
+                      const std::string& needle2 = "") {
   StageRunner r;
   r.add("camera_fusion");
   try {
@@ -332,29 +333,38 @@ void expectInputError(Frame& f, const std::string& file, const std::string& need
     const std::string what = e.what();
     EXPECT_NE(what.find(file), std::string::npos) << what;
     EXPECT_NE(what.find(needle), std::string::npos) << what;
+    EXPECT_NE(what.find(needle2), std::string::npos) << what;
   }
 }
+
+const char* kCalib = "/data/calib/000007.txt (P2, R0_rect, Tr_velo_to_cam)";
 
 TEST(CameraFusionBadInput, ImageSizeDiffersFromCalibration) {
   CameraModel m = forwardCamera();
   Frame f = groundFrame(m, noFill);
   f.cameras[0].image = std::make_shared<Image>(100, 100, 3);
-  expectInputError(f, "/data/front/000007.png", "100x100");
+  expectInputError(f, "/data/front/000007.png", "100x100", "P and T_camera_lidar");
+  f.cameras[0].model.calibration = kCalib;
+  expectInputError(f, "/data/front/000007.png", "100x100", kCalib);
 }
 
+// The error names the calibration file and entries the source read (CameraModel::calibration),
+// not only the image: the calibration is what is wrong.
 TEST(CameraFusionBadInput, CalibrationProjectsNothingIntoTheImage) {
   CameraModel m = forwardCamera();
   // Looks backwards (cam z = −x): every point of the scan is behind the camera.
   Eigen::Matrix3d R;
   R << 0, 1, 0, 0, 0, -1, -1, 0, 0;
   m.T_camera_lidar.linear() = R;
+  m.calibration = kCalib;
   Frame f = groundFrame(m, noFill);
-  expectInputError(f, "/data/front/000007.png", "projects none");
-  // Points in front but all outside the image (a wildly wrong principal point).
+  expectInputError(f, "/data/front/000007.png", "projects none", kCalib);
+  // Points in front but all outside the image (a wildly wrong principal point); a model from no
+  // file is named by its own members.
   CameraModel off = forwardCamera();
   off.P(0, 2) = 5000;
   Frame g = groundFrame(off, noFill);
-  expectInputError(g, "/data/front/000007.png", "projects none");
+  expectInputError(g, "/data/front/000007.png", "projects none", "(P and T_camera_lidar)");
 }
 
 TEST(CameraFusionBadInput, FrameWithoutCamera) {

@@ -3,7 +3,9 @@
 // choice and bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "plugins/feature/camera_fusion/fusion_test_frame.hpp"
 
@@ -125,6 +127,43 @@ TEST(Haralick, SparsePixelSetWithoutPairsIsNoData) {
   r.process();
   EXPECT_TRUE(std::isnan(r.grid.layer("haralick_asm")[0]));
   EXPECT_TRUE(std::isnan(r.grid.layer("haralick_idm")[0]));
+}
+
+// CellPixels only promises pixels grouped by cell, not sorted. A reversed list made the row range
+// taken from the first and last pixel negative (std::length_error); any other order wrote past
+// the cell's box.
+TEST(Haralick, PixelOrderWithinACellDoesNotMatter) {
+  auto texture = [](int u, int v, uint8_t* p) { grey(p, (u * 37 + v * 101 + u * v * 7) % 256); };
+  Frame f = groundFrame(forwardCamera(), texture);
+  auto features = [&](void (*reorder)(uint32_t*, uint32_t*)) {
+    StageRunner r;
+    r.add("haralick", "{levels: 8}");
+    r.prepare(f);
+    setCellRect(r.grid, 200, 100, 0, 40, 52, 20, 32);
+    CellPixels& cp = r.grid.cellPixels()[0];
+    // Not a rectangle: drop the top-left 4 × 4 corner, so the per-row column ranges matter.
+    cp.pixels.erase(std::remove_if(cp.pixels.begin(), cp.pixels.end(),
+                                   [](uint32_t p) { return p % 200 < 44 && p / 200 < 24; }),
+                    cp.pixels.end());
+    for (std::size_t c = 1; c < cp.offsets.size(); ++c) cp.offsets[c] = uint32_t(cp.pixels.size());
+    reorder(cp.pixels.data(), cp.pixels.data() + cp.pixels.size());
+    r.process();
+    return Result{r.grid.layer("haralick_asm")[0], r.grid.layer("haralick_variance")[0],
+                  r.grid.layer("haralick_idm")[0]};
+  };
+  const Result sorted = features([](uint32_t*, uint32_t*) {});
+  ASSERT_FALSE(std::isnan(sorted.asm_));
+  ASSERT_LT(sorted.asm_, 0.5f) << "the texture should not be flat";
+  const Result reversed = features([](uint32_t* b, uint32_t* e) { std::reverse(b, e); });
+  const Result shuffled = features([](uint32_t* b, uint32_t* e) {
+    std::mt19937 rng(7);
+    std::shuffle(b, e, rng);
+  });
+  for (const Result& r : {reversed, shuffled}) {
+    EXPECT_EQ(r.asm_, sorted.asm_);
+    EXPECT_EQ(r.variance, sorted.variance);
+    EXPECT_EQ(r.idm, sorted.idm);
+  }
 }
 
 TEST(Haralick, GreyFromRgbAndQuantisation) {

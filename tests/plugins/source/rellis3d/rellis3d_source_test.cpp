@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "terramrf/errors.hpp"
 #include "terramrf/param_values.hpp"
@@ -88,6 +90,50 @@ TEST_F(Rellis3dSourceTest, WithoutImagesNoCamera) {
   EXPECT_TRUE(g.truth.empty());
   EXPECT_EQ(g.points.ring[64], 0);
   EXPECT_EQ(g.points.ring[65], 1);
+}
+
+/// The example frame in `dir` (scan, labels and calibration linked, not copied) with its camera
+/// image resized to w × h px by OpenCV and no pixel-label image.
+std::string resizedExample(const test::TempDir& dir, int w, int h) {
+  const std::string real = test::dataPath("rellis3d_example_000104");
+  for (const char* f : {"000104.bin", "000104.label", "camera_info.txt", "transforms.yaml"})
+    std::filesystem::create_symlink(real + "/" + f, dir.str() + "/" + f);
+  const std::string jpg = "/frame000104-1581624663_149.jpg";
+  cv::Mat img = cv::imread(real + jpg), out;
+  EXPECT_EQ(img.cols, 1920);
+  cv::resize(img, out, cv::Size(w, h), 0, 0, cv::INTER_AREA);
+  cv::imwrite(dir.str() + jpg, out);
+  return dir.str() + jpg;
+}
+
+// camera_info.txt stores no image size; a halved image used to be fused with the full-size
+// intrinsics without an error.
+TEST_F(Rellis3dSourceTest, ResizedImageIsAnErrorNamingImageAndCalibration) {
+  test::TempDir dir;
+  const std::string jpg = resizedExample(dir, 960, 600);
+  try {
+    make("{path: " + dir.str() + ", use_images: true}")->read(0);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(e.file(), jpg);
+    EXPECT_NE(what.find("960x600 px"), std::string::npos) << what;
+    EXPECT_NE(what.find("principal point (969.3, 624.0) px"), std::string::npos) << what;
+    EXPECT_NE(what.find(dir.str() + "/camera_info.txt"), std::string::npos) << what;
+    EXPECT_NE(what.find(dir.str() + "/transforms.yaml"), std::string::npos) << what;
+  }
+  // Its own size reads (also with image_size), and the camera names its calibration files.
+  test::TempDir same;
+  resizedExample(same, 1920, 1200);
+  const Frame f =
+      make("{path: " + same.str() + ", use_images: true, image_size: [1920, 1200]}")->read(0);
+  ASSERT_EQ(f.cameras.size(), 1u);
+  EXPECT_NE(f.cameras[0].model.calibration.find(same.str() + "/camera_info.txt"),
+            std::string::npos);
+  // image_size is compared exactly.
+  EXPECT_THROW(
+      make("{path: " + same.str() + ", use_images: true, image_size: [1920, 1080]}")->read(0),
+      InputError);
 }
 
 TEST_F(Rellis3dSourceTest, MissingFilesAreNamed) {

@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/errors.hpp"
@@ -193,7 +195,7 @@ TEST_F(SemanticKittiSourceTest, MissingImageOrCalibrationWhenRequested) {
   // Image present, calibration missing.
   test::TempDir dir2;
   const std::string seq2 = tinySequence(dir2, /*calib=*/false);
-  writeImageAtomic(seq2 + "/image_2/000000.png", Image(16, 8, 3));
+  writeImageAtomic(seq2 + "/image_2/000000.png", Image(1241, 376, 3));
   auto src2 = make("{path: " + seq2 + ", use_images: true}");
   try {
     src2->read(0);
@@ -205,9 +207,93 @@ TEST_F(SemanticKittiSourceTest, MissingImageOrCalibrationWhenRequested) {
   std::ofstream(seq2 + "/calib.txt") << kOdoCalib;
   const Frame f = make("{path: " + seq2 + ", use_images: true}")->read(0);
   ASSERT_EQ(f.cameras.size(), 1u);
-  EXPECT_EQ(f.cameras[0].model.width, 16);
+  EXPECT_EQ(f.cameras[0].model.width, 1241);
+  EXPECT_EQ(f.cameras[0].model.calibration, seq2 + "/calib.txt (P2, Tr)");
   EXPECT_EQ(f.truth.label,
             (std::vector<LabelId>{labels::kRoad, labels::kRough, labels::kObstacle}));
+}
+
+/// A KITTI object folder in `dir` whose frame 000001 is the real one (scan and calibration linked,
+/// not copied) with image_2 resized to w × h px by OpenCV; `calib_text` replaces the calibration.
+std::string resizedKittiObject(const test::TempDir& dir, int w, int h,
+                               const std::string& calib_text = "") {
+  const std::string real = test::dataPath("kitti_object_fusion/training");
+  const std::string root = dir.str() + "/training";
+  for (const char* sub : {"velodyne", "calib", "image_2"})
+    std::filesystem::create_directories(root + "/" + sub);
+  std::filesystem::create_symlink(real + "/velodyne/000001.bin", root + "/velodyne/000001.bin");
+  if (calib_text.empty())
+    std::filesystem::create_symlink(real + "/calib/000001.txt", root + "/calib/000001.txt");
+  else
+    std::ofstream(root + "/calib/000001.txt") << calib_text;
+  cv::Mat img = cv::imread(real + "/image_2/000001.png"), out;
+  EXPECT_EQ(img.cols, 1242);
+  cv::resize(img, out, cv::Size(w, h), 0, 0, cv::INTER_AREA);
+  cv::imwrite(root + "/image_2/000001.png", out);
+  return root;
+}
+
+// KITTI's calib files store no image size and the source takes it from the image, so a resized
+// image used to pass silently with a calibration that no longer fits (halved: 2180 of 20259
+// points still in the image); the principal point check catches it.
+TEST_F(SemanticKittiSourceTest, ResizedImageIsAnErrorNamingImageAndCalibration) {
+  for (const auto& [w, h] : {std::pair{621, 188}, std::pair{2484, 750}}) {
+    test::TempDir dir;
+    const std::string root = resizedKittiObject(dir, w, h);
+    auto src = make("{path: " + root + ", use_images: true}");
+    try {
+      src->read(0);
+      FAIL() << "expected InputError for a " << w << "x" << h << " image";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(e.file(), root + "/image_2/000001.png");
+      EXPECT_NE(what.find(std::to_string(w) + "x" + std::to_string(h) + " px"), std::string::npos);
+      EXPECT_NE(what.find("principal point (609.6, 172.9) px"), std::string::npos) << what;
+      EXPECT_NE(what.find(root + "/calib/000001.txt (P2, R0_rect, Tr_velo_to_cam)"),
+                std::string::npos)
+          << what;
+    }
+  }
+  // The same frame at its own size reads, and so do KITTI odometry's 1241 × 376 (above).
+  test::TempDir dir;
+  const Frame f =
+      make("{path: " + resizedKittiObject(dir, 1242, 375) + ", use_images: true}")->read(0);
+  ASSERT_EQ(f.cameras.size(), 1u);
+  EXPECT_EQ(f.cameras[0].image->width, 1242);
+  // KITTI odometry calibration with a 16 × 8 image.
+  test::TempDir odo;
+  const std::string seq = tinySequence(odo);
+  writeImageAtomic(seq + "/image_2/000000.png", Image(16, 8, 3));
+  try {
+    make("{path: " + seq + ", use_images: true}")->read(0);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), seq + "/image_2/000000.png");
+    EXPECT_NE(std::string(e.what()).find(seq + "/calib.txt (P2, Tr)"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST_F(SemanticKittiSourceTest, ImageSizeParameterIsCompared) {
+  // The two object frames are 1224 × 370 and 1242 × 375.
+  auto src = make("{path: " + test::dataPath("kitti_object_fusion/training") +
+                  ", use_images: true, image_size: [1242, 375]}");
+  EXPECT_NO_THROW(src->read(1));
+  try {
+    src->read(0);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("image_2/000000.png"), std::string::npos) << what;
+    EXPECT_NE(what.find("1224x370 px"), std::string::npos) << what;
+    EXPECT_NE(what.find("1242x375 px"), std::string::npos) << what;
+    EXPECT_NE(what.find("calib/000000.txt"), std::string::npos) << what;
+  }
+  for (const char* bad : {"[1242]", "[0, 375]", "[1242.5, 375]"})
+    EXPECT_THROW(make("{path: " + test::dataPath("kitti_object_fusion/training") +
+                      ", image_size: " + bad + "}"),
+                 std::runtime_error)
+        << bad;
 }
 
 TEST_F(SemanticKittiSourceTest, BadScansAndLabels) {

@@ -1,0 +1,110 @@
+// checkCalibrationFitsImage / imageSizeParam on the real calibrations (KITTI object, KITTI
+// odometry, RELLIS-3D, the simulator's centred camera) at their own image sizes and resized.
+#include "terramrf/io/calibration_check.hpp"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+
+#include "terramrf/errors.hpp"
+#include "terramrf/io/kitti.hpp"
+#include "terramrf/io/rellis.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+CameraImage withImage(const CameraModel& m, int w, int h, const std::string& path) {
+  CameraImage c;
+  c.model = m;
+  c.image = std::make_shared<Image>(w, h, 3);
+  c.source_path = path;
+  return c;
+}
+
+/// The InputError message of the check, "" if it passes; the error must name the image.
+std::string failure(const CameraImage& c, const std::optional<ImageSize>& expected = {}) {
+  try {
+    checkCalibrationFitsImage(c, expected);
+    return "";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), c.source_path);
+    return e.what();
+  }
+}
+
+TEST(CalibrationCheck, RealCalibrationsFitTheirImages) {
+  const std::string kitti = test::dataPath("kitti_object_fusion/training/calib/");
+  const KittiCalib c0 = readKittiCalib(kitti + "000000.txt"),
+                   c1 = readKittiCalib(kitti + "000001.txt");
+  EXPECT_EQ(failure(withImage(kittiCamera(c0, 2, 1224, 370), 1224, 370, "0.png")), "");
+  EXPECT_EQ(failure(withImage(kittiCamera(c1, 2, 1242, 375), 1242, 375, "1.png")), "");
+  // KITTI odometry sequence 00 (1241 × 376).
+  const KittiCalib odo =
+      readKittiCalib(test::dataPath("semantickitti_seq00_000000-000005/sequences/00/calib.txt"));
+  EXPECT_EQ(failure(withImage(kittiCamera(odo, 2, 1241, 376), 1241, 376, "o.png")), "");
+  const std::string rellis = test::dataPath("rellis3d_example_000104/");
+  const CameraModel r =
+      rellisCamera(rellis + "camera_info.txt", rellis + "transforms.yaml", 1920, 1200);
+  EXPECT_EQ(failure(withImage(r, 1920, 1200, "r.jpg")), "");
+  // The simulator puts the principal point at the centre (sim/camera.cpp).
+  CameraModel sim;
+  sim.P << 300, 0, 160, 0, 0, 300, 120, 0, 0, 0, 1, 0;
+  EXPECT_EQ(failure(withImage(sim, 320, 240, "sim")), "");
+  // Exact size asked for and met.
+  EXPECT_EQ(failure(withImage(r, 1920, 1200, "r.jpg"), ImageSize{1920, 1200}), "");
+}
+
+TEST(CalibrationCheck, ResizedImagesAreErrorsNamingImageAndCalibration) {
+  const std::string calib = test::dataPath("kitti_object_fusion/training/calib/000001.txt");
+  const CameraModel k = kittiCamera(readKittiCalib(calib), 2, 621, 188);
+  // Halved (the audit's case: 2180 instead of 20259 points in the image, no error) and doubled.
+  for (const auto& [w, h] : {std::pair{621, 188}, std::pair{2484, 750}}) {
+    const std::string what = failure(withImage(k, w, h, "/d/image_2/000001.png"));
+    EXPECT_NE(what.find("/d/image_2/000001.png"), std::string::npos) << what;
+    EXPECT_NE(what.find(calib + " (P2, R0_rect, Tr_velo_to_cam)"), std::string::npos) << what;
+    EXPECT_NE(what.find(std::to_string(w) + "x" + std::to_string(h) + " px"), std::string::npos);
+    EXPECT_NE(what.find("principal point (609.6, 172.9) px"), std::string::npos) << what;
+  }
+  const std::string rellis = test::dataPath("rellis3d_example_000104/");
+  const CameraModel r =
+      rellisCamera(rellis + "camera_info.txt", rellis + "transforms.yaml", 960, 600);
+  const std::string what = failure(withImage(r, 960, 600, "/d/frame.jpg"));
+  EXPECT_NE(what.find(rellis + "camera_info.txt"), std::string::npos) << what;
+  EXPECT_NE(what.find(rellis + "transforms.yaml"), std::string::npos) << what;
+  // A 10 % smaller image keeps the principal point central: only image_size catches it.
+  const CameraModel k1 = kittiCamera(readKittiCalib(calib), 2, 1118, 338);
+  EXPECT_EQ(failure(withImage(k1, 1118, 338, "s.png")), "");
+  const std::string exact = failure(withImage(k1, 1118, 338, "s.png"), ImageSize{1242, 375});
+  EXPECT_NE(exact.find("1118x338 px"), std::string::npos) << exact;
+  EXPECT_NE(exact.find("1242x375 px"), std::string::npos) << exact;
+  EXPECT_NE(exact.find(calib), std::string::npos) << exact;
+}
+
+TEST(CalibrationCheck, DegenerateProjectionAndNoImage) {
+  CameraModel zero;
+  zero.calibration = "/d/calib.txt (P2, Tr)";
+  const std::string what = failure(withImage(zero, 100, 100, "x.png"));
+  EXPECT_NE(what.find("degenerate"), std::string::npos) << what;
+  EXPECT_NE(what.find("/d/calib.txt (P2, Tr)"), std::string::npos) << what;
+  CameraImage none;  // no image: left to the consumer (camera_fusion names it)
+  none.model = zero;
+  EXPECT_NO_THROW(checkCalibrationFitsImage(none));
+}
+
+TEST(CalibrationCheck, ImageSizeParameter) {
+  EXPECT_FALSE(imageSizeParam({}).has_value());
+  EXPECT_EQ(*imageSizeParam({1242, 375}), (ImageSize{1242, 375}));
+  for (const std::vector<double>& bad :
+       {std::vector<double>{1242}, {1242, 375, 3}, {0, 375}, {1242.5, 375}, {-1, 2}}) {
+    try {
+      imageSizeParam(bad);
+      ADD_FAILURE() << "accepted " << bad.size() << " numbers";
+    } catch (const ParamError& e) {
+      EXPECT_EQ(e.param(), "image_size");
+    }
+  }
+}
+
+}  // namespace
+}  // namespace terramrf
