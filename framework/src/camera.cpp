@@ -1,6 +1,37 @@
 #include "terramrf/camera.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 namespace terramrf {
+namespace {
+
+/// Whether the radial distortion r ↦ r (1 + k1 r² + k2 r⁴ + k3 r⁶) still grows at every radius up
+/// to r² = s. Beyond its first turning point the polynomial folds far off-axis points back into
+/// the image, where they would take the colour of pixels they never saw.
+bool radialMonotoneUpTo(double k1, double k2, double k3, double s) {
+  // d(r_d)/dr = g(r²) with g(s) = 1 + 3 k1 s + 5 k2 s² + 7 k3 s³, g(0) = 1: positive on [0, s]
+  // iff positive at s and at its interior minima (roots of g').
+  auto g = [&](double t) { return 1 + t * (3 * k1 + t * (5 * k2 + t * 7 * k3)); };
+  if (!(g(s) > 0)) return false;
+  const double a = 21 * k3, b = 10 * k2, c = 3 * k1;  // g'(t) = a t² + b t + c
+  double roots[2];
+  int n = 0;
+  if (std::abs(a) < 1e-300) {
+    if (std::abs(b) > 1e-300) roots[n++] = -c / b;
+  } else {
+    const double disc = b * b - 4 * a * c;
+    if (disc >= 0) {
+      roots[n++] = (-b - std::sqrt(disc)) / (2 * a);
+      roots[n++] = (-b + std::sqrt(disc)) / (2 * a);
+    }
+  }
+  for (int i = 0; i < n; ++i)
+    if (roots[i] > 0 && roots[i] < s && !(g(roots[i]) > 0)) return false;
+  return true;
+}
+
+}  // namespace
 
 std::optional<Eigen::Vector2d> CameraModel::projectUnbounded(const Eigen::Vector3d& p_lidar) const {
   const Eigen::Vector3d pc = T_camera_lidar * p_lidar;
@@ -13,6 +44,7 @@ std::optional<Eigen::Vector2d> CameraModel::projectUnbounded(const Eigen::Vector
     // Distortion acts on normalised coordinates; P's last column (KITTI baseline) is kept.
     const double x = pc.x() / pc.z(), y = pc.y() / pc.z();
     const double r2 = x * x + y * y;
+    if (!radialMonotoneUpTo(d[0], d[1], d[4], r2)) return std::nullopt;
     const double radial = 1 + d[0] * r2 + d[1] * r2 * r2 + d[4] * r2 * r2 * r2;
     const double xd = x * radial + 2 * d[2] * x * y + d[3] * (r2 + 2 * x * x);
     const double yd = y * radial + d[2] * (r2 + 2 * y * y) + 2 * d[3] * x * y;

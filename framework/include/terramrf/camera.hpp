@@ -19,7 +19,8 @@ struct CameraModel {
   int height = 0;                       ///< [px]
   Eigen::Matrix<double, 3, 4> P = Eigen::Matrix<double, 3, 4>::Zero();
   /// k1, k2, p1, p2, k3 (OpenCV order); all zero = no distortion. Applied in normalised coordinates
-  /// of K = P.leftCols<3>() before the intrinsics.
+  /// of K = P.leftCols<3>() before the intrinsics. A point beyond the radius where the radial
+  /// polynomial stops growing projects nowhere (it would fold back into the image).
   std::array<double, 5> distortion{0, 0, 0, 0, 0};
   /// LiDAR → camera (for KITTI: R0_rect · Tr_velo_to_cam).
   Eigen::Isometry3d T_camera_lidar = Eigen::Isometry3d::Identity();

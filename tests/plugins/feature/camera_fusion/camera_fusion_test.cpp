@@ -98,6 +98,31 @@ TEST(CameraFusion, PointPixelsMatchCameraModelProject) {
   }
 }
 
+TEST(CameraModel, PointsBeyondTheDistortionsTurningPointProjectNowhere) {
+  // k1 = −0.2: r_d = r (1 − 0.2 r²) grows up to r² = 1/0.6 and then falls. A point at r = 2
+  // would land at r_d = 0.4, i.e. u = 140 px, inside the image, though it is 63° off axis.
+  CameraModel m;
+  m.width = 200;
+  m.height = 100;
+  m.P << 100, 0, 100, 0,  //
+      0, 100, 50, 0,      //
+      0, 0, 1, 0;
+  m.distortion = {-0.2, 0, 0, 0, 0};
+  const auto near = m.project(Eigen::Vector3d(0.3, 0, 1));  // camera frame = LiDAR frame here
+  ASSERT_TRUE(near);
+  EXPECT_NEAR(near->x(), 100 + 100 * 0.3 * (1 - 0.2 * 0.09), 1e-9);
+  EXPECT_FALSE(m.project(Eigen::Vector3d(2.0, 0, 1)));
+  EXPECT_FALSE(m.projectUnbounded(Eigen::Vector3d(2.0, 0, 1)));
+  EXPECT_TRUE(m.projectUnbounded(Eigen::Vector3d(1.25, 0, 1)));  // r² = 1.5625 < 1.667
+  EXPECT_FALSE(m.projectUnbounded(Eigen::Vector3d(1.3, 0, 1)));  // r² = 1.69
+  // A k2 > 0 polynomial that dips below zero slope and rises again: the fold in between is
+  // found although the slope is positive again at the point itself.
+  m.distortion = {-0.5, 0.1, 0, 0, 0};  // g(s) = 1 − 1.5 s + 0.5 s²: negative on (1, 2)
+  EXPECT_TRUE(m.projectUnbounded(Eigen::Vector3d(0.9, 0, 1)));
+  EXPECT_FALSE(m.projectUnbounded(Eigen::Vector3d(1.2, 0, 1)));
+  EXPECT_FALSE(m.projectUnbounded(Eigen::Vector3d(1.8, 0, 1)));  // s = 3.24: g > 0 again
+}
+
 // Pixel centres (u, v) strictly inside the convex quad (independent oracle); `on_edge` collects
 // those within 1e-9 px of an edge, whose ownership is a convention.
 void quadOracle(const std::vector<Eigen::Vector2d>& q, int w, int h, std::set<uint32_t>* inside,
