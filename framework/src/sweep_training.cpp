@@ -189,7 +189,7 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
     if (hasParam(*it->src, "path")) rec.path = paramString(*it->src, "path");
     if (hasParam(*it->src, "label_map")) {
       rec.label_map = paramString(*it->src, "label_map");
-      if (rec.label_map.empty()) rec.label_map = "(source default)";
+      if (rec.label_map.empty()) rec.label_map = "(source default)";  // a source that keeps ""
     } else {
       rec.label_map = "(none: the source has no label map)";
     }

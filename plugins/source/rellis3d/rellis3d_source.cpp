@@ -77,6 +77,8 @@ class Rellis3dSource : public Source {
       } catch (const InputError& e) {
         throw ParamError("label_map", e.what());
       }
+      // The file actually read, so resolved configs and model provenance name it, not "".
+      label_map_ = file;
     }
   }
 

@@ -83,6 +83,8 @@ class SemanticKittiSource : public Source {
       } catch (const InputError& e) {
         throw ParamError("label_map", e.what());
       }
+      // The file actually read, so resolved configs and model provenance name it, not "".
+      label_map_ = file;
     }
     poses_.clear();
     times_.clear();

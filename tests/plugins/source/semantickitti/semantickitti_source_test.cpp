@@ -12,6 +12,7 @@
 
 #include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/errors.hpp"
+#include "terramrf/io/label_map.hpp"
 #include "terramrf/param_values.hpp"
 #include "terramrf/registry.hpp"
 #include "test_support.hpp"
@@ -96,6 +97,19 @@ TEST_F(SemanticKittiSourceTest, Seq00FramesLabelsPosesRings) {
   EXPECT_NEAR(100 * mapped[labels::kObstacle] / total, 44.7, 0.05);
   EXPECT_NEAR(100 * mapped[labels::kUnknown] / total, 1.7, 0.05);
   EXPECT_THROW(src->read(6), std::out_of_range);
+}
+
+TEST_F(SemanticKittiSourceTest, TheDefaultLabelMapIsNamedByTheFileItRead) {
+  // Resolved configs and model provenance read the parameter back: it must name the shipped
+  // file that was loaded, not stay "".
+  auto src = make("{path: " + test::dataPath("semantickitti_seq00_000000-000005") + "}");
+  ParamDecl d;
+  src->declare(d);
+  const ParamSpec* spec = d.find("label_map");
+  ASSERT_NE(spec, nullptr);
+  const std::string value = std::get<std::string>(spec->get());
+  EXPECT_EQ(value, shippedLabelMap("semantickitti.yaml"));
+  EXPECT_TRUE(std::filesystem::is_regular_file(value)) << value;
 }
 
 TEST_F(SemanticKittiSourceTest, DatasetRootWithSequence) {
