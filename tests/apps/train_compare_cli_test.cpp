@@ -80,17 +80,21 @@ TEST(TrainCli, WritesTheModel) {
   EXPECT_NE(readFile(model).find("trained_from:"), std::string::npos);
 }
 
-TEST(CompareCli, DryRunAndBadSweep) {
-  test::TempDir dir;
-  const std::string sweep = put(dir, "s.yaml", R"(version: 1
+/// A one-frame simulator sweep with the given `optimisers:` value (on line 8).
+std::string sweepWithOptimisers(const std::string& optimisers) {
+  return R"(version: 1
 datasets:
   a: {type: simulator, params: {seed: 7, frames: 1, enable_camera: false}}
   b: {type: simulator, params: {seed: 1, frames: 1, enable_camera: false}}
 split: {train: [a], test: [b]}
 feature_sets:
   L: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
-optimisers: [icm, not_built]
-)");
+optimisers: )" + optimisers + "\n";
+}
+
+TEST(CompareCli, DryRunAndBadSweep) {
+  test::TempDir dir;
+  const std::string sweep = put(dir, "s.yaml", sweepWithOptimisers("[icm, not_built]"));
   EXPECT_EQ(cli::cmdCompare({sweep, "--dry-run"}), cli::kOk);
   const std::string bad = put(dir, "bad.yaml", "version: 1\ndatasets: {}\n");
   EXPECT_EQ(cli::cmdCompare({bad, "--no-progress"}), cli::kUsage);
@@ -104,15 +108,7 @@ TEST(CompareCli, ATypoInAPluginTypeIsAnErrorNotASkippedRun) {
   // A type nothing installed resembles is a plugin not built yet: its runs are skipped. One a
   // letter away from an installed plugin is a typo.
   test::TempDir dir;
-  const std::string sweep = put(dir, "typo.yaml", R"(version: 1
-datasets:
-  a: {type: simulator, params: {seed: 7, frames: 1, enable_camera: false}}
-  b: {type: simulator, params: {seed: 1, frames: 1, enable_camera: false}}
-split: {train: [a], test: [b]}
-feature_sets:
-  L: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
-optimisers: [icm, icmm]
-)");
+  const std::string sweep = put(dir, "typo.yaml", sweepWithOptimisers("[icm, icmm]"));
   testing::internal::CaptureStderr();
   EXPECT_EQ(cli::cmdCompare({sweep, "--dry-run"}), cli::kUsage);
   const std::string err = testing::internal::GetCapturedStderr();

@@ -60,6 +60,17 @@ energy: {type: potts_gaussian, params: {alpha: 1.0, beta: 0.8, preclass_layer: p
 )";
 }
 
+/// `dir`/seq: scan 000000 (with labels) of the shared sequence `fixture`, and a truncated 000001.
+void goodAndTruncatedScan(const test::TempDir& dir, const std::string& fixture) {
+  const std::string seq = dir.str() + "/seq";
+  fs::create_directories(seq + "/velodyne");
+  fs::create_directories(seq + "/labels");
+  const std::string from = test::dataPath(fixture);
+  fs::copy_file(from + "/velodyne/000000.bin", seq + "/velodyne/000000.bin");
+  fs::copy_file(from + "/labels/000000.label", seq + "/labels/000000.label");
+  std::ofstream(seq + "/velodyne/000001.bin") << "12345";  // not a multiple of 16 bytes
+}
+
 ConfigError expectConfigError(const std::string& sweep) {
   try {
     planSweep(sweep, {test::pluginDir()});
@@ -688,14 +699,7 @@ TEST(SweepFrameCache, KeptFramesGiveTheSameResultsAsReadingThemAgain) {
 
 TEST(SweepFrameCache, AFrameThatFailsToReadFailsInEveryRunAndIsReported) {
   test::TempDir dir;
-  // A scan folder with one good and one truncated scan.
-  const std::string seq = dir.str() + "/seq";
-  fs::create_directories(seq + "/velodyne");
-  fs::create_directories(seq + "/labels");
-  const std::string fixture = test::dataPath("semantickitti_mmdet3d_fixture/sequences/00");
-  fs::copy_file(fixture + "/velodyne/000000.bin", seq + "/velodyne/000000.bin");
-  fs::copy_file(fixture + "/labels/000000.label", seq + "/labels/000000.label");
-  std::ofstream(seq + "/velodyne/000001.bin") << "12345";  // not a multiple of 16 bytes
+  goodAndTruncatedScan(dir, "semantickitti_mmdet3d_fixture/sequences/00");
   const std::string sweep = put(dir, "bad_frame.yaml",
                                 std::string(R"(version: 1
 grid: {size_m: 30, cell_m: 0.5}
@@ -731,13 +735,7 @@ TEST(SweepTraining, ATrainingFrameThatFailsIsReportedAndSetsTheExitStatus) {
   test::TempDir dir;
   // Training on one good and one truncated scan: the model is learnt from the good one, and the
   // lost frame must show in the report and the exit status, not only inside the model file.
-  const std::string seq = dir.str() + "/seq";
-  fs::create_directories(seq + "/velodyne");
-  fs::create_directories(seq + "/labels");
-  const std::string fixture = test::dataPath("semantickitti_seq00_000000-000005/sequences/00");
-  fs::copy_file(fixture + "/velodyne/000000.bin", seq + "/velodyne/000000.bin");
-  fs::copy_file(fixture + "/labels/000000.label", seq + "/labels/000000.label");
-  std::ofstream(seq + "/velodyne/000001.bin") << "12345";  // not a multiple of 16 bytes
+  goodAndTruncatedScan(dir, "semantickitti_seq00_000000-000005/sequences/00");
   const std::string sweep = put(dir, "bad_train_frame.yaml",
                                 std::string(R"(version: 1
 grid: {size_m: 30, cell_m: 0.5}
