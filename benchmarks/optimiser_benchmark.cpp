@@ -1,4 +1,5 @@
-// Per-frame cost of each optimiser plugin alone (icm, alpha_expansion, gibbs with 100 sweeps) on a
+// Per-frame cost of each optimiser plugin alone (icm, alpha_expansion, gibbs with 100 annealing
+// sweeps and its default marginal sweeps, and without them) on a
 // synthetic 200 × 200 grid with 4 labels and Potts β = β_diagonal = 0.8, one thread.
 //
 // The unaries come from a blocky ground truth (20 × 20-cell blocks of random labels):
@@ -170,8 +171,11 @@ void BM_AlphaExpansion(benchmark::State& s) { runOptimiser(s, "alpha_expansion",
 void BM_AlphaExpansionNoPreIcm(benchmark::State& s) {
   runOptimiser(s, "alpha_expansion", "{pre_icm: false}");
 }
-void BM_Gibbs100Sweeps(benchmark::State& s) {
-  runOptimiser(s, "gibbs", "{sweeps: 100, burn_in: 20, seed: 1}");
+void BM_Gibbs100Sweeps(benchmark::State& s) { runOptimiser(s, "gibbs", "{sweeps: 100, seed: 1}"); }
+// The annealing alone: the scores averaged over its sweeps instead of the marginal sweeps, so the
+// difference to BM_Gibbs100Sweeps is what the marginals at marginal_temperature cost.
+void BM_Gibbs100SweepsNoMarginalSweeps(benchmark::State& s) {
+  runOptimiser(s, "gibbs", "{sweeps: 100, burn_in: 20, marginal_sweeps: 0, seed: 1}");
 }
 
 BENCHMARK(BM_Icm)->Unit(benchmark::kMillisecond)->Repetitions(10)->ReportAggregatesOnly(true);
@@ -184,6 +188,10 @@ BENCHMARK(BM_AlphaExpansionNoPreIcm)
     ->Repetitions(10)
     ->ReportAggregatesOnly(true);
 BENCHMARK(BM_Gibbs100Sweeps)
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(10)
+    ->ReportAggregatesOnly(true);
+BENCHMARK(BM_Gibbs100SweepsNoMarginalSweeps)
     ->Unit(benchmark::kMillisecond)
     ->Repetitions(10)
     ->ReportAggregatesOnly(true);

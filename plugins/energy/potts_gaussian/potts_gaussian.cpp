@@ -31,8 +31,9 @@ class PottsGaussian final : public Stage {
     d.add("preclass_layer", preclass_layer_,
           "pre-class layer (0 unknown, 1 flat, 2 obstacle) used for the initial labelling; '' = none");
     d.add("class_cost", class_cost_,
-          "constant added to each class's feature energy, in the order of `classes` (empty = all "
-          "0): a negative log prior, or the price of missing a class — a negative obstacle cost "
+          "constant cost_k per class, in the order of `classes` (empty = all 0), added to the "
+          "unary after the alpha weighting: unary_k = alpha·E_f + cost_k, E = Σ unary + pairs. "
+          "A negative log prior, or the price of missing a class — a negative obstacle cost "
           "trades false alarms for obstacle recall (docs/energy.md)")
         .unit("energy");
     d.add("min_points", min_points_, "cells with fewer points are fixed to unknown (no data)")

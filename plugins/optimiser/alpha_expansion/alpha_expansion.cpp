@@ -2,11 +2,11 @@
 //
 // The Potts term of EnergyModel, w·δ with δ(equal) = −1 and δ(different) = +1, equals the metric
 // V(a, b) = 2w·[a ≠ b] minus the constant w per pair, so minimising one minimises the other and
-// α-expansion applies with its factor-2 bound (docs/optimisers.md). Every expansion is one min-cut
-// on a graph whose structure (cells, 8-neighbour pairs, terminal links) is built once per grid
-// size; between expansions and frames only capacities change (fixed cells get none). Each label's
-// cut is warm-started from the residual network of its previous cut. A move is kept only if the
-// exact EnergyModel energy drops, so the result never lies above the start.
+// α-expansion applies, with its factor-2 bound on the shifted energy (docs/optimisers.md). Every
+// expansion is one min-cut on a graph whose structure (cells, 8-neighbour pairs, terminal links) is
+// built once per grid size; between expansions and frames only capacities change (fixed cells get
+// none). Each label's cut is warm-started from the residual network of its previous cut. A move is
+// kept only if the exact EnergyModel energy drops, so the result never lies above the start.
 #include <algorithm>
 #include <boost/graph/boykov_kolmogorov_max_flow.hpp>
 #include <boost/graph/compressed_sparse_row_graph.hpp>
@@ -20,6 +20,7 @@
 
 #include "terramrf/padded_labels.hpp"
 #include "terramrf/plugin.hpp"
+#include "terramrf/roc.hpp"
 
 namespace terramrf {
 namespace {
@@ -159,10 +160,6 @@ class AlphaExpansion final : public Stage {
     d.add("pre_icm", pre_icm_,
           "run ICM on the starting labelling before the expansions: the first, most expensive "
           "cuts then only make the moves ICM cannot (2× faster on the noisy benchmark start)");
-    d.add("score_temperature", score_t_,
-          "temperature of the softmax over −(local energy) that gives the score layers")
-        .unit("energy")
-        .range(1e-6, 1e6);
   }
   std::vector<std::string> reads() const override { return {artefacts::kEnergy}; }
   std::vector<std::string> writes() const override { return {artefacts::kLabels}; }
@@ -443,11 +440,11 @@ class AlphaExpansion final : public Stage {
     return !move_.empty();
   }
 
-  /// Grid labels (fixed → unknown) and score layers: softmax over k of −E_c(k)/T_s given the final
-  /// neighbours, a monotone map of each label's local-energy margin (NaN on fixed cells).
+  /// Grid labels (fixed → unknown) and score layers: the local energy margin
+  /// min_{j≠k} E_c(j) − E_c(k) given the final neighbours, the score the ROC curves give an
+  /// optimiser without score layers (ICM), so that deterministic optimisers are scored alike.
   void writeOutputs(FrameContext& ctx, const std::vector<uint8_t>& lab) {
     const EnergyModel& em = ctx.energy;
-    const int R = em.rows, C = em.cols, K = em.numLabels(), W = C + 2;
     auto& out = ctx.grid->labels();
     out.assign(ctx.grid->cells(), labels::kUnknown);
     if (out.size() != em.cells())
@@ -456,30 +453,15 @@ class AlphaExpansion final : public Stage {
     for (std::size_t i = 0; i < em.cells(); ++i)
       if (!em.fixed[i]) out[i] = em.active[lab[i]];
     if (!ctx.labels) return;
-    std::vector<float*> layer(K);
-    for (int k = 0; k < K; ++k)
-      layer[k] = ctx.grid->add(layers::score(ctx.labels->name(em.active[k]))).data();
-    pad_.assign(em, lab);
-    std::vector<float> s(K + 1);
-    const float inv_t = static_cast<float>(1.0 / score_t_);
-    for (int r = 0; r < R; ++r) {
-      const uint8_t* p = pad_.at(r, 0);
-      for (int c = 0; c < C; ++c, ++p) {
-        if (*p == K) continue;  // fixed: NaN
-        const std::size_t i = std::size_t(r) * C + c;
-        localScores(em, p, i, W, s.data());
-        const float m = *std::min_element(s.begin(), s.begin() + K);
-        float sum = 0;
-        for (int k = 0; k < K; ++k) sum += (s[k] = std::exp(-(s[k] - m) * inv_t));
-        for (int k = 0; k < K; ++k) layer[k][i] = s[k] / sum;
-      }
-    }
+    std::vector<Layer> scores = localEnergyScores(em, out, ctx.labels->size());
+    for (LabelId id : em.active)
+      if (id < scores.size() && !scores[id].empty())
+        ctx.grid->add(layers::score(ctx.labels->name(id))) = std::move(scores[id]);
   }
 
   int max_cycles_ = 10;
   std::string init_ = "initial";
   bool pre_icm_ = true;
-  double score_t_ = 1.0;
 
   FlowNetwork net_;
   FrameGraph fg_;
@@ -496,6 +478,5 @@ class AlphaExpansion final : public Stage {
 
 }  // namespace terramrf
 
-TERRAMRF_PLUGIN(
-    terramrf::AlphaExpansion, terramrf::PluginKind::kOptimiser, "alpha_expansion",
-    "α-expansion graph cuts (Boykov–Kolmogorov max-flow); scores = softmax of −local energy")
+TERRAMRF_PLUGIN(terramrf::AlphaExpansion, terramrf::PluginKind::kOptimiser, "alpha_expansion",
+                "α-expansion graph cuts (Boykov–Kolmogorov max-flow); scores = local energy margin")

@@ -1,9 +1,10 @@
 // Gibbs sampler with simulated annealing (Geman & Geman 1984), the optimiser of papers 000/001.
 // Each sweep visits the cells in raster order and draws a cell's label from its conditional
 // P(k | neighbours) ∝ exp(−E_c(k) / T), E_c the eq. 12 local energy; the temperature T follows an
-// annealing schedule over the sweeps. After burn-in the conditionals are averaged into label
-// marginals (the score layers). The returned labelling is the lowest-energy one seen at the end of
-// a sweep (or the initial labelling), so the energy never rises above the start.
+// annealing schedule over the sweeps. The returned labelling is the lowest-energy one seen at the
+// end of an annealing sweep (or the initial labelling), so the energy never rises above the start.
+// The label marginals (the score layers) come from extra sweeps at one fixed temperature after the
+// annealing: averages over a schedule's changing temperatures are marginals of no distribution.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -11,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "neg_exp_table.hpp"
 #include "terramrf/padded_labels.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -42,30 +44,6 @@ class Pcg32 {
   uint64_t state_;
 };
 
-/// e^{−x} for x ≥ 0 by linear interpolation in a table (relative error < 1e-5): K exponentials per
-/// cell update would otherwise dominate a sweep. Beyond kMax the weight (< 1.3e-14) is taken as 0.
-class NegExpTable {
- public:
-  NegExpTable() {
-    tab_.resize(kSize + 2);
-    for (int i = 0; i < kSize + 2; ++i)
-      tab_[i] = static_cast<float>(std::exp(-double(i) / kPerUnit));
-  }
-  float operator()(float x) const {
-    if (!(x < kMax)) return 0.f;
-    const float f = x * kPerUnit;
-    const int i = static_cast<int>(f);
-    const float t = f - static_cast<float>(i);
-    return tab_[i] + t * (tab_[i + 1] - tab_[i]);
-  }
-
- private:
-  static constexpr float kMax = 32.f;
-  static constexpr int kPerUnit = 64;
-  static constexpr int kSize = static_cast<int>(kMax) * kPerUnit;
-  std::vector<float> tab_;
-};
-
 }  // namespace
 
 class GibbsSampler final : public Stage {
@@ -85,17 +63,37 @@ class GibbsSampler final : public Stage {
     d.add("rate", rate_, "speed of the logarithmic schedule (unused by the others)")
         .unit("1")
         .range(0, 1e6);
-    d.add("sweeps", sweeps_, "full sweeps over the grid, burn-in included").range(1, 100000);
-    d.add("burn_in", burn_in_, "sweeps before the marginals start being averaged").range(0, 100000);
+    d.add("sweeps", sweeps_,
+          "annealing sweeps over the grid; the result is the lowest-energy labelling they reach")
+        .range(1, 100000);
+    d.add("marginal_temperature", t_marg_,
+          "temperature T_m of the score layers: they estimate the per-cell marginals of "
+          "exp(−E/T_m) (1 = the posterior when E is a negative log-probability)")
+        .unit("energy")
+        .range(1e-6, 1e6);
+    d.add("marginal_sweeps", marg_sweeps_,
+          "sweeps at marginal_temperature after the annealing, from its final state, whose "
+          "conditionals are averaged into the marginals; they never change the returned "
+          "labelling. 0 = average the annealing sweeps after burn_in instead (cheaper, but with "
+          "an annealing schedule that mixes temperatures: marginals of exp(−E/T0) only with "
+          "schedule: constant)")
+        .range(0, 100000);
+    d.add("marginal_burn_in", marg_burn_in_,
+          "sweeps at marginal_temperature before the marginal_sweeps, not averaged: the annealed "
+          "state is usually colder than exp(−E/T_m)")
+        .range(0, 100000);
+    d.add("burn_in", burn_in_,
+          "with marginal_sweeps: 0 only, annealing sweeps before their conditionals are averaged")
+        .range(0, 100000);
     d.add("seed", seed_, "random seed; the same seed gives the same labelling and marginals")
         .range(0, 4294967295.0);
   }
 
   void configure(const PluginContext& /*ctx*/) override {
-    if (burn_in_ >= sweeps_)
+    if (marg_sweeps_ == 0 && burn_in_ >= sweeps_)
       throw ParamError("burn_in", "burn_in (" + std::to_string(burn_in_) +
                                       ") must be smaller than sweeps (" + std::to_string(sweeps_) +
-                                      ") so that some samples are averaged");
+                                      ") so that some samples are averaged (marginal_sweeps: 0)");
     if (schedule_ != "constant" && t_end_ > t0_)
       throw ParamError("final_temperature", "final_temperature must not exceed temperature (" +
                                                 std::to_string(t0_) + ") when annealing");
@@ -122,36 +120,31 @@ class GibbsSampler final : public Stage {
     int best_sweep = -1;  // -1 = the initial labelling
     marg_.assign(em.cells() * K, 0.f);
     Pcg32 rng(static_cast<uint64_t>(seed_));
+    const bool average_annealing = marg_sweeps_ == 0;
     int changed = 0, sweep = 0;
     for (; sweep < sweeps_; ++sweep) {
       const float inv_t = static_cast<float>(1.0 / temperatureAt(sweep));
-      const bool average = sweep >= burn_in_;
-      // Compile-time K for the usual label counts lets the compiler keep the K scores in registers.
-      switch (K) {
-        case 2:
-          changed = sweepGrid<2>(em, inv_t, average, rng, e);
-          break;
-        case 3:
-          changed = sweepGrid<3>(em, inv_t, average, rng, e);
-          break;
-        case 4:
-          changed = sweepGrid<4>(em, inv_t, average, rng, e);
-          break;
-        case 5:
-          changed = sweepGrid<5>(em, inv_t, average, rng, e);
-          break;
-        case 6:
-          changed = sweepGrid<6>(em, inv_t, average, rng, e);
-          break;
-        default:
-          changed = sweepGrid<0>(em, inv_t, average, rng, e);
-          break;
-      }
+      changed = runSweep(em, inv_t, average_annealing && sweep >= burn_in_, rng, e);
       if (e < e_best) {
         e_best = e;
         best_sweep = sweep;
         std::memcpy(best_.data().data(), pad_.data().data(), pad_.data().size());
       }
+    }
+    // Where the annealing itself ended (the chain, not the best state it passed through).
+    end_.assign(em.initial.begin(), em.initial.end());
+    pad_.extract(em, end_);
+    const double e_annealed = em.energy(end_);
+
+    // The marginal chain continues from the annealed state on pad_ only; best_ keeps the result,
+    // and its energy is not tracked.
+    int averaged = sweeps_ - burn_in_;
+    if (!average_annealing) {
+      const float inv_t = static_cast<float>(1.0 / t_marg_);
+      double e_chain = e_annealed;
+      for (int s = 0; s < marg_burn_in_ + marg_sweeps_; ++s)
+        runSweep(em, inv_t, s >= marg_burn_in_, rng, e_chain);
+      averaged = marg_sweeps_;
     }
 
     // The running energy is a float sum; the decision that keeps the promise "never above the
@@ -164,22 +157,43 @@ class GibbsSampler final : public Stage {
       e_final = e_initial;
       best_sweep = -1;
     }
-    const float inv_n = 1.f / static_cast<float>(sweeps_ - burn_in_);
+    const float inv_n = 1.f / static_cast<float>(averaged);
     for (float& v : marg_) v *= inv_n;
 
     rep.initial_energy = e_initial;
     rep.final_energy = e_final;
     rep.iterations = sweep;
-    rep.converged = changed == 0;  // frozen: the last sweep changed no label
+    rep.converged = changed == 0;  // frozen: the last annealing sweep changed no label
     writeOutputs(ctx, lab, marg_);
     ctx.metrics[name() + ".sweeps"] = sweep;
     ctx.metrics[name() + ".energy"] = e_final;
     ctx.metrics[name() + ".initial_energy"] = e_initial;
+    ctx.metrics[name() + ".annealed_energy"] = e_annealed;
     ctx.metrics[name() + ".best_sweep"] = best_sweep;
     ctx.metrics[name() + ".last_sweep_changes"] = changed;
+    ctx.metrics[name() + ".marginal_sweeps"] = average_annealing ? 0 : marg_burn_in_ + marg_sweeps_;
   }
 
  private:
+  /// One sweep with the compile-time K for the usual label counts, which lets the compiler keep
+  /// the K scores in registers.
+  int runSweep(const EnergyModel& em, float inv_t, bool average, Pcg32& rng, double& e) {
+    switch (em.numLabels()) {
+      case 2:
+        return sweepGrid<2>(em, inv_t, average, rng, e);
+      case 3:
+        return sweepGrid<3>(em, inv_t, average, rng, e);
+      case 4:
+        return sweepGrid<4>(em, inv_t, average, rng, e);
+      case 5:
+        return sweepGrid<5>(em, inv_t, average, rng, e);
+      case 6:
+        return sweepGrid<6>(em, inv_t, average, rng, e);
+      default:
+        return sweepGrid<0>(em, inv_t, average, rng, e);
+    }
+  }
+
   /// One Gibbs sweep in raster order over pad_ (KK = K, or 0 for any K); returns the number of
   /// labels changed and keeps `e` equal to the energy of the current labelling.
   template <int KK>
@@ -275,15 +289,21 @@ class GibbsSampler final : public Stage {
   std::string schedule_ = "geometric";
   double rate_ = 1.0;
   int sweeps_ = 100;
+  double t_marg_ = 1.0;
+  int marg_sweeps_ = 20;
+  int marg_burn_in_ = 5;
   int burn_in_ = 20;
   int64_t seed_ = 1;
 
   NegExpTable exp_;
   PaddedLabels pad_, best_;
   std::vector<float> marg_;
+  std::vector<uint8_t> end_;
 };
 
 }  // namespace terramrf
 
-TERRAMRF_PLUGIN(terramrf::GibbsSampler, terramrf::PluginKind::kOptimiser, "gibbs",
-                "Gibbs sampler with simulated annealing; scores = label marginals after burn-in")
+TERRAMRF_PLUGIN(
+    terramrf::GibbsSampler, terramrf::PluginKind::kOptimiser, "gibbs",
+    "Gibbs sampler with simulated annealing; scores = label marginals of exp(−E/T_m) from "
+    "sweeps after the annealing")

@@ -1,6 +1,8 @@
 // Iterated conditional modes (Besag 1986): each cell in turn takes the label of lowest local
 // energy given its neighbours, until a sweep changes nothing. Never raises the energy, so it is
 // a fast, deterministic baseline next to the Gibbs sampler and α-expansion.
+#include <limits>
+
 #include "terramrf/padded_labels.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -11,7 +13,8 @@ class Icm final : public Stage {
   void declare(ParamDecl& d) override {
     d.add("max_sweeps", max_sweeps_, "upper bound on full sweeps over the grid").range(1, 10000);
     d.add("report_energy", report_energy_,
-          "compute the initial and final total energy for the report (costs two passes)");
+          "compute the initial and final total energy for the report (costs two passes); false "
+          "reports both as NaN (not computed), never as a number that could be read as an energy");
   }
   std::vector<std::string> reads() const override { return {artefacts::kEnergy}; }
   std::vector<std::string> writes() const override { return {artefacts::kLabels}; }
@@ -22,19 +25,23 @@ class Icm final : public Stage {
     lab = em.initial;
     OptimiserReport& rep = ctx.optimiser;
     rep = {};
-    if (report_energy_) rep.initial_energy = em.energy(lab);
+    constexpr double kNotComputed = std::numeric_limits<double>::quiet_NaN();
+    rep.initial_energy = report_energy_ ? em.energy(lab) : kNotComputed;
     padded_.assign(em, lab);
     bool converged = false;
     const int sweep = icmSweeps(em, padded_, max_sweeps_, dirty_, converged);
     padded_.extract(em, lab);
     rep.iterations = sweep;
     rep.converged = converged;
-    if (report_energy_) rep.final_energy = em.energy(lab);
+    rep.final_energy = report_energy_ ? em.energy(lab) : kNotComputed;
     auto& out = ctx.grid->labels();
     for (std::size_t i = 0; i < em.cells(); ++i)
       out[i] = em.fixed[i] ? labels::kUnknown : em.active[lab[i]];
     ctx.metrics[name() + ".sweeps"] = sweep;
-    if (report_energy_) ctx.metrics[name() + ".energy"] = rep.final_energy;
+    if (report_energy_) {
+      ctx.metrics[name() + ".energy"] = rep.final_energy;
+      ctx.metrics[name() + ".initial_energy"] = rep.initial_energy;
+    }
   }
 
  private:

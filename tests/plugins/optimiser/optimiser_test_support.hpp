@@ -4,6 +4,7 @@
 // grids.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -103,6 +104,102 @@ inline std::pair<double, std::vector<uint8_t>> bruteForce(const EnergyModel& em)
     }
   }
   return {e_best, best};
+}
+
+/// Exact per-cell marginals of exp(−E/T) by enumeration (cells × K, row-major by cell; fixed
+/// cells keep `initial` and get 0). Keep it tiny: K^cells labellings.
+inline std::vector<double> bruteForceMarginals(const EnergyModel& em, double T) {
+  const int K = em.numLabels();
+  std::vector<int> free_cells;
+  for (std::size_t i = 0; i < em.cells(); ++i)
+    if (!em.fixed[i]) free_cells.push_back(static_cast<int>(i));
+  long total = 1;
+  for (std::size_t n = 0; n < free_cells.size(); ++n) total *= K;
+  // Energies relative to the minimum keep exp() away from overflow at low T.
+  std::vector<double> e(total);
+  std::vector<uint8_t> lab = em.initial;
+  for (long code = 0; code < total; ++code) {
+    long x = code;
+    for (int i : free_cells) {
+      lab[i] = static_cast<uint8_t>(x % K);
+      x /= K;
+    }
+    e[code] = em.energy(lab);
+  }
+  const double e_min = *std::min_element(e.begin(), e.end());
+  std::vector<double> marg(em.cells() * K, 0.0);
+  double z = 0;
+  for (long code = 0; code < total; ++code) {
+    const double p = std::exp(-(e[code] - e_min) / T);
+    z += p;
+    long x = code;
+    for (int i : free_cells) {
+      marg[std::size_t(i) * K + x % K] += p;
+      x /= K;
+    }
+  }
+  for (double& m : marg) m /= z;
+  return marg;
+}
+
+/// Lowest energy over all α-expansion moves from `lab` (every subset of the non-α, non-fixed
+/// cells taking α), by enumeration.
+inline double bestExpansionEnergy(const EnergyModel& em, const std::vector<uint8_t>& lab,
+                                  int alpha) {
+  std::vector<int> movable;
+  for (std::size_t i = 0; i < em.cells(); ++i)
+    if (!em.fixed[i] && lab[i] != alpha) movable.push_back(static_cast<int>(i));
+  double best = em.energy(lab);
+  std::vector<uint8_t> move = lab;
+  for (uint32_t code = 1; code < (1u << movable.size()); ++code) {
+    for (std::size_t b = 0; b < movable.size(); ++b)
+      move[movable[b]] = (code >> b) & 1 ? static_cast<uint8_t>(alpha) : lab[movable[b]];
+    best = std::min(best, em.energy(move));
+  }
+  return best;
+}
+
+/// Reference α-expansion with every move found by enumeration: labels in order, a move kept
+/// only if it lowers the energy by more than round-off, until a cycle keeps none or after
+/// `max_cycles` cycles (the plugin's parameter of the same name). `repeats`
+/// counts expansions of a label whose earlier expansion saw another labelling (the plugin's
+/// warm-started cuts with changed capacities). Keep the grids tiny: each move enumerates
+/// 2^(movable cells) labellings.
+inline std::vector<uint8_t> referenceExpansion(const EnergyModel& em, int* cycles,
+                                               int* repeats = nullptr, int max_cycles = 1000) {
+  int unused = 0;
+  if (!repeats) repeats = &unused;
+  std::vector<uint8_t> lab = em.initial;
+  double e = em.energy(lab);
+  *cycles = *repeats = 0;
+  int version = 0;
+  std::vector<int> seen(em.numLabels(), -1);
+  for (bool improved = true; improved && *cycles < max_cycles;) {
+    improved = false;
+    ++*cycles;
+    for (int alpha = 0; alpha < em.numLabels(); ++alpha) {
+      *repeats += seen[alpha] >= 0 && seen[alpha] != version;
+      std::vector<int> movable;
+      for (std::size_t i = 0; i < em.cells(); ++i)
+        if (!em.fixed[i] && lab[i] != alpha) movable.push_back(static_cast<int>(i));
+      std::vector<uint8_t> move = lab, best = lab;
+      double e_best = e;
+      for (uint32_t code = 1; code < (1u << movable.size()); ++code) {
+        for (std::size_t b = 0; b < movable.size(); ++b)
+          move[movable[b]] = (code >> b) & 1 ? static_cast<uint8_t>(alpha) : lab[movable[b]];
+        const double en = em.energy(move);
+        if (en < e_best) e_best = en, best = move;
+      }
+      if (e_best < e - 1e-9 * (1.0 + std::abs(e))) {
+        lab = best;
+        e = e_best;
+        improved = true;
+        ++version;
+      }
+      seen[alpha] = version;
+    }
+  }
+  return lab;
 }
 
 /// What one optimiser run produced.

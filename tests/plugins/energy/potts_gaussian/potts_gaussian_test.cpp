@@ -65,6 +65,26 @@ TEST(PottsGaussian, ClassCostShiftsTheUnaryAndCanFlipTheStart) {
   }
 }
 
+TEST(PottsGaussian, ClassCostIsAddedAfterTheAlphaWeighting) {
+  // docs/energy.md: unary_k = α·E_f + cost_k, so α does not scale the cost.
+  test::TempDir d;
+  test::StageHarness h;
+  h.frame.points.push_back(1.1f, 1.1f, -1.7f, 0);
+  h.bin();
+  h.grid.add("f")[h.geom.cellOf(1.1, 1.1)] = 1.0f;
+  const std::string m = writeModel(d);
+  const int c = h.geom.cellOf(1.1, 1.1);
+  h.make("potts_gaussian", "{model: " + m + ", features: [f], alpha: 2.0}")->process(h.ctx);
+  const std::vector<float> scaled(h.ctx.energy.unary.begin() + c * 3,
+                                  h.ctx.energy.unary.begin() + c * 3 + 3);
+  h.make("potts_gaussian",
+         "{model: " + m + ", features: [f], alpha: 2.0, class_cost: [0.5, 0, -1]}")
+      ->process(h.ctx);
+  EXPECT_NEAR(h.ctx.energy.unary[c * 3 + 0], scaled[0] + 0.5, 1e-5);
+  EXPECT_NEAR(h.ctx.energy.unary[c * 3 + 1], scaled[1], 1e-5);
+  EXPECT_NEAR(h.ctx.energy.unary[c * 3 + 2], scaled[2] - 1, 1e-5);
+}
+
 TEST(PottsGaussian, NaNFeatureDoesNotVoteAndPreclassSetsStart) {
   test::TempDir d;
   test::StageHarness h;

@@ -1,5 +1,6 @@
 // The "alpha_expansion" optimiser: known answers (no smoothing → unary argmin; strong smoothing →
-// the best constant labelling), single-cell stability, score layers, fixed cells, init choices.
+// the best constant labelling), single-cell stability, score layers (the local energy margin),
+// fixed cells, init choices.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,6 +10,7 @@
 #include <random>
 
 #include "optimiser_test_support.hpp"
+#include "terramrf/roc.hpp"
 
 namespace terramrf {
 namespace {
@@ -58,7 +60,7 @@ TEST(AlphaExpansion, StrongSmoothingGivesTheBestConstantLabelling) {
 
 TEST(AlphaExpansion, ResultIsStableUnderSingleCellChangesAndScoresAgree) {
   // Changing one cell to α is an α-expansion move, so at convergence no single-cell change lowers
-  // the energy, and the softmax score is largest for the label each cell has.
+  // the energy: each cell's own label has a margin ≥ 0 and every other label one ≤ 0.
   RandomModelSpec s;
   s.size = 25;
   s.labels = 4;
@@ -77,33 +79,16 @@ TEST(AlphaExpansion, ResultIsStableUnderSingleCellChangesAndScoresAgree) {
       continue;
     }
     const double own = em.localEnergy(lab, i, lab[i]);
-    double sum = 0, best_score = -1;
-    int argmax = -1;
     for (int k = 0; k < 4; ++k) {
       EXPECT_GE(em.localEnergy(lab, i, k), own - 1e-6) << "cell " << i << " label " << k;
       const double v = r.scores.at(kClasses[k])[i];
-      sum += v;
-      if (v > best_score) best_score = v, argmax = k;
+      if (k == lab[i]) {
+        EXPECT_GE(v, -1e-6) << "cell " << i;
+      } else {
+        EXPECT_LE(v, 1e-6) << "cell " << i << " label " << k;
+      }
     }
-    EXPECT_NEAR(sum, 1.0, 1e-5);
-    EXPECT_EQ(argmax, lab[i]) << "cell " << i;
   }
-}
-
-/// Lowest energy over all α-expansion moves from `lab` (every subset of the non-α, non-fixed
-/// cells taking α), by enumeration.
-double bestExpansionEnergy(const EnergyModel& em, const std::vector<uint8_t>& lab, int alpha) {
-  std::vector<int> movable;
-  for (std::size_t i = 0; i < em.cells(); ++i)
-    if (!em.fixed[i] && lab[i] != alpha) movable.push_back(static_cast<int>(i));
-  double best = em.energy(lab);
-  std::vector<uint8_t> move = lab;
-  for (uint32_t code = 1; code < (1u << movable.size()); ++code) {
-    for (std::size_t b = 0; b < movable.size(); ++b)
-      move[movable[b]] = (code >> b) & 1 ? static_cast<uint8_t>(alpha) : lab[movable[b]];
-    best = std::min(best, em.energy(move));
-  }
-  return best;
 }
 
 TEST(AlphaExpansion, ResultIsALocalMinimumOfEveryExpansionMove) {
@@ -125,48 +110,10 @@ TEST(AlphaExpansion, ResultIsALocalMinimumOfEveryExpansionMove) {
       ASSERT_TRUE(r.report.converged) << params;
       const auto lab = OptimiserHarness::labelling(r, em);
       for (int alpha = 0; alpha < s.labels; ++alpha)
-        EXPECT_GE(bestExpansionEnergy(em, lab, alpha), r.report.final_energy - 1e-6)
+        EXPECT_GE(test::bestExpansionEnergy(em, lab, alpha), r.report.final_energy - 1e-6)
             << params << " grid " << n << " alpha " << alpha;
     }
   }
-}
-
-/// Reference α-expansion with every move found by enumeration: labels in order, a move kept
-/// only if it lowers the energy by more than round-off, until a cycle keeps none. `repeats`
-/// counts expansions of a label whose earlier expansion saw another labelling (the plugin's
-/// warm-started cuts with changed capacities).
-std::vector<uint8_t> referenceExpansion(const EnergyModel& em, int* cycles, int* repeats) {
-  std::vector<uint8_t> lab = em.initial;
-  double e = em.energy(lab);
-  *cycles = *repeats = 0;
-  int version = 0;
-  std::vector<int> seen(em.numLabels(), -1);
-  for (bool improved = true; improved;) {
-    improved = false;
-    ++*cycles;
-    for (int alpha = 0; alpha < em.numLabels(); ++alpha) {
-      *repeats += seen[alpha] >= 0 && seen[alpha] != version;
-      std::vector<int> movable;
-      for (std::size_t i = 0; i < em.cells(); ++i)
-        if (!em.fixed[i] && lab[i] != alpha) movable.push_back(static_cast<int>(i));
-      std::vector<uint8_t> move = lab, best = lab;
-      double e_best = e;
-      for (uint32_t code = 1; code < (1u << movable.size()); ++code) {
-        for (std::size_t b = 0; b < movable.size(); ++b)
-          move[movable[b]] = (code >> b) & 1 ? static_cast<uint8_t>(alpha) : lab[movable[b]];
-        const double en = em.energy(move);
-        if (en < e_best) e_best = en, best = move;
-      }
-      if (e_best < e - 1e-9 * (1.0 + std::abs(e))) {
-        lab = best;
-        e = e_best;
-        improved = true;
-        ++version;
-      }
-      seen[alpha] = version;
-    }
-  }
-  return lab;
 }
 
 TEST(AlphaExpansion, EveryCutIsTheBestExpansionMoveAlongTheWholeRun) {
@@ -184,7 +131,7 @@ TEST(AlphaExpansion, EveryCutIsTheBestExpansionMoveAlongTheWholeRun) {
     s.beta_hi = 0.9;
     const EnergyModel em = test::randomModel(100 + n, s);
     int ref_cycles = 0, repeats = 0;
-    const auto ref = referenceExpansion(em, &ref_cycles, &repeats);
+    const auto ref = test::referenceExpansion(em, &ref_cycles, &repeats);
     repeats_total += repeats;
     const auto r = h.run("alpha_expansion", "{pre_icm: false, max_cycles: 50}", em);
     EXPECT_EQ(OptimiserHarness::labelling(r, em), ref) << "grid " << n;
@@ -331,21 +278,34 @@ TEST(AlphaExpansion, TwoLabelsFromAConstantStartGiveTheGlobalOptimum) {
   }
 }
 
-TEST(AlphaExpansion, ScoreIsTheSoftmaxOfTheNegativeLocalEnergy) {
+TEST(AlphaExpansion, ScoreIsTheLocalEnergyMarginLikeIcms) {
+  // The spec's score for deterministic optimisers: s_k = min_{j≠k} E_c(j) − E_c(k) with the
+  // final neighbours, the same numbers the ROC fallback gives ICM (localEnergyScores).
   RandomModelSpec s;
   s.size = 6;
   const EnergyModel em = test::randomModel(24, s);
   OptimiserHarness h;
-  const auto r = h.run("alpha_expansion", "{score_temperature: 0.5}", em);
+  const auto r = h.run("alpha_expansion", "{}", em);
   const auto lab = OptimiserHarness::labelling(r, em);
+  const auto fallback = localEnergyScores(em, r.grid_labels, h.labels().size());
+  int positive = 0;
   for (int i = 0; i < static_cast<int>(em.cells()); ++i) {
-    if (em.fixed[i]) continue;
-    double z = 0;
-    for (int k = 0; k < 3; ++k) z += std::exp(-em.localEnergy(lab, i, k) / 0.5);
-    for (int k = 0; k < 3; ++k)
-      EXPECT_NEAR(r.scores.at(kClasses[k])[i], std::exp(-em.localEnergy(lab, i, k) / 0.5) / z,
-                  1e-5);
+    for (int k = 0; k < 3; ++k) {
+      const float v = r.scores.at(kClasses[k])[i];
+      const float f = fallback.at(em.active[k])[i];
+      if (em.fixed[i]) {
+        EXPECT_TRUE(std::isnan(v) && std::isnan(f)) << "cell " << i;
+        continue;
+      }
+      double other = std::numeric_limits<double>::infinity();
+      for (int j = 0; j < 3; ++j)
+        if (j != k) other = std::min(other, em.localEnergy(lab, i, j));
+      EXPECT_NEAR(v, other - em.localEnergy(lab, i, k), 1e-5) << "cell " << i << " label " << k;
+      EXPECT_EQ(v, f) << "cell " << i << " label " << k;
+      positive += v > 0;
+    }
   }
+  EXPECT_GT(positive, 0);
 }
 
 TEST(AlphaExpansion, FixedCellsTakeNoPartInTheEnergy) {

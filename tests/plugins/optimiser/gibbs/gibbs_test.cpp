@@ -1,9 +1,13 @@
-// The "gibbs" optimiser: known marginals (independent cells, and a brute-forced 3×3 chain at
-// constant temperature), marginals summing to 1, fixed cells, determinism, parameter checks.
+// The "gibbs" optimiser: known marginals (independent cells, brute-forced 3×3 fields at the
+// marginal temperature after annealing, and at a constant temperature), marginals summing to 1,
+// the marginal sweeps leaving the result alone, fixed cells, determinism, parameter checks, and
+// the accuracy of its e^−x table.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
+#include "neg_exp_table.hpp"
 #include "optimiser_test_support.hpp"
 
 namespace terramrf {
@@ -16,7 +20,8 @@ const char* kClasses[] = {"road", "rough", "obstacle", "vegetation"};
 
 TEST(Gibbs, MarginalsOfIndependentCellsAreTheSoftmaxOfTheUnaries) {
   // β = 0: every cell is independent and its conditional is its exact marginal, so the
-  // (Rao-Blackwellised) estimate must match exp(−u_k/T)/Σ exp(−u_j/T) to table accuracy.
+  // (Rao-Blackwellised) estimate must match exp(−u_k/T)/Σ exp(−u_j/T) at the marginal
+  // temperature T to table accuracy, whatever the annealing did before.
   RandomModelSpec s;
   s.size = 6;
   s.labels = 4;
@@ -28,7 +33,8 @@ TEST(Gibbs, MarginalsOfIndependentCellsAreTheSoftmaxOfTheUnaries) {
   OptimiserHarness h;
   const double T = 0.7;
   const auto r =
-      h.run("gibbs", "{schedule: constant, temperature: 0.7, sweeps: 3, burn_in: 1}", em);
+      h.run("gibbs",
+            "{sweeps: 3, marginal_temperature: 0.7, marginal_sweeps: 2, marginal_burn_in: 0}", em);
   for (std::size_t i = 0; i < em.cells(); ++i) {
     double z = 0;
     for (int k = 0; k < 4; ++k) z += std::exp(-em.unary[i * 4 + k] / T);
@@ -38,8 +44,74 @@ TEST(Gibbs, MarginalsOfIndependentCellsAreTheSoftmaxOfTheUnaries) {
   }
 }
 
+TEST(Gibbs, MarginalsAtTheMarginalTemperatureMatchBruteForceAfterAnnealing) {
+  // 3×3 grids, 3 labels, coupled cells: the default annealing (1.0 → 0.05), then the marginal
+  // chain at T_m. Exact marginals of exp(−E/T_m) by enumerating 3^9 labellings. T_m ≠ 1 and
+  // ≠ T0, so using the wrong temperature (or 1/T) shows. The coupling is weak enough for the chain
+  // to move between minima at T_m = 0.7; with β ≈ 0.5 it would stay in the annealed one.
+  OptimiserHarness h;
+  for (int n = 0; n < 2; ++n) {
+    RandomModelSpec s;
+    s.size = 3;
+    s.labels = 3;
+    s.fixed_fraction = 0;
+    s.beta_lo = 0.1;
+    s.beta_hi = 0.3;
+    const EnergyModel em = test::randomModel(40 + n, s);
+    const double T = n == 0 ? 0.7 : 2.0;
+    const auto exact = test::bruteForceMarginals(em, T);
+    const auto r = h.run("gibbs",
+                         "{marginal_temperature: " + std::to_string(T) +
+                             ", marginal_sweeps: 30000, marginal_burn_in: 100, seed: 5}",
+                         em);
+    for (int i = 0; i < 9; ++i)
+      for (int k = 0; k < 3; ++k)
+        EXPECT_NEAR(r.scores.at(kClasses[k])[i], exact[i * 3 + k], 0.01)
+            << "T " << T << " cell " << i << " label " << k;
+    EXPECT_EQ(r.metrics.at("gibbs.marginal_sweeps"), 30100);
+    // What the scores were before: the conditionals averaged over the annealing sweeps after
+    // burn-in, at temperatures from 0.55 down to 0.05. They are not these marginals (off by 0.36
+    // to 0.77 here).
+    const auto old = h.run("gibbs", "{marginal_sweeps: 0, seed: 5}", em);
+    double worst = 0;
+    for (int i = 0; i < 9; ++i)
+      for (int k = 0; k < 3; ++k)
+        worst = std::max(worst, std::abs(old.scores.at(kClasses[k])[i] - exact[i * 3 + k]));
+    EXPECT_GT(worst, 0.2) << "T " << T;
+  }
+}
+
+TEST(Gibbs, MarginalSweepsChangeNeitherTheLabellingNorTheReport) {
+  // The returned labelling is the annealing's (the MAP estimate); the marginal chain runs after
+  // it on its own copy and its energies are not the result.
+  RandomModelSpec s;
+  s.size = 16;
+  s.labels = 4;
+  s.fixed_fraction = 0.1;
+  const EnergyModel em = test::randomModel(13, s);
+  OptimiserHarness h;
+  const auto a = h.run("gibbs", "{sweeps: 30, marginal_sweeps: 0, seed: 8}", em);
+  const auto b = h.run("gibbs", "{sweeps: 30, seed: 8}", em);
+  const auto c =
+      h.run("gibbs", "{sweeps: 30, marginal_sweeps: 50, marginal_temperature: 5.0, seed: 8}", em);
+  for (const auto* r : {&b, &c}) {
+    EXPECT_EQ(r->grid_labels, a.grid_labels);
+    EXPECT_EQ(r->report.final_energy, a.report.final_energy);
+    EXPECT_EQ(r->report.initial_energy, a.report.initial_energy);
+    EXPECT_EQ(r->report.iterations, 30);
+    EXPECT_EQ(r->report.converged, a.report.converged);
+    for (const char* m : {"gibbs.best_sweep", "gibbs.annealed_energy", "gibbs.energy"})
+      EXPECT_EQ(r->metrics.at(m), a.metrics.at(m)) << m;
+  }
+  EXPECT_NE(b.scores.at("road"), a.scores.at("road"));
+  EXPECT_NE(c.scores.at("road"), b.scores.at("road"));
+  EXPECT_EQ(a.metrics.at("gibbs.marginal_sweeps"), 0);
+  EXPECT_EQ(b.metrics.at("gibbs.marginal_sweeps"), 25);  // 5 burn-in + 20 averaged
+}
+
 TEST(Gibbs, MarginalsMatchBruteForceAtConstantTemperature) {
   // 3×3 grid, 2 labels, coupled cells: exact marginals at T = 1 by enumerating 2^9 labellings.
+  // marginal_sweeps: 0 averages the (constant-temperature) chain itself after burn-in.
   RandomModelSpec s;
   s.size = 3;
   s.labels = 2;
@@ -60,7 +132,10 @@ TEST(Gibbs, MarginalsMatchBruteForceAtConstantTemperature) {
   }
   OptimiserHarness h;
   const auto r = h.run(
-      "gibbs", "{schedule: constant, temperature: 1.0, sweeps: 40000, burn_in: 100, seed: 5}", em);
+      "gibbs",
+      "{schedule: constant, temperature: 1.0, sweeps: 40000, burn_in: 100, marginal_sweeps: 0, "
+      "seed: 5}",
+      em);
   for (int i = 0; i < 9; ++i)
     for (int k = 0; k < 2; ++k)
       EXPECT_NEAR(r.scores.at(kClasses[k])[i], exact[i * 2 + k] / z, 0.01)
@@ -169,12 +244,32 @@ TEST(Gibbs, EveryScheduleLowersTheEnergyOfANoisyStart) {
 TEST(Gibbs, RejectsInconsistentParameters) {
   OptimiserHarness h;
   const EnergyModel em = test::randomModel(1);
-  EXPECT_THROW(h.make("gibbs", "{sweeps: 10, burn_in: 10}", em), std::exception);
+  EXPECT_THROW(h.make("gibbs", "{sweeps: 10, burn_in: 10, marginal_sweeps: 0}", em),
+               std::exception);
+  EXPECT_NO_THROW(h.make("gibbs", "{sweeps: 10, burn_in: 10}", em));  // burn_in unused then
+  EXPECT_THROW(h.make("gibbs", "{marginal_temperature: 0.0}", em), std::exception);
+  EXPECT_THROW(h.make("gibbs", "{marginal_sweeps: -1}", em), std::exception);
   EXPECT_THROW(h.make("gibbs", "{temperature: 1.0, final_temperature: 2.0}", em), std::exception);
   EXPECT_THROW(h.make("gibbs", "{schedule: cubic}", em), std::exception);
   EXPECT_THROW(h.make("gibbs", "{temperature: 0.0}", em), std::exception);
   EXPECT_NO_THROW(
       h.make("gibbs", "{schedule: constant, temperature: 1.0, final_temperature: 2.0}", em));
+}
+
+TEST(Gibbs, NegExpTableErrorIsTheDocumentedOne) {
+  // Linear interpolation of e^−x on steps of h = 1/64 has a relative error of up to h²/8 =
+  // 3.05e-5 in the middle of every step: below the documented 3.1e-5, and not below 1e-5.
+  const NegExpTable table;
+  double worst = 0;
+  for (int i = 0; i < 32 * 64 * 16; ++i) {
+    const float x = static_cast<float>((i + 0.5) / (64 * 16));
+    worst = std::max(worst, std::abs(table(x) / std::exp(-double(x)) - 1.0));
+  }
+  EXPECT_LT(worst, 3.1e-5);
+  EXPECT_GT(worst, 2.9e-5);
+  EXPECT_EQ(table(32.f), 0.f);
+  EXPECT_EQ(table(1e9f), 0.f);
+  EXPECT_EQ(table(0.f), 1.f);
 }
 
 }  // namespace

@@ -1,8 +1,9 @@
 // The "icm" optimiser: known answers (no smoothing → unary argmin), the ICM fixed point (no
-// single-cell change lowers the energy), fixed cells, report.
+// single-cell change lowers the energy), fixed cells, report (NaN for energies not computed).
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "optimiser_test_support.hpp"
 
@@ -62,6 +63,24 @@ TEST(Icm, SweepLimitIsRespected) {
   test::expectValidResult(r, em, "one sweep");
   EXPECT_EQ(r.report.iterations, 1);
   EXPECT_FALSE(r.report.converged);  // a random start changes in its first sweep
+}
+
+TEST(Icm, EnergiesNotComputedAreReportedAsNaN) {
+  // report_energy: false skips the two energy passes; the report must not say 0, which reads as
+  // an energy (and as one far above a typical negative result).
+  RandomModelSpec s;
+  s.size = 10;
+  const EnergyModel em = test::randomModel(34, s);
+  OptimiserHarness h;
+  const auto off = h.run("icm", "{report_energy: false}", em);
+  EXPECT_TRUE(std::isnan(off.report.initial_energy));
+  EXPECT_TRUE(std::isnan(off.report.final_energy));
+  EXPECT_EQ(off.metrics.count("icm.energy"), 0u);
+  const auto on = h.run("icm", "{}", em);
+  test::expectValidResult(on, em, "report_energy: true");
+  EXPECT_EQ(off.grid_labels, on.grid_labels);
+  EXPECT_EQ(off.report.iterations, on.report.iterations);
+  EXPECT_EQ(on.metrics.at("icm.initial_energy"), on.report.initial_energy);
 }
 
 }  // namespace

@@ -88,6 +88,14 @@ TEST(OptimiserProperties, AlphaExpansionIsNoWorseThanIcmFromTheSameStart) {
 //     E'(α̂) ≤ E_data(ω*) + 2·E'_smooth(ω*)        (c = 1 for Potts)
 // which, when all unaries are ≥ 0, gives the familiar E'(α̂) ≤ 2·E'(ω*). Both are checked
 // against the brute-force optimum ω* of 3×3 grids with 3 labels (3^9 labellings).
+//
+// The bound is loose, and on such small grids even a wrong graph (cuts that are not the best
+// expansion move) mostly ends at the same labelling, only later: dropping the t-link of one pair
+// case changed none of 1500 converged runs from random labellings, but 15 of the 1500 one-cycle
+// runs below. So the premise
+// is checked too: by enumeration, no expansion move improves α̂; the whole run retraces an
+// α-expansion whose every move is the enumerated best one from the same start; and from 50
+// random labellings per grid, one cycle (K moves) ends where the enumerating reference's does.
 TEST(OptimiserProperties, AlphaExpansionIsWithinItsFactorTwoBoundOfTheOptimum) {
   OptimiserHarness h;
   int exact = 0;
@@ -103,10 +111,31 @@ TEST(OptimiserProperties, AlphaExpansionIsWithinItsFactorTwoBoundOfTheOptimum) {
     s.beta_hi = 1.5;
     const EnergyModel em = test::randomModel(4000 + n, s);
     const auto [e_star, best] = test::bruteForce(em);
+    const bool pre_icm = n % 3 == 0;
     const auto r = h.run("alpha_expansion",
-                         n % 3 ? "{max_cycles: 100, pre_icm: false}" : "{max_cycles: 100}", em);
+                         pre_icm ? "{max_cycles: 100}" : "{max_cycles: 100, pre_icm: false}", em);
     test::expectValidResult(r, em, "grid " + std::to_string(n));
     ASSERT_TRUE(r.report.converged) << "the bound holds for a converged labelling";
+    const auto lab = OptimiserHarness::labelling(r, em);
+    for (int alpha = 0; alpha < s.labels; ++alpha)
+      EXPECT_GE(test::bestExpansionEnergy(em, lab, alpha), r.report.final_energy - 1e-6)
+          << "an expansion move improves the result: grid " << n << " alpha " << alpha;
+    EnergyModel start = em;  // the labelling the expansions start from
+    if (pre_icm) start.initial = OptimiserHarness::labelling(h.run("icm", "{}", em), em);
+    int ref_cycles = 0;
+    EXPECT_EQ(lab, test::referenceExpansion(start, &ref_cycles)) << "grid " << n;
+    EXPECT_EQ(r.report.iterations, ref_cycles) << "grid " << n;
+    std::mt19937 rng(n);
+    std::uniform_int_distribution<int> label(0, s.labels - 1);
+    for (int probe = 0; probe < 50; ++probe) {
+      for (auto& l : start.initial) l = static_cast<uint8_t>(label(rng));
+      const auto one = h.run("alpha_expansion", "{max_cycles: 1, pre_icm: false}", start);
+      int cycles = 0;
+      EXPECT_EQ(OptimiserHarness::labelling(one, start),
+                test::referenceExpansion(start, &cycles, nullptr, 1))
+          << "one cycle from random labelling " << probe << " of grid " << n;
+    }
+
     const double shift = test::pairWeightSum(em);
     const double e_alpha = r.report.final_energy + shift;  // E'(α̂)
     const double e_opt = e_star + shift;                   // E'(ω*)
@@ -125,8 +154,16 @@ TEST(OptimiserProperties, AlphaExpansionIsWithinItsFactorTwoBoundOfTheOptimum) {
   EXPECT_GE(exact, kGrids * 2 / 3);
 }
 
+// Annealing, not luck. The returned labelling is the best one seen, and 3000 sweeps of a chain
+// that never cools visit the optimum of 3^9 labellings too (at a constant T0 = 3 in 88 % of such
+// runs). So the test also looks at where the chain is when the annealing ends
+// (`gibbs.annealed_energy`), which for a chain at T0 = 3 is the optimum in ~1 % of runs. Slow
+// annealing ends there in most runs but not all: on these coupled grids the chain settles on a
+// basin at a temperature comparable to the gap to the runner-up minimum (0.5–2.7 energy units),
+// so about 30 % freeze in that local minimum, with 3000 sweeps as with 30 000.
 TEST(OptimiserProperties, SlowlyAnnealedGibbsFindsTheExactOptimum) {
   OptimiserHarness h;
+  int annealed_at_optimum = 0, runs = 0;
   for (int n = 0; n < 10; ++n) {
     RandomModelSpec s;
     s.size = 3;
@@ -134,13 +171,27 @@ TEST(OptimiserProperties, SlowlyAnnealedGibbsFindsTheExactOptimum) {
     s.fixed_fraction = 0;
     const EnergyModel em = test::randomModel(5000 + n, s);
     const auto [e_star, best] = test::bruteForce(em);
-    const auto r = h.run("gibbs",
-                         "{schedule: geometric, temperature: 3.0, final_temperature: 0.01, "
-                         "sweeps: 3000, burn_in: 100, seed: 11}",
-                         em);
-    test::expectValidResult(r, em, "grid " + std::to_string(n));
-    EXPECT_NEAR(r.report.final_energy, e_star, 1e-6) << "grid " << n;
+    int hits = 0;
+    for (int seed = 1; seed <= 10; ++seed) {
+      const auto r = h.run("gibbs",
+                           "{schedule: geometric, temperature: 3.0, final_temperature: 0.01, "
+                           "sweeps: 3000, seed: " +
+                               std::to_string(seed) + "}",
+                           em);
+      const std::string what = "grid " + std::to_string(n) + " seed " + std::to_string(seed);
+      test::expectValidResult(r, em, what);
+      EXPECT_NEAR(r.report.final_energy, e_star, 1e-6) << what;
+      ASSERT_EQ(r.metrics.count("gibbs.annealed_energy"), 1u);
+      const double e_annealed = r.metrics.at("gibbs.annealed_energy");
+      EXPECT_GE(e_annealed, r.report.final_energy - 1e-9) << what;
+      hits += std::abs(e_annealed - e_star) < 1e-6;
+      ++runs;
+    }
+    EXPECT_GE(hits, 1) << "the annealing never ended at the optimum of grid " << n;
+    annealed_at_optimum += hits;
   }
+  RecordProperty("annealed_at_optimum", annealed_at_optimum);
+  EXPECT_GE(annealed_at_optimum, runs * 6 / 10);
 }
 
 }  // namespace
