@@ -1,6 +1,6 @@
 #pragma once
 // Label indices on the grid padded by one cell, as the local optimisers (ICM, the Gibbs sampler,
-// α-expansion's ICM start and its score layers) read them: the pad and the fixed cells hold the
+// α-expansion's ICM start) read them: the pad and the fixed cells hold the
 // sentinel K, whose score slot is scratch, so an 8-neighbour loop needs neither bounds nor
 // fixed-cell tests.
 #include <cstddef>
