@@ -7,9 +7,9 @@
 //   E(ω) = Σ_cells unary[c][ω_c]  +  Σ_{unordered 8-neighbour pairs {c,d}} w_cd · δ(ω_c, ω_d)
 //
 // with δ = −1 for equal labels and +1 for different ones, w = beta for edge neighbours and
-// beta_diagonal for corner neighbours. The unary already contains α·E_f (eq. 11–12) plus the class cost, if any. Summing each
-// pair once makes the change of E when one cell flips equal to that cell's eq. 12 energy change,
-// which is what ICM and the Gibbs sampler evaluate locally.
+// beta_diagonal for corner neighbours. The unary already contains α·E_f (eq. 11–12) plus the class
+// cost, if any. Summing each pair once makes the change of E when one cell flips equal to that
+// cell's eq. 12 energy change, which is what ICM and the Gibbs sampler evaluate locally.
 #include <cstdint>
 #include <vector>
 
