@@ -7,8 +7,17 @@
 // centres fall inside the projected quadrilateral are taken (clipped to the image). The footprint
 // is the natural support of a cell-wise texture feature; the points alone cover only a few
 // pixels per ring crossing. Where the footprint gives nothing (a corner behind the camera, a far
-// cell thinner than a pixel row), the points' own pixels are used instead (`point_pixels`).
-// Occlusion is not modelled: a cell hidden behind an obstacle takes the obstacle's pixels.
+// cell thinner than a pixel row, every pixel occluded), the points' own pixels are used instead
+// (`point_pixels`).
+//
+// Occlusion (`occlusion: depth_test`): the footprint says where the cell would be in the image,
+// not whether the camera sees it; a ground cell behind a car or a wall would take the car's or
+// the wall's pixels. The per-point lookup gives a sparse z-buffer (OcclusionBuffer: nearest point
+// and its cell per pixel, splatted over a few pixels to bridge the gaps between rings), and a
+// footprint pixel is dropped where a point of another cell is nearer than the footprint plane
+// there by more than `occlusion_margin` (a point pixel: nearer than that point). Pixels no point
+// reaches are kept: nothing is known to be in front of them. Dropped pixels are counted
+// (metrics `occluded_pixels`, `occluded_cells`, `hidden_cells`).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -16,6 +25,7 @@
 #include <vector>
 
 #include "footprint_raster.hpp"
+#include "occlusion_buffer.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -39,6 +49,20 @@ class CameraFusion final : public Stage {
     d.add("min_points", min_points_, "cells with fewer points get no pixels")
         .unit("points")
         .range(1, 100000);
+    d.add("occlusion", occlusion_,
+          "depth_test: drop a cell's pixels where a LiDAR point of another cell is nearer to the "
+          "camera (sparse z-buffer of the scan); none: keep every footprint pixel")
+        .choices({"depth_test", "none"});
+    d.add("occlusion_margin", occlusion_margin_,
+          "a pixel is occluded when the nearest point there is nearer than the cell's surface by "
+          "more than this fraction of the cell's depth (absorbs the splat and ground relief)")
+        .unit("1")
+        .range(0.0, 0.9);
+    d.add("occlusion_splat_px", occlusion_splat_px_,
+          "each point's depth covers the square of this half-width around its pixel, to bridge "
+          "the gaps between rings in the image (0 = its own pixel only)")
+        .unit("px")
+        .range(0, 16);
   }
   std::vector<std::string> reads() const override { return {artefacts::kPoints}; }
   std::vector<std::string> writes() const override { return {artefacts::kCellPixels}; }
@@ -159,6 +183,23 @@ class CameraFusion final : public Stage {
                                  " px image (all behind the camera or outside it); check that "
                                  "calibration, and that it belongs to this scan and image");
 
+    // Depth test: z-buffer of the scan (depth w of P · T_camera_lidar · [X; 1], as the plane's).
+    const bool depth_test = occlusion_ == "depth_test";
+    const Eigen::Matrix<double, 3, 4> M = m.P * m.T_camera_lidar.matrix();
+    const bool pinhole =
+        std::all_of(m.distortion.begin(), m.distortion.end(), [](double k) { return k == 0; });
+    const double keep_ratio = 1.0 - occlusion_margin_;
+    if (depth_test) {
+      depth_.assign(n, 0.f);
+      for (std::size_t i = 0; i < n; ++i)
+        if (out.pixel_of_point[i] >= 0)
+          depth_[i] = float(M(2, 0) * pc.x[i] + M(2, 1) * pc.y[i] + M(2, 2) * pc.z[i] + M(2, 3));
+      zbuf_.build(m.width, m.height, occlusion_splat_px_, out.pixel_of_point, depth_,
+                  g.cellOfPoint());
+    }
+    std::size_t occluded_pixels = 0, occluded_cells = 0, hidden_cells = 0;
+    const uint32_t W = uint32_t(m.width);
+
     // Pixels per cell (CSR).
     const GridGeometry& geom = g.geometry();
     const Eigen::Vector2d o = geom.origin();
@@ -189,27 +230,61 @@ class CameraFusion final : public Stage {
         poly_.push_back(*uv);
       }
       const std::size_t begin = out.pixels.size();
-      std::size_t got = 0;
+      std::size_t got = 0, dropped = 0;
       if (poly_.size() == 4) {
         bool shrunk = false;
         got = raster_.rasterise(poly_, m.width, m.height, cap, out.pixels, &shrunk);
         capped_cells += shrunk;
         footprint_cells += got > 0;
+        if (depth_test && got > 0) {
+          const Eigen::Vector3d inv =
+              pinhole ? planeInverseDepth(M, h) : fitInverseDepth(M, corners);
+          std::size_t kept = begin;
+          for (std::size_t k = begin; k < out.pixels.size(); ++k) {
+            const uint32_t p = out.pixels[k];
+            float z;
+            if (zbuf_.occluder(p, c, &z)) {
+              const double inv_depth = inv(0) * double(p % W) + inv(1) * double(p / W) + inv(2);
+              if (inv_depth > 0 && double(z) * inv_depth < keep_ratio) continue;
+            }
+            out.pixels[kept++] = p;
+          }
+          dropped += out.pixels.size() - kept;
+          out.pixels.resize(kept);
+        }
       }
+      const bool footprint_empty = out.pixels.size() == begin;
       const bool add_points =
-          point_pixels_ == "combine" || (point_pixels_ == "fallback" && got == 0);
+          point_pixels_ == "combine" || (point_pixels_ == "fallback" && footprint_empty);
+      bool had_point_pixels = false;
       if (add_points) {
         std::size_t before = out.pixels.size();
-        for (const uint32_t* it = g.pointsBegin(c); it != g.pointsEnd(c); ++it)
-          if (out.pixel_of_point[*it] >= 0) out.pixels.push_back(uint32_t(out.pixel_of_point[*it]));
+        for (const uint32_t* it = g.pointsBegin(c); it != g.pointsEnd(c); ++it) {
+          const int32_t p = out.pixel_of_point[*it];
+          if (p < 0) continue;
+          had_point_pixels = true;
+          // The point's own depth: its pixel shows it unless another cell's point is nearer.
+          float z;
+          if (depth_test && zbuf_.occluder(uint32_t(p), c, &z) &&
+              double(z) < keep_ratio * double(depth_[*it])) {
+            ++dropped;
+            continue;
+          }
+          out.pixels.push_back(uint32_t(p));
+        }
         if (out.pixels.size() > before) {
           // Keep the set sorted and unique: features index it as a set of pixels.
           std::sort(out.pixels.begin() + begin, out.pixels.end());
           out.pixels.erase(std::unique(out.pixels.begin() + begin, out.pixels.end()),
                            out.pixels.end());
           if (out.pixels.size() - begin > cap) out.pixels.resize(begin + cap);
-          fallback_cells += got == 0;
+          fallback_cells += footprint_empty;
         }
+      }
+      if (dropped > 0) {
+        occluded_pixels += dropped;
+        ++occluded_cells;
+        hidden_cells += out.pixels.size() == begin && (got > 0 || had_point_pixels);
       }
     }
     out.offsets[cells] = uint32_t(out.pixels.size());
@@ -221,7 +296,47 @@ class CameraFusion final : public Stage {
     ctx.metrics[key + ".point_pixel_cells"] = double(fallback_cells);
     ctx.metrics[key + ".capped_cells"] = double(capped_cells);
     ctx.metrics[key + ".pixels"] = double(out.pixels.size());
+    if (depth_test) {
+      ctx.metrics[key + ".occluded_pixels"] = double(occluded_pixels);
+      ctx.metrics[key + ".occluded_cells"] = double(occluded_cells);
+      ctx.metrics[key + ".hidden_cells"] = double(hidden_cells);
+    }
     return out;
+  }
+
+  /// Inverse depth 1/w over the plane z = h as a linear function of the pixel: 1/w = a·u + b·v + c.
+  /// H maps plane coordinates (x, y, 1) to (u·w, v·w, w); inverting gives (x, y, 1) = w · H⁻¹ (u,
+  /// v, 1), whose last row reads 1 = w · (row 3 of H⁻¹) · (u, v, 1). Exact for a pinhole camera.
+  static Eigen::Vector3d planeInverseDepth(const Eigen::Matrix<double, 3, 4>& M, double h) {
+    const Eigen::Vector3d c0 = M.col(0), c1 = M.col(1), c2 = h * M.col(2) + M.col(3);
+    const Eigen::Vector3d r = c0.cross(c1);
+    const double det = r.dot(c2);
+    if (std::abs(det) < 1e-12 * r.norm() * c2.norm()) return Eigen::Vector3d::Zero();  // edge-on
+    return r / det;
+  }
+
+  /// With distortion the footprint is rasterised in distorted pixels, where 1/w is no longer
+  /// linear: least-squares fit of a·u + b·v + c to 1/w at the 4 projected corners (poly_), about
+  /// their centroid. Over one cell the distortion bends the plane's 1/w far less than the margin.
+  Eigen::Vector3d fitInverseDepth(const Eigen::Matrix<double, 3, 4>& M,
+                                  const Eigen::Vector3d (&corners)[4]) const {
+    double iw[4], mu = 0, mv = 0, mi = 0;
+    for (int k = 0; k < 4; ++k) {
+      iw[k] = 1.0 / (M.row(2).head<3>().dot(corners[k]) + M(2, 3));
+      mu += poly_[k].x() / 4, mv += poly_[k].y() / 4, mi += iw[k] / 4;
+    }
+    double suu = 0, suv = 0, svv = 0, sui = 0, svi = 0;
+    for (int k = 0; k < 4; ++k) {
+      const double du = poly_[k].x() - mu, dv = poly_[k].y() - mv, di = iw[k] - mi;
+      suu += du * du, suv += du * dv, svv += dv * dv, sui += du * di, svi += dv * di;
+    }
+    const double det = suu * svv - suv * suv;
+    double a = 0, b = 0;
+    if (det > 1e-9 * (suu * svv + 1e-300)) {
+      a = (svv * sui - suv * svi) / det;
+      b = (suu * svi - suv * sui) / det;
+    }
+    return Eigen::Vector3d(a, b, mi - a * mu - b * mv);
   }
 
   std::vector<std::string> cameras_;
@@ -230,7 +345,13 @@ class CameraFusion final : public Stage {
   int max_pixels_ = 512;
   int min_points_ = 1;
 
+  std::string occlusion_ = "depth_test";
+  double occlusion_margin_ = 0.2;
+  int occlusion_splat_px_ = 2;
+
   FootprintRaster raster_;
+  OcclusionBuffer zbuf_;
+  std::vector<float> depth_;  // per point [m]; set where visible
   std::size_t last_pixels_ = 0;
   std::vector<Eigen::Vector2d> poly_;
 };
