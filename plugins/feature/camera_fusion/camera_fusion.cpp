@@ -115,33 +115,45 @@ class CameraFusion final : public Stage {
     return true;
   }
 
+  static bool isPinhole(const CameraModel& m) {
+    return std::all_of(m.distortion.begin(), m.distortion.end(), [](double k) { return k == 0; });
+  }
+
   /// pixel_of_point for the whole scan; returns the number of visible points. Same maths as
   /// CameraModel::project (which handles distortion); without distortion P and T_camera_lidar are
-  /// pre-multiplied so a point costs one 3×4 product (~3× faster on a 115k-point scan).
-  static std::size_t projectScan(const CameraModel& m, const PointCloud& pc, int32_t* pix) {
+  /// pre-multiplied so a point costs one 3×4 product (~3× faster on a 115k-point scan). With
+  /// `depth`, also each visible point's depth w = row 3 of M · [X; 1], the quantity the footprint
+  /// plane's depth is compared with (left as it was where not visible).
+  static std::size_t projectScan(const CameraModel& m, const Eigen::Matrix<double, 3, 4>& M,
+                                 const PointCloud& pc, int32_t* pix, float* depth) {
     const std::size_t n = pc.size();
     std::size_t visible = 0;
-    const auto& dist = m.distortion;
-    const bool pinhole = std::all_of(dist.begin(), dist.end(), [](double k) { return k == 0; });
-    if (!pinhole) {
+    auto w_of = [&](double x, double y, double z) {
+      return M(2, 0) * x + M(2, 1) * y + M(2, 2) * z + M(2, 3);
+    };
+    if (!isPinhole(m)) {
       for (std::size_t i = 0; i < n; ++i) {
         const auto uv = m.project(Eigen::Vector3d(pc.x[i], pc.y[i], pc.z[i]));
-        if (uv) visible += store(m, uv->x(), uv->y(), &pix[i]);
+        if (uv && store(m, uv->x(), uv->y(), &pix[i])) {
+          ++visible;
+          if (depth) depth[i] = float(w_of(pc.x[i], pc.y[i], pc.z[i]));
+        }
       }
       return visible;
     }
-    const Eigen::Matrix<double, 3, 4> M = m.P * m.T_camera_lidar.matrix();
     const Eigen::Matrix<double, 1, 4> zc = m.T_camera_lidar.matrix().row(2);
     const double w = m.width, h = m.height;
     for (std::size_t i = 0; i < n; ++i) {
       const double x = pc.x[i], y = pc.y[i], z = pc.z[i];
       if (zc(0) * x + zc(1) * y + zc(2) * z + zc(3) <= 1e-6) continue;  // as projectUnbounded
-      const double qz = M(2, 0) * x + M(2, 1) * y + M(2, 2) * z + M(2, 3);
+      const double qz = w_of(x, y, z);
       if (qz <= 1e-9) continue;
       const double u = (M(0, 0) * x + M(0, 1) * y + M(0, 2) * z + M(0, 3)) / qz;
       const double v = (M(1, 0) * x + M(1, 1) * y + M(1, 2) * z + M(1, 3)) / qz;
       if (!(u >= -0.5 && v >= -0.5 && u < w - 0.5 && v < h - 0.5)) continue;  // as project
-      visible += store(m, u, v, &pix[i]);
+      if (!store(m, u, v, &pix[i])) continue;
+      ++visible;
+      if (depth) depth[i] = float(qz);
     }
     return visible;
   }
@@ -173,8 +185,14 @@ class CameraFusion final : public Stage {
     // Per-scan lookup point → pixel.
     const PointCloud& pc = f.points;
     const std::size_t n = pc.size();
+    // Depth test: z-buffer of the scan (depth w of P · T_camera_lidar · [X; 1], as the plane's).
+    const bool depth_test = occlusion_ == "depth_test";
+    const Eigen::Matrix<double, 3, 4> M = m.P * m.T_camera_lidar.matrix();
+    const bool pinhole = isPinhole(m);
     out.pixel_of_point.assign(n, -1);
-    const std::size_t visible = projectScan(m, pc, out.pixel_of_point.data());
+    if (depth_test) depth_.assign(n, 0.f);
+    const std::size_t visible =
+        projectScan(m, M, pc, out.pixel_of_point.data(), depth_test ? depth_.data() : nullptr);
     if (n > 0 && visible == 0)
       throw InputError(file, "the calibration of camera '" + cam_name + "' (" + calib +
                                  ") projects none of the " + std::to_string(n) +
@@ -183,20 +201,10 @@ class CameraFusion final : public Stage {
                                  " px image (all behind the camera or outside it); check that "
                                  "calibration, and that it belongs to this scan and image");
 
-    // Depth test: z-buffer of the scan (depth w of P · T_camera_lidar · [X; 1], as the plane's).
-    const bool depth_test = occlusion_ == "depth_test";
-    const Eigen::Matrix<double, 3, 4> M = m.P * m.T_camera_lidar.matrix();
-    const bool pinhole =
-        std::all_of(m.distortion.begin(), m.distortion.end(), [](double k) { return k == 0; });
     const double keep_ratio = 1.0 - occlusion_margin_;
-    if (depth_test) {
-      depth_.assign(n, 0.f);
-      for (std::size_t i = 0; i < n; ++i)
-        if (out.pixel_of_point[i] >= 0)
-          depth_[i] = float(M(2, 0) * pc.x[i] + M(2, 1) * pc.y[i] + M(2, 2) * pc.z[i] + M(2, 3));
+    if (depth_test)
       zbuf_.build(m.width, m.height, occlusion_splat_px_, out.pixel_of_point, depth_,
                   g.cellOfPoint());
-    }
     std::size_t occluded_pixels = 0, occluded_cells = 0, hidden_cells = 0;
     const uint32_t W = uint32_t(m.width);
 

@@ -14,9 +14,8 @@ namespace {
 
 using test::forwardCamera;
 using test::groundFrame;
+using test::noFill;
 using test::StageRunner;
-
-void noFill(int, int, uint8_t* p) { p[0] = p[1] = p[2] = 128; }
 
 const CellPixels& only(const TerrainGrid& g) {
   EXPECT_EQ(g.cellPixels().size(), 1u);

@@ -15,6 +15,9 @@ namespace terramrf::test {
 
 /// 200 × 100 px, f = 100 px, principal point (100, 50); camera axes x right, y down, z forward,
 /// i.e. cam = (−y_lidar, −z_lidar, x_lidar).
+/// Pixel filler for frames whose image content does not matter: mid grey.
+inline void noFill(int, int, uint8_t* p) { p[0] = p[1] = p[2] = 128; }
+
 inline CameraModel forwardCamera(const std::string& name = "front") {
   CameraModel m;
   m.name = name;
