@@ -10,6 +10,7 @@
 
 #include "config_internal.hpp"
 #include "param_yaml.hpp"
+#include "terramrf/yaml_keys.hpp"
 
 namespace terramrf {
 namespace fs = std::filesystem;
@@ -86,20 +87,12 @@ YAML::Node copyMapKeepingPositions(const YAML::Node& map) {
 }
 
 void checkDuplicateKeys(const YAML::Node& n, Diags& d) {
-  if (n.IsMap()) {
-    std::map<std::string, YAML::Mark> seen;
-    for (auto it = n.begin(); it != n.end(); ++it) {
-      if (it->first.IsScalar()) {
-        const auto [at, fresh] = seen.emplace(it->first.Scalar(), it->first.Mark());
-        if (!fresh)
-          d.add(it->first.Mark(), "duplicate key '" + it->first.Scalar() + "' (first at line " +
-                                      std::to_string(at->second.line + 1) +
-                                      "): only one of the two would be used");
-      }
-      checkDuplicateKeys(it->second, d);
-    }
-  } else if (n.IsSequence()) {
-    for (const auto& e : n) checkDuplicateKeys(e, d);
+  for (const RepeatedYamlKey& r : repeatedYamlKeys(n)) {
+    YAML::Mark m;
+    m.line = r.line - 1;
+    m.column = r.column - 1;
+    d.add(m, "duplicate key '" + r.key + "' (first at line " + std::to_string(r.first_line) +
+                 "): only one of the two would be used");
   }
 }
 

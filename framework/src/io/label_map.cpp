@@ -1,3 +1,4 @@
+
 #include "terramrf/io/label_map.hpp"
 
 #include <yaml-cpp/yaml.h>
@@ -8,6 +9,7 @@
 #include <sstream>
 
 #include "terramrf/errors.hpp"
+#include "terramrf/yaml_keys.hpp"
 
 namespace terramrf {
 namespace {
@@ -38,6 +40,7 @@ LabelMap LabelMap::load(const std::string& yaml_path, const LabelSet& labels) {
   } catch (const YAML::Exception& e) {
     throw InputError(yaml_path, std::string("not valid YAML: ") + e.what());
   }
+  throwOnRepeatedYamlKey(root, yaml_path);
   LabelMap m;
   m.path_ = yaml_path;
   if (root["dataset"]) m.dataset_ = root["dataset"].as<std::string>("");

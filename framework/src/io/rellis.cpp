@@ -8,9 +8,9 @@
 #include <fstream>
 #include <map>
 
-#include "terramrf/errors.hpp"
-
 #include "fs_checks.hpp"
+#include "terramrf/errors.hpp"
+#include "terramrf/yaml_keys.hpp"
 
 namespace terramrf {
 namespace fs = std::filesystem;
@@ -122,6 +122,7 @@ Eigen::Isometry3d readRellisCameraFromLidar(const std::string& path) {
   } catch (const YAML::Exception& e) {
     throw InputError(path, std::string("not valid YAML: ") + e.what());
   }
+  throwOnRepeatedYamlKey(root, path);
   const YAML::Node t = root["os1_cloud_node-pylon_camera_node"];
   if (!t || !t["q"] || !t["t"])
     throw InputError(path,

@@ -4,6 +4,9 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <vector>
+
+#include "terramrf/yaml_keys.hpp"
 
 namespace terramrf {
 
@@ -75,6 +78,9 @@ GaussianModel GaussianModel::load(const std::string& path) {
   } catch (const YAML::Exception& e) {
     throw std::runtime_error(path + ": cannot read model file: " + e.what());
   }
+  // A second entry of a class or feature would silently be ignored.
+  const std::vector<RepeatedYamlKey> repeats = repeatedYamlKeys(root);
+  if (!repeats.empty()) throw std::runtime_error(path + ": " + repeats.front().message());
   if (root["provenance"]) m.provenance = root["provenance"].as<std::string>("");
   const YAML::Node classes = root["classes"];
   if (!classes || !classes.IsMap())

@@ -90,6 +90,16 @@ TEST(LabelMap, RejectsBadFiles) {
     EXPECT_NE(std::string(e.what()).find("grass"), std::string::npos);
     EXPECT_NE(std::string(e.what()).find("g.yaml"), std::string::npos);
   }
+  // A second `road:` list would be ignored by every lookup; its ids would then read as unmapped
+  // in the data, far from the cause.
+  try {
+    LabelMap::load(write("i.yaml", "classes:\n  road: [40]\n  rough: [72]\n  road: [44]\n"), ls);
+    ADD_FAILURE() << "accepted a repeated class";
+  } catch (const InputError& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("i.yaml: line 4:3: duplicate key 'road' (first at line 2)"), std::string::npos)
+        << w;
+  }
   // Listing an id twice under the same class is harmless.
   const LabelMap ok =
       LabelMap::load(write("h.yaml", "classes: {road: [5, 5], rough: [70000]}"), ls);

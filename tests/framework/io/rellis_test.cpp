@@ -143,6 +143,19 @@ TEST(Rellis, CalibrationErrorsNameTheFile) {
   std::ofstream(tf) << "os1_cloud_node-pylon_camera_node: {q: {w: 2, x: 0, y: 0, z: 0}, "
                        "t: {x: 0, y: 0, z: 0}}\n";
   EXPECT_THROW(readRellisCameraFromLidar(tf), InputError);
+  // A repeated transform: which one is meant cannot be known.
+  const std::string t = "{q: {w: 1, x: 0, y: 0, z: 0}, t: {x: 0, y: 0, z: 0}}\n";
+  std::ofstream(tf) << "os1_cloud_node-pylon_camera_node: " << t
+                    << "os1_cloud_node-pylon_camera_node: " << t;
+  try {
+    readRellisCameraFromLidar(tf);
+    FAIL() << "accepted a repeated transform";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), tf);
+    EXPECT_NE(std::string(e.what()).find("duplicate key 'os1_cloud_node-pylon_camera_node'"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

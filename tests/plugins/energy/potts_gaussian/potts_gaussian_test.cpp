@@ -171,7 +171,12 @@ TEST(PottsGaussian, BadMixturesNameTheFileAndLine) {
         Case{"  obstacle: {components: [{weight: 0, features: {f: {mean: 0, sigma: 1}}},"
              " {weight: 1, features: {f: {mean: 0, sigma: 1}}}]}\n",
              "component weight must be > 0"},
-        Case{"  obstacle: {components: []}\n", "expected a list of {weight, features}"}}) {
+        Case{"  obstacle: {components: []}\n", "expected a list of {weight, features}"},
+        // A repeated class would be ignored: the second road's statistics never used.
+        Case{"  obstacle: {f: {mean: 2, sigma: 1}}\n  road: {f: {mean: 5, sigma: 1}}\n",
+             "bad.yaml: line 5:3: duplicate key 'road' (first at line 2)"},
+        Case{"  obstacle: {f: {mean: 2, sigma: 1}, f: {mean: 3, sigma: 1}}\n",
+             "duplicate key 'f'"}}) {
     const std::string p = d.str() + "/bad.yaml";
     std::ofstream(p) << base << c.obstacle;
     try {

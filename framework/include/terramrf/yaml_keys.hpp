@@ -1,0 +1,31 @@
+#pragma once
+// Repeated keys in YAML files. yaml-cpp keeps both entries of a repeated key and every lookup
+// returns the first, so a second `road:` in a label map or a second class in a model file would
+// silently be ignored. Every reader of a YAML file the user writes or edits checks for them.
+//
+// Only declared here (yaml-cpp stays out of the core headers); callers include yaml-cpp.
+#include <string>
+#include <vector>
+
+namespace YAML {
+class Node;
+}
+
+namespace terramrf {
+
+/// A key that appears a second time in one map. Positions are 1-based.
+struct RepeatedYamlKey {
+  std::string key;
+  int line = 0, column = 0;  ///< of the repeat
+  int first_line = 0;        ///< of the first occurrence
+  /// "line 12:3: duplicate key 'road' (first at line 4): only one of the two would be used"
+  std::string message() const;
+};
+
+/// Every repeated key of every map under `root`, depth first in file order.
+std::vector<RepeatedYamlKey> repeatedYamlKeys(const YAML::Node& root);
+
+/// Throws InputError(file, first repeat's message) when `root` repeats a key.
+void throwOnRepeatedYamlKey(const YAML::Node& root, const std::string& file);
+
+}  // namespace terramrf

@@ -1,0 +1,46 @@
+#include "terramrf/yaml_keys.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <map>
+
+#include "terramrf/errors.hpp"
+
+namespace terramrf {
+namespace {
+
+void collect(const YAML::Node& n, std::vector<RepeatedYamlKey>& out) {
+  if (n.IsMap()) {
+    std::map<std::string, int> first_line;
+    for (auto it = n.begin(); it != n.end(); ++it) {
+      if (it->first.IsScalar()) {
+        const YAML::Mark m = it->first.Mark();
+        const auto [at, fresh] = first_line.emplace(it->first.Scalar(), m.line + 1);
+        if (!fresh) out.push_back({it->first.Scalar(), m.line + 1, m.column + 1, at->second});
+      }
+      collect(it->second, out);
+    }
+  } else if (n.IsSequence()) {
+    for (const auto& e : n) collect(e, out);
+  }
+}
+
+}  // namespace
+
+std::string RepeatedYamlKey::message() const {
+  return "line " + std::to_string(line) + ":" + std::to_string(column) + ": duplicate key '" + key +
+         "' (first at line " + std::to_string(first_line) + "): only one of the two would be used";
+}
+
+std::vector<RepeatedYamlKey> repeatedYamlKeys(const YAML::Node& root) {
+  std::vector<RepeatedYamlKey> out;
+  if (root) collect(root, out);
+  return out;
+}
+
+void throwOnRepeatedYamlKey(const YAML::Node& root, const std::string& file) {
+  const auto repeats = repeatedYamlKeys(root);
+  if (!repeats.empty()) throw InputError(file, repeats.front().message());
+}
+
+}  // namespace terramrf
