@@ -5,7 +5,8 @@
 //   BM_L_H / _FH / _C laser part + camera_fusion + haralick / homogeneity / colour (the paper's
 //                     feature sets: H = Haralick, FH = homogeneity, C = colour)
 //   BM_L_G            laser part + relative_height + height_above_ground (sweep feature set L+G)
-//   BM_HeightAboveGround, BM_RelativeHeight   one stage alone on an already binned grid
+//   BM_HeightAboveGround, BM_RelativeHeight, BM_EigenPreclass, BM_HeightDifference, BM_Roughness
+//                     one stage alone on an already binned grid
 //   BM_Img_*          the image part alone (camera_fusion + the feature) on an already binned grid
 // Run: build/bin/terramrf_bench_features
 #include <benchmark/benchmark.h>
@@ -102,6 +103,9 @@ void BM_L(benchmark::State& s) { bench(s, true, nullptr, false); }
 void BM_L_G(benchmark::State& s) { bench(s, true, nullptr, false, true); }
 void BM_HeightAboveGround(benchmark::State& s) { bench(s, false, fixture().ground[1].get(), false); }
 void BM_RelativeHeight(benchmark::State& s) { bench(s, false, fixture().ground[0].get(), false); }
+void BM_EigenPreclass(benchmark::State& s) { bench(s, false, fixture().laser[0].get(), false); }
+void BM_HeightDifference(benchmark::State& s) { bench(s, false, fixture().laser[1].get(), false); }
+void BM_Roughness(benchmark::State& s) { bench(s, false, fixture().laser[2].get(), false); }
 void BM_L_H(benchmark::State& s) { bench(s, true, fixture().haralick.get()); }
 void BM_L_FH(benchmark::State& s) { bench(s, true, fixture().homogeneity.get()); }
 void BM_L_C(benchmark::State& s) { bench(s, true, fixture().colour_rgb.get()); }
@@ -118,6 +122,9 @@ TERRAMRF_BENCH(BM_L);
 TERRAMRF_BENCH(BM_L_G);
 TERRAMRF_BENCH(BM_HeightAboveGround);
 TERRAMRF_BENCH(BM_RelativeHeight);
+TERRAMRF_BENCH(BM_EigenPreclass);
+TERRAMRF_BENCH(BM_HeightDifference);
+TERRAMRF_BENCH(BM_Roughness);
 TERRAMRF_BENCH(BM_L_H);
 TERRAMRF_BENCH(BM_L_FH);
 TERRAMRF_BENCH(BM_L_C);

@@ -2,9 +2,9 @@
 // h = λ_k with k = argmax_i |e_iᵀ z| over the eigenvectors of the cell's point covariance.
 // Drivable cells are locally planar, so the variance along the normal stays small even on slopes;
 // anything vertical (walls, trunks, cars) has a large one.
-#include <Eigen/Eigenvalues>
 #include <cmath>
 
+#include "normal_eigenvalue.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -60,16 +60,7 @@ class EigenPreclass final : public Stage {
       C(1, 1) = syy * inv - my * my;
       C(1, 2) = C(2, 1) = syz * inv - my * mz;
       C(2, 2) = szz * inv - mz * mz;
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
-      es.computeDirect(C);
-      const Eigen::Matrix3d& E = es.eigenvectors();
-      int k = 0;
-      double best = -1;
-      for (int i = 0; i < 3; ++i) {
-        const double a = std::abs(E(2, i));
-        if (a > best) best = a, k = i;
-      }
-      const double h = std::max(0.0, es.eigenvalues()(k));
+      const double h = std::max(0.0, normalEigenvalue(C));
       lam[c] = static_cast<float>(h);
       const bool obstacle = h > threshold_m2_;
       pre[c] = obstacle ? kPreObstacle : kPreFlat;
