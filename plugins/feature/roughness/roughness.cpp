@@ -42,6 +42,12 @@ class Roughness final : public Stage {
           "sensor; 64-beam sensors space lasers >= 0.33 deg apart); 0 = off")
         .unit("deg")
         .range(0, 90);
+    d.add("residual", residual_,
+          "range: the range residual itself (paper 000); vertical: the residual times |sin "
+          "elevation|, the height change that moves a ground return's range by that much, so a "
+          "surface reads alike at every range (a ground ring's range jitter grows as "
+          "1 / sin elevation)")
+        .choices({"range", "vertical"});
     d.add("min_points", min_points_, "cells with fewer filtered points get NaN")
         .unit("points").range(1, 1000);
   }
@@ -75,14 +81,15 @@ class Roughness final : public Stage {
     ctx.metrics[name() + ".sorted_rings"] = sorted_rings_;
     range_.resize(order_.size());
     const bool elev = max_elev_step_deg_ > 0;
-    if (elev) sin_el_.resize(order_.size());
+    const bool vertical = residual_ == "vertical";
+    if (elev || vertical) sin_el_.resize(order_.size());
     const float max_dsin = static_cast<float>(std::sin(max_elev_step_deg_ * M_PI / 180));
     // Passed-over neighbours widen the search, up to 4 windows along the ring.
     const int span = elev ? 4 * window_ : window_;
     for (std::size_t k = 0; k < order_.size(); ++k) {
       const uint32_t i = order_[k];
       range_[k] = std::sqrt(pc.x[i] * pc.x[i] + pc.y[i] * pc.y[i] + pc.z[i] * pc.z[i]);
-      if (elev) sin_el_[k] = pc.z[i] / std::max(range_[k], 1e-3f);
+      if (elev || vertical) sin_el_[k] = pc.z[i] / std::max(range_[k], 1e-3f);
     }
     sum_.assign(g.cells(), 0.f);
     cnt_.assign(g.cells(), 0);
@@ -116,7 +123,7 @@ class Roughness final : public Stage {
           s += range_[j], ++m, ++got;
         }
         if (left == 0 || m == left) continue;  // need neighbours on both sides
-        const float res = rk - s / m;
+        const float res = vertical ? (rk - s / m) * std::abs(sin_el_[k]) : rk - s / m;
         sum_[cell] += res * res;
         ++cnt_[cell];
         ++residuals;
@@ -169,6 +176,7 @@ class Roughness final : public Stage {
   double max_jump_m_ = 0.5;
   int min_points_ = 1;
   std::string azimuth_order_ = "auto";
+  std::string residual_ = "range";
   int sorted_rings_ = 0;
   std::vector<std::pair<float, uint32_t>> keyed_;
   std::vector<uint32_t> offsets_, cursor_, order_, cnt_;

@@ -145,4 +145,34 @@ TEST(Roughness, NeighboursFromAnotherLaserArePassedOver) {
   EXPECT_NEAR(h.at("roughness", 3.8, 1.2), half_step, 1e-3);
 }
 
+// Ground 1.7 m below the sensor whose height alternates by ±1 cm along each ring, seen by a
+// laser 15° and one 5° down (6.3 m and 19.4 m away). The range jitter is the height change over
+// sin(elevation), three times larger on the far ring; `residual: vertical` scales it back by
+// |sin elevation| and both rings read alike.
+TEST(Roughness, VerticalResidualReadsTheSameReliefAtEveryRange) {
+  test::StageHarness h(50);  // ±25 m
+  const int n = 6000;
+  const double deg = M_PI / 180;
+  for (const auto& [ring, el] : {std::pair<uint16_t, double>{3, 15 * deg}, {9, 5 * deg}}) {
+    for (int i = 0; i < n; ++i) {
+      const double a = 2 * M_PI * i / n, dz = i % 2 ? 0.01 : -0.01;
+      const double r = (1.7 - dz) / std::sin(el);  // raised ground is hit nearer
+      h.frame.points.push_back(float(r * std::cos(el) * std::cos(a)),
+                               float(r * std::cos(el) * std::sin(a)), float(-r * std::sin(el)), 0,
+                               ring);
+    }
+  }
+  h.bin();
+  const double near_x = 1.7 / std::tan(15 * deg), far_x = 1.7 / std::tan(5 * deg);
+  h.make("roughness", "{window: 1, max_elevation_step_deg: 0}")->process(h.ctx);
+  const double near_range = h.at("roughness", near_x, 0.05),
+               far_range = h.at("roughness", far_x, 0.05);
+  // Window 1: residual ±(δr − (−δr)) = ±2 · 0.01 / sin(elevation).
+  EXPECT_NEAR(near_range, 0.02 / std::sin(15 * deg), 2e-3);
+  EXPECT_NEAR(far_range, 0.02 / std::sin(5 * deg), 5e-3);
+  h.make("roughness", "{window: 1, max_elevation_step_deg: 0, residual: vertical}")->process(h.ctx);
+  EXPECT_NEAR(h.at("roughness", near_x, 0.05), 0.02, 1e-3);
+  EXPECT_NEAR(h.at("roughness", far_x, 0.05), 0.02, 1e-3);
+}
+
 }  // namespace terramrf
