@@ -394,7 +394,7 @@ TrainResult trainModel(const TrainOptions& o) {
       it->mark = source.Mark();
       train.push_back(std::move(it));
     }
-  } else if (train.empty()) {
+  } else if (!root["split"]) {
     // Explicit in the config (its source is the training data) but worth saying: nothing is
     // held out, and the model records that.
     log << "note: " << o.config_path
@@ -408,11 +408,14 @@ TrainResult trainModel(const TrainOptions& o) {
     train.push_back(std::move(it));
   }
   d.throwIfAny();
-  for (auto& it : train) {
-    identify(*it, f0.base_dir, reg);
-    if (it->label == "source") it->label = it->identity_text;  // the config's source as it is
-  }
-  for (auto& it : test) identify(*it, f0.base_dir, reg);
+  // Train configs have no dataset names: an item is named by what it reads (the canonical data
+  // folder, or the source type and its distinguishing parameters), which is what a model's
+  // provenance and held_out must say, not a path relative to the config or a bare type.
+  for (auto* items : {&train, &test})
+    for (auto& it : *items) {
+      identify(*it, f0.base_dir, reg);
+      if (!it->identity_text.empty()) it->label = it->identity_text;
+    }
   std::vector<Item*> tr, te;
   for (auto& it : train) tr.push_back(it.get());
   for (auto& it : test) te.push_back(it.get());

@@ -856,7 +856,7 @@ split:
   EXPECT_EQ(data[0]["source"].as<std::string>(), "simulator");
   EXPECT_EQ(data[0]["frames"].as<std::string>(), "frames 0-1");
   EXPECT_EQ(data[0]["frame_ids"].size(), 2u);
-  EXPECT_EQ(m["trained_from"]["held_out"][0].as<std::string>(), "simulator seed=1 (all frames)");
+  EXPECT_EQ(m["trained_from"]["held_out"][0].as<std::string>(), "simulator seed 1 (all frames)");
   // The road is flat, obstacles are tall: the learnt means say so.
   EXPECT_LT(m["classes"]["road"]["height_diff"]["mean"].as<double>(), 0.1);
   EXPECT_GT(m["classes"]["obstacle"]["height_diff"]["mean"].as<double>(), 0.5);
@@ -926,6 +926,13 @@ TEST(Train, DataFolderOfRealScansIsRecordedWithItsLabelMap) {
       fs::weakly_canonical(test::sourceDir() + "/configs/label_maps/semantickitti.yaml").string());
   EXPECT_EQ(m["trained_from"]["features"].size(), 6u);  // from the config's feature_stats output
   EXPECT_NE(m["provenance"].as<std::string>().find("converted_semantickitti"), std::string::npos);
+  // The shipped config holds out the test scans of configs/semantickitti.yaml; the model names
+  // them by their canonical folder, not by a path relative to the config.
+  const YAML::Node held = m["trained_from"]["held_out"];
+  ASSERT_EQ(held.size(), 1u);
+  EXPECT_EQ(held[0].as<std::string>(),
+            fs::canonical(test::dataPath("semantickitti_seq00_000000-000005")).string() +
+                " (frames 0-2)");
 }
 
 TEST(Train, WithoutASplitTheModelSaysNothingIsHeldOut) {
@@ -955,6 +962,41 @@ outputs:
   const YAML::Node held = YAML::LoadFile(o.model_out)["trained_from"]["held_out"];
   ASSERT_TRUE(held.IsSequence());
   EXPECT_EQ(held.size(), 0u);
+}
+
+// A split without its train list is an error at the split; the "no split" note, which would
+// contradict it, is not printed.
+TEST(Train, ASplitWithoutTrainIsAnErrorNotANoSplitNote) {
+  test::TempDir dir;
+  const std::string config = put(dir, "testonly.yaml",
+                                 std::string(R"(version: 1
+grid: {size_m: 30, cell_m: 0.5}
+source: {type: simulator, params: {seed: 7, frames: 1, )") +
+                                     kSim + R"(}}
+split:
+  test: [{params: {seed: 1}}]
+stages:
+  - {name: hdiff, type: height_difference}
+outputs:
+  - {type: feature_stats, params: {features: [height_diff], min_sigma: [0.02]}}
+)");
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/m.yaml";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  std::ostringstream log;
+  o.log = &log;
+  try {
+    trainModel(o);
+    FAIL() << "trained without a train list";
+  } catch (const ConfigError& e) {
+    ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+    EXPECT_EQ(e.diagnostics()[0].line, 5);
+    EXPECT_NE(e.diagnostics()[0].message.find("split: missing 'train: [...]'"), std::string::npos);
+  }
+  EXPECT_EQ(log.str().find("has no split"), std::string::npos) << log.str();
+  EXPECT_FALSE(fs::exists(o.model_out));
 }
 
 TEST(Train, ALabelMapMissingAnIdOfTheDataFailsEveryFrameAndSaysWhichFileAndId) {
