@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <set>
 
+#include "../../../../plugins/feature/camera_fusion/ring_gap.hpp"
 #include "plugins/feature/camera_fusion/fusion_test_frame.hpp"
 
 namespace terramrf {
@@ -228,6 +229,68 @@ TEST(CameraFusionOcclusion, HiddenCellsGetNoPixelsNotTheOccludersPixels) {
   EXPECT_EQ(r.depth.grid.cellPixels()[0].count(far), 0u);
 }
 
+// The ring gap estimate: rings 6 px apart, points every 3 px along them, ring ids not in
+// elevation order, one ring missing in the right half, and long steps from sky above the top
+// ring (the median ignores them). Too few gaps or no ring ids give NaN.
+TEST(CameraFusionOcclusion, RingGapIsTheMedianStepBetweenAdjacentRings) {
+  const int W = 640, H = 200;
+  std::vector<int32_t> pix;
+  std::vector<uint16_t> ring;
+  const uint16_t ids[] = {7, 3, 9, 1, 4, 8, 2, 6, 5, 0};
+  for (int k = 0; k < 10; ++k)
+    for (int u = k % 3; u < W; u += 3) {
+      if (k == 4 && u >= W / 2) continue;        // a ring without returns there: a 12 px gap
+      const int v = 40 + 6 * k + (u / 100) % 2;  // rings dip by a pixel every 100 columns
+      pix.push_back(v * W + u);
+      ring.push_back(ids[k]);
+    }
+  pix.push_back(-1);  // not visible
+  ring.push_back(0);
+  RingGapScratch s;
+  EXPECT_DOUBLE_EQ(medianRingGapPx(pix, ring, W, 32, 100, s), 6.0);
+  EXPECT_TRUE(std::isnan(medianRingGapPx(pix, ring, W, 32, 1000, s)));  // 20 bands × ≤ 9 gaps
+  std::vector<uint16_t> unknown(ring.size(), kUnknownRing);
+  EXPECT_TRUE(std::isnan(medianRingGapPx(pix, unknown, W, 32, 1, s)));
+  EXPECT_TRUE(std::isnan(medianRingGapPx(pix, {}, W, 32, 1, s)));
+  // The splat whose square spans the gap, to the nearest pixel, within [0, max].
+  EXPECT_EQ(splatForGap(5.0, 16), 2);  // KITTI HDL-64E in image_2
+  EXPECT_EQ(splatForGap(5.1, 16), 2);
+  EXPECT_EQ(splatForGap(2.7, 16), 1);    // the simulator
+  EXPECT_EQ(splatForGap(25.7, 16), 12);  // RELLIS-3D's Ouster in its 1920 px camera
+  EXPECT_EQ(splatForGap(80, 16), 16);
+  EXPECT_EQ(splatForGap(0.5, 16), 0);
+}
+
+// occlusion_splat: ring_gap measures the gap of the frame: a wall filling the image, scanned as
+// rings 4 px apart, gives a 4 px gap (4 bands of 64 px × 23 gaps), a 2 px splat (2 · 2 + 1 ≥ 4),
+// and the same pixels as a fixed 2 px splat. Without ring ids it falls back to
+// occlusion_splat_px.
+TEST(CameraFusionOcclusion, RingGapSplatFollowsTheScansRingSpacing) {
+  Frame f = groundFrame(forwardCamera(), noFill);
+  uint16_t k = 0;
+  for (double z = -1.1; z <= 1.1; z += 0.088, ++k)  // v = 50 − 100 z / 2.2: 4 px per ring
+    for (double y = -2.3; y <= 2.3; y += 0.005) f.points.push_back(2.2f, float(y), float(z), 0, k);
+  StageRunner fixed2, gap;
+  fixed2.add("camera_fusion", "{occlusion_splat: fixed, occlusion_splat_px: 2}");
+  gap.add("camera_fusion", "{occlusion_splat: ring_gap, occlusion_splat_px: 0}");
+  fixed2.run(f);
+  gap.run(f);
+  EXPECT_DOUBLE_EQ(gap.ctx.metrics.at("camera_fusion.front.ring_gap_px"), 4.0);
+  EXPECT_EQ(gap.ctx.metrics.at("camera_fusion.front.splat_px"), 2);
+  const CellPixels &a = fixed2.grid.cellPixels()[0], &b = gap.grid.cellPixels()[0];
+  EXPECT_EQ(a.pixels, b.pixels);
+  EXPECT_EQ(a.offsets, b.offsets);
+  EXPECT_EQ(gap.ctx.metrics.at("camera_fusion.front.occluded_pixels"),
+            fixed2.ctx.metrics.at("camera_fusion.front.occluded_pixels"));
+  // No ring ids: the fixed half-width.
+  for (auto& r : f.points.ring) r = kUnknownRing;
+  StageRunner fallback;
+  fallback.add("camera_fusion", "{occlusion_splat: ring_gap, occlusion_splat_px: 1}");
+  fallback.run(f);
+  EXPECT_EQ(fallback.ctx.metrics.at("camera_fusion.front.splat_px"), 1);
+  EXPECT_TRUE(std::isnan(fallback.ctx.metrics.at("camera_fusion.front.ring_gap_px")));
+}
+
 TEST(CameraFusionOcclusion, RejectsBadParameters) {
   StageRunner r;
   EXPECT_THROW(r.add("camera_fusion", "{occlusion: zbuffer}"), std::runtime_error);
@@ -235,6 +298,7 @@ TEST(CameraFusionOcclusion, RejectsBadParameters) {
   EXPECT_THROW(r.add("camera_fusion", "{occlusion_margin: -0.1}"), std::runtime_error);
   EXPECT_THROW(r.add("camera_fusion", "{occlusion_splat_px: -1}"), std::runtime_error);
   EXPECT_THROW(r.add("camera_fusion", "{occlusion_splat_px: 17}"), std::runtime_error);
+  EXPECT_THROW(r.add("camera_fusion", "{occlusion_splat: auto}"), std::runtime_error);
 }
 
 }  // namespace
