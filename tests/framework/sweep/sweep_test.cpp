@@ -935,25 +935,33 @@ TEST(Train, DataFolderOfRealScansIsRecordedWithItsLabelMap) {
                 " (frames 0-2)");
 }
 
-TEST(Train, WithoutASplitTheModelSaysNothingIsHeldOut) {
-  test::TempDir dir;
-  const std::string config = put(dir, "nosplit.yaml",
-                                 std::string(R"(version: 1
+/// A one-frame simulator train config learning height_diff, with `split` (YAML, "" = none)
+/// before its stages; options that train it quietly into dir/m.yaml, logging to `log`.
+std::string oneFeatureTrainConfig(test::TempDir& dir, const std::string& split) {
+  return put(dir, "train.yaml",
+             std::string(R"(version: 1
 grid: {size_m: 30, cell_m: 0.5}
 source: {type: simulator, params: {seed: 7, frames: 1, )") +
-                                     kSim + R"(}}
-stages:
+                 kSim + "}}\n" + split + R"(stages:
   - {name: hdiff, type: height_difference}
 outputs:
   - {type: feature_stats, params: {features: [height_diff], min_sigma: [0.02]}}
 )");
+}
+TrainOptions quietTraining(const std::string& config, test::TempDir& dir, std::ostream& log) {
   TrainOptions o;
   o.config_path = config;
   o.model_out = dir.str() + "/m.yaml";
   o.progress = false;
   o.plugin_dirs = {test::pluginDir()};
-  std::ostringstream log;
   o.log = &log;
+  return o;
+}
+
+TEST(Train, WithoutASplitTheModelSaysNothingIsHeldOut) {
+  test::TempDir dir;
+  std::ostringstream log;
+  const TrainOptions o = quietTraining(oneFeatureTrainConfig(dir, ""), dir, log);
   trainModel(o);
   EXPECT_NE(log.str().find("has no split: training on every frame of its source; no test data is "
                            "held out"),
@@ -968,25 +976,9 @@ outputs:
 // contradict it, is not printed.
 TEST(Train, ASplitWithoutTrainIsAnErrorNotANoSplitNote) {
   test::TempDir dir;
-  const std::string config = put(dir, "testonly.yaml",
-                                 std::string(R"(version: 1
-grid: {size_m: 30, cell_m: 0.5}
-source: {type: simulator, params: {seed: 7, frames: 1, )") +
-                                     kSim + R"(}}
-split:
-  test: [{params: {seed: 1}}]
-stages:
-  - {name: hdiff, type: height_difference}
-outputs:
-  - {type: feature_stats, params: {features: [height_diff], min_sigma: [0.02]}}
-)");
-  TrainOptions o;
-  o.config_path = config;
-  o.model_out = dir.str() + "/m.yaml";
-  o.progress = false;
-  o.plugin_dirs = {test::pluginDir()};
   std::ostringstream log;
-  o.log = &log;
+  const TrainOptions o = quietTraining(
+      oneFeatureTrainConfig(dir, "split:\n  test: [{params: {seed: 1}}]\n"), dir, log);
   try {
     trainModel(o);
     FAIL() << "trained without a train list";
