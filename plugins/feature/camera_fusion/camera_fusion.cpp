@@ -67,9 +67,9 @@ class CameraFusion final : public Stage {
         .range(0, 16);
     d.add("occlusion_splat", occlusion_splat_,
           "fixed: the half-width is occlusion_splat_px; ring_gap: per frame and camera the "
-          "smallest half-width r that closes the median vertical gap g between adjacent rings in "
-          "the image (2r + 1 >= g, at most 16 px; metrics ring_gap_px, splat_px), for sensors "
-          "much sparser or denser in the image than KITTI's")
+          "half-width r whose square spans the median vertical gap g between adjacent rings in "
+          "the image (2r + 1 = g to the nearest pixel, at most 16 px; metrics ring_gap_px, "
+          "splat_px), for sensors much sparser or denser in the image than KITTI's")
         .choices({"fixed", "ring_gap"});
   }
   std::vector<std::string> reads() const override { return {artefacts::kPoints}; }
