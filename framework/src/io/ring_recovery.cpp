@@ -6,6 +6,10 @@
 #include <limits>
 #include <numeric>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace terramrf {
 namespace {
 
@@ -33,6 +37,35 @@ inline float fastAtan2(float y, float x) {
   return y < 0.f ? -r : r;
 }
 
+#if defined(__SSE2__)
+// GCC does not vectorise the per-point loops by itself (sqrt may set errno, and under the default
+// -ftrapping-math it will not if-convert the branches), so they are written with SSE2, which
+// every x86-64 has. Each lane performs the same IEEE operations in the same order as the scalar
+// code (no FMA without -march), so the results are bit-identical to it.
+
+inline __m128 selectPs(__m128 mask, __m128 if_true, __m128 if_false) {
+  return _mm_or_ps(_mm_and_ps(mask, if_true), _mm_andnot_ps(mask, if_false));
+}
+
+/// fastAtan2 on four lanes.
+inline __m128 fastAtan2x4(__m128 y, __m128 x) {
+  const __m128 sign = _mm_set1_ps(-0.f), zero = _mm_setzero_ps();
+  const __m128 ax = _mm_andnot_ps(sign, x), ay = _mm_andnot_ps(sign, y);
+  // maxps/minps(ay, ax) pick exactly what std::max/std::min(ax, ay) pick, NaN included.
+  const __m128 mx = _mm_max_ps(ay, ax), mn = _mm_min_ps(ay, ax);
+  const __m128 a = _mm_div_ps(mn, mx), s = _mm_mul_ps(a, a);
+  __m128 r = _mm_add_ps(_mm_mul_ps(_mm_set1_ps(-0.0117212f), s), _mm_set1_ps(0.05265332f));
+  r = _mm_sub_ps(_mm_mul_ps(r, s), _mm_set1_ps(0.11643287f));
+  r = _mm_add_ps(_mm_mul_ps(r, s), _mm_set1_ps(0.19354346f));
+  r = _mm_sub_ps(_mm_mul_ps(r, s), _mm_set1_ps(0.33262347f));
+  r = _mm_add_ps(_mm_mul_ps(_mm_mul_ps(r, s), a), _mm_mul_ps(_mm_set1_ps(0.99997726f), a));
+  r = selectPs(_mm_cmpgt_ps(ay, ax), _mm_sub_ps(_mm_set1_ps(1.57079637f), r), r);
+  r = selectPs(_mm_cmplt_ps(x, zero), _mm_sub_ps(_mm_set1_ps(3.14159274f), r), r);
+  r = _mm_xor_ps(r, _mm_and_ps(_mm_cmplt_ps(y, zero), sign));  // negate where y < 0
+  return _mm_andnot_ps(_mm_cmpeq_ps(mx, zero), r);             // 0 where x = y = 0
+}
+#endif
+
 /// Median of v[begin, end) (reorders that range).
 float medianOf(std::vector<float>& v, std::size_t begin, std::size_t end) {
   if (begin >= end) return std::numeric_limits<float>::quiet_NaN();
@@ -47,24 +80,69 @@ float medianOf(std::vector<float>& v, std::size_t begin, std::size_t end) {
 /// Elevation [deg] of every point, seen from (0, 0, z_offset).
 const std::vector<float>& elevationsDeg(const PointCloud& c, double z_offset_m) {
   thread_local std::vector<float> el;
-  el.resize(c.size());
+  const std::size_t n = c.size();
+  el.resize(n);
   const float dz = static_cast<float>(z_offset_m), to_deg = static_cast<float>(1 / kDeg);
-  for (std::size_t i = 0; i < c.size(); ++i) {
+  std::size_t i = 0;
+#if defined(__SSE2__)
+  // Plain pointers: SSE stores may alias anything, so through the vectors every iteration would
+  // reload their data pointers.
+  const float *px = c.x.data(), *py = c.y.data(), *pz = c.z.data();
+  float* out = el.data();
+  const __m128 dz4 = _mm_set1_ps(dz), to_deg4 = _mm_set1_ps(to_deg);
+  for (; i + 4 <= n; i += 4) {
+    const __m128 x = _mm_loadu_ps(px + i), y = _mm_loadu_ps(py + i);
+    const __m128 r = _mm_sqrt_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)));
+    const __m128 e = fastAtan2x4(_mm_sub_ps(_mm_loadu_ps(pz + i), dz4), r);
+    _mm_storeu_ps(out + i, _mm_mul_ps(e, to_deg4));
+  }
+#endif
+  for (; i < n; ++i) {
     const float r = std::sqrt(c.x[i] * c.x[i] + c.y[i] * c.y[i]);
     el[i] = fastAtan2(c.z[i] - dz, r) * to_deg;
   }
   return el;
 }
 
+/// Azimuth [rad] of every point, in [-π, π].
+void azimuths(const PointCloud& c, std::vector<float>& az) {
+  const std::size_t n = c.size();
+  az.resize(n);
+  std::size_t i = 0;
+#if defined(__SSE2__)
+  const float *px = c.x.data(), *py = c.y.data();  // see elevationsDeg()
+  float* out = az.data();
+  for (; i + 4 <= n; i += 4)
+    _mm_storeu_ps(out + i, fastAtan2x4(_mm_loadu_ps(py + i), _mm_loadu_ps(px + i)));
+#endif
+  for (; i < n; ++i) az[i] = fastAtan2(c.y[i], c.x[i]);
+}
+
 /// Per-ring median elevation (NaN for empty rings) via a counting sort of the elevations. Rings
 /// with many points are subsampled evenly to ~256 (the median barely moves; nth_element over
-/// every point was the largest cost of recoverRings).
-std::vector<float> ringMedians(const std::vector<uint16_t>& ring, const std::vector<float>& el,
+/// every point was the largest cost of recoverRings). Id: uint16_t (rings) or int (runs); ids
+/// are taken modulo 2^16 either way.
+template <typename Id>
+std::vector<float> ringMedians(const std::vector<Id>& ring, const std::vector<float>& el,
                                int nrings) {
   constexpr std::size_t kSamples = 256;
+  // Ids come in long runs (a ring in scan order), so the points are handled run by run: a
+  // per-point counter chained through memory was most of the cost.
+  struct Run {
+    std::size_t begin, end;
+    uint16_t id;
+  };
+  thread_local std::vector<Run> runs;
+  runs.clear();
   std::vector<std::size_t> count(nrings, 0);
-  for (uint16_t r : ring)
-    if (r < nrings) ++count[r];
+  const std::size_t n = ring.size();
+  for (std::size_t i = 0; i < n;) {
+    const uint16_t r = static_cast<uint16_t>(ring[i]);
+    std::size_t j = i + 1;
+    while (j < n && static_cast<uint16_t>(ring[j]) == r) ++j;
+    if (r < nrings) runs.push_back({i, j, r}), count[r] += j - i;
+    i = j;
+  }
   std::vector<std::size_t> stride(nrings), offs(nrings + 1, 0);
   for (int k = 0; k < nrings; ++k) {
     stride[k] = std::max<std::size_t>(1, count[k] / kSamples);
@@ -72,15 +150,13 @@ std::vector<float> ringMedians(const std::vector<uint16_t>& ring, const std::vec
   }
   thread_local std::vector<float> sorted;
   sorted.resize(offs.back());
+  // Every stride-th point of a ring, in index order; skip = its points to pass before the next.
   std::vector<std::size_t> pos(offs.begin(), offs.end() - 1), skip(nrings, 0);
-  for (std::size_t i = 0; i < ring.size(); ++i) {
-    const uint16_t r = ring[i];
-    if (r >= nrings) continue;
-    if (skip[r] == 0) {
-      sorted[pos[r]++] = el[i];
-      skip[r] = stride[r];
-    }
-    --skip[r];
+  for (const Run& run : runs) {
+    const uint16_t r = run.id;
+    std::size_t i = run.begin + skip[r];
+    for (; i < run.end; i += stride[r]) sorted[pos[r]++] = el[i];
+    skip[r] = i - run.end;
   }
   std::vector<float> med(nrings);
   for (int k = 0; k < nrings; ++k) med[k] = medianOf(sorted, offs[k], pos[k]);
@@ -95,17 +171,64 @@ double elevationConsistency(const std::vector<uint16_t>& ring, const std::vector
     if (std::isfinite(med[k])) sorted.push_back({med[k], k});
   if (sorted.empty() || ring.empty()) return 0;
   std::sort(sorted.begin(), sorted.end());
-  std::size_t good = 0;
-  for (std::size_t i = 0; i < ring.size(); ++i) {
-    auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(el[i], -1));
+  const int nsorted = int(sorted.size());
+  constexpr float inf = std::numeric_limits<float>::infinity();
+  // The nearest median to e is found as: j = first sorted median not below e (lower_bound), then
+  // the one below j if it is strictly nearer (ties go up). Done per point that costs a binary
+  // search with mispredicted branches. A point's own ring is known, so instead test whether that
+  // search would end on it: j is the ring's position and the one below is not nearer, or j is
+  // the position above and the ring is nearer. That needs only the ring's median and its two
+  // sorted neighbours (±inf past the ends), with no branch.
+  struct Neighbours {
+    float below = inf, own = -inf, above = -inf;  // defaults: a ring without median never wins
+  };
+  std::vector<Neighbours> nb(med.size() + 1);  // last entry: ring ids past med.size()
+  for (int j = 0; j < nsorted; ++j)
+    nb[sorted[j].second] = {j > 0 ? sorted[j - 1].first : -inf, sorted[j].first,
+                            j + 1 < nsorted ? sorted[j + 1].first : inf};
+  // Non-finite elevations (non-finite points) take the search itself, as it treats them.
+  auto nearest = [&](float e) {
+    auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(e, -1));
     int best = -1;
-    float bd = std::numeric_limits<float>::infinity();
-    if (it != sorted.end()) bd = it->first - el[i], best = it->second;
-    if (it != sorted.begin()) {
-      auto p = std::prev(it);
-      if (el[i] - p->first < bd) best = p->second;
+    float bd = inf;
+    if (it != sorted.end()) bd = it->first - e, best = it->second;
+    if (it != sorted.begin() && e - std::prev(it)->first < bd) best = std::prev(it)->second;
+    return best;
+  };
+  auto isNearest = [&](const Neighbours& n, float e, uint16_t r) -> std::size_t {
+    if (!std::isfinite(e)) return nearest(e) == r;
+    const bool at_own = n.below < e && !(n.own < e);  // j = the ring's position
+    const bool at_above = n.own < e && !(n.above < e);
+    return (at_own & !(e - n.below < n.own - e)) | (at_above & (e - n.own < n.above - e));
+  };
+  std::size_t good = 0;
+  const std::size_t npts = ring.size();
+  // Run by run of equal ring ids (rings are contiguous in scan order), four points at a time.
+  for (std::size_t i = 0; i < npts;) {
+    const uint16_t r = ring[i];
+    std::size_t end = i + 1;
+    while (end < npts && ring[end] == r) ++end;
+    const Neighbours& n = nb[std::min<std::size_t>(r, med.size())];
+#if defined(__SSE2__)
+    const __m128 below = _mm_set1_ps(n.below), own = _mm_set1_ps(n.own);
+    const __m128 above = _mm_set1_ps(n.above), zero = _mm_setzero_ps();
+    for (; i + 4 <= end; i += 4) {
+      const __m128 e = _mm_loadu_ps(&el[i]);
+      if (_mm_movemask_ps(_mm_cmpeq_ps(_mm_sub_ps(e, e), zero)) != 0xF) {  // not all finite
+        for (std::size_t k = i; k < i + 4; ++k) good += isNearest(n, el[k], r);
+        continue;
+      }
+      const __m128 own_below_e = _mm_cmplt_ps(own, e);
+      const __m128 at_own = _mm_andnot_ps(own_below_e, _mm_cmplt_ps(below, e));
+      const __m128 at_above = _mm_andnot_ps(_mm_cmplt_ps(above, e), own_below_e);
+      const __m128 lower_at_own = _mm_cmplt_ps(_mm_sub_ps(e, below), _mm_sub_ps(own, e));
+      const __m128 lower_at_above = _mm_cmplt_ps(_mm_sub_ps(e, own), _mm_sub_ps(above, e));
+      const int hit = _mm_movemask_ps(
+          _mm_or_ps(_mm_andnot_ps(lower_at_own, at_own), _mm_and_ps(at_above, lower_at_above)));
+      good += (hit & 1) + ((hit >> 1) & 1) + ((hit >> 2) & 1) + ((hit >> 3) & 1);
     }
-    good += (best == ring[i]);
+#endif
+    for (; i < end; ++i) good += isNearest(n, el[i], r);
   }
   return double(good) / ring.size();
 }
@@ -127,24 +250,66 @@ int countViolations(const std::vector<float>& med) {
 /// mid-ring), every run ends with the first degrees of the next ring. The cut that fits the
 /// elevations best is found over a 0.05° azimuth histogram: moving the points at azimuth >= c of
 /// run s to run s+1 changes the summed elevation misfit by the sum of their per-point deltas.
-void refineCut(const std::vector<float>& a, const std::vector<float>& el, std::vector<int>& seg,
-               int nseg) {
-  if (nseg < 2) return;
-  thread_local std::vector<uint16_t> ids;
-  ids.assign(seg.begin(), seg.end());
-  const std::vector<float> med = ringMedians(ids, el, nseg);
+/// Returns whether points were moved; med gets the runs' median elevations from before the move
+/// (the caller reuses them if nothing moved).
+bool refineCut(const std::vector<float>& a, const std::vector<float>& el, std::vector<int>& seg,
+               int nseg, std::vector<float>& med) {
+  med = ringMedians(seg, el, nseg);
+  if (nseg < 2) return false;
   constexpr int kBins = 7200;   // 0.05°
   constexpr float kCap = 1.0f;  // [deg] misfit cap, so near-range points and edges do not dominate
-  std::vector<double> gain(kBins, 0.0);
-  std::vector<std::size_t> count(kBins, 0);
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const int s = seg[i];
-    if (s + 1 >= nseg || !std::isfinite(med[s]) || !std::isfinite(med[s + 1])) continue;
-    const float now = std::min(kCap, std::fabs(el[i] - med[s]));
-    const float moved = std::min(kCap, std::fabs(el[i] - med[s + 1]));
-    const int b = std::min(kBins - 1, int(a[i] / kTwoPi * kBins));
-    gain[b] += moved - now;
+  // int(a / 2π · kBins) without the division, which took a third of refineCut: a · (kBins / 2π)
+  // differs from it by a few ulp (< 1e-11), which can change the integer part only right next to
+  // an integer; such points take the exact expression.
+  auto bin = [](float a) {
+    constexpr double kBinsPerRad = kBins / kTwoPi;
+    const double q = double(a) * kBinsPerRad;
+    const int b = int(q);
+    const double frac = q - b;
+    return frac > 1e-6 && frac < 1 - 1e-6 ? b : int(a / kTwoPi * kBins);
+  };
+  thread_local std::vector<double> gain;
+  thread_local std::vector<std::size_t> count;
+  gain.assign(kBins, 0.0);
+  count.assign(kBins, 0);
+  // Runs whose points may move on: there is a next run and both medians are known.
+  std::vector<char> movable(nseg, 0);
+  for (int k = 0; k + 1 < nseg; ++k)
+    movable[k] = std::isfinite(med[k]) && std::isfinite(med[k + 1]);
+  auto add = [&](std::size_t i, float delta) {
+    const int b = std::min(kBins - 1, bin(a[i]));
+    gain[b] += delta;
     ++count[b];
+  };
+  const std::size_t n = a.size();
+  // Run by run (each run is one stretch of the file here), the misfit deltas four at a time.
+  for (std::size_t i = 0; i < n;) {
+    const int s = seg[i];
+    std::size_t end = i + 1;
+    while (end < n && seg[end] == s) ++end;
+    if (!movable[s]) {
+      i = end;
+      continue;
+    }
+    const float m_now = med[s], m_moved = med[s + 1];
+#if defined(__SSE2__)
+    // minps(x, cap) and std::min(cap, x) both give cap unless x < cap (NaN included).
+    const __m128 now4 = _mm_set1_ps(m_now), moved4 = _mm_set1_ps(m_moved);
+    const __m128 cap = _mm_set1_ps(kCap), abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+    for (; i + 4 <= end; i += 4) {
+      const __m128 e = _mm_loadu_ps(&el[i]);
+      const __m128 now = _mm_min_ps(_mm_and_ps(_mm_sub_ps(e, now4), abs_mask), cap);
+      const __m128 moved = _mm_min_ps(_mm_and_ps(_mm_sub_ps(e, moved4), abs_mask), cap);
+      float delta[4];
+      _mm_storeu_ps(delta, _mm_sub_ps(moved, now));
+      for (int k = 0; k < 4; ++k) add(i + k, delta[k]);
+    }
+#endif
+    for (; i < end; ++i) {
+      const float now = std::min(kCap, std::fabs(el[i] - m_now));
+      const float moved = std::min(kCap, std::fabs(el[i] - m_moved));
+      add(i, moved - now);
+    }
   }
   double sum = 0, best = 0;
   std::size_t moved = 0, best_moved = 0;
@@ -155,20 +320,24 @@ void refineCut(const std::vector<float>& a, const std::vector<float>& el, std::v
     if (sum < best) best = sum, best_bin = b, best_moved = moved;
   }
   // Only a clear gain (a ring spacing is 0.3-0.5°) moves points.
-  if (best_bin == kBins || best > -0.1 * double(best_moved)) return;
+  if (best_bin == kBins || best > -0.1 * double(best_moved)) return false;
   const float cut = float(best_bin) / kBins * float(kTwoPi);
   for (std::size_t i = 0; i < a.size(); ++i)
     if (seg[i] + 1 < nseg && a[i] >= cut) ++seg[i];
+  return true;
 }
 
 /// Scan-order segmentation. Returns false (with a reason) when the order carries no rings.
+/// ring_med gets each ring's median elevation (as ringMedians(ring, el, nrings) would) when every
+/// ring is one run, whose median is already known; otherwise it is left empty.
 bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nrings,
-                    std::vector<uint16_t>& ring, RingRecoveryStats& st) {
+                    std::vector<uint16_t>& ring, RingRecoveryStats& st,
+                    std::vector<float>& ring_med) {
   const std::size_t n = c.size();
   thread_local std::vector<float> az, a;
   thread_local std::vector<int> seg;
-  az.resize(n);
-  for (std::size_t i = 0; i < n; ++i) az[i] = fastAtan2(c.y[i], c.x[i]);
+  ring_med.clear();
+  azimuths(c, az);
   // Sweep direction and evidence of ring-major order: most steps are small and one-signed.
   std::size_t fwd = 0, bwd = 0;
   const double small = 5 * kDeg;
@@ -232,13 +401,8 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
                          std::to_string(nrings) + " rings";
     return false;
   }
-  refineCut(a, el, seg, nseg);
   std::vector<float> med;
-  {
-    thread_local std::vector<uint16_t> ids;
-    ids.assign(seg.begin(), seg.end());
-    med = ringMedians(ids, el, nseg);
-  }
+  if (refineCut(a, el, seg, nseg, med)) med = ringMedians(seg, el, nseg);
   // Runs listed bottom ring first are reversed so that ring 0 is the top beam.
   const bool reversed = countViolations(med) > nseg / 2;
   if (reversed) std::reverse(med.begin(), med.end());
@@ -313,6 +477,12 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
     const int k = reversed ? nseg - 1 - seg[i] : seg[i];  // top-first index
     ring[i] = static_cast<uint16_t>(id[k]);
   }
+  // Without merges each ring holds exactly one run's points, in the same order, so ringMedians
+  // would sample and select the same values: reuse the run's median.
+  if (groups == nseg) {
+    ring_med.assign(nrings, std::numeric_limits<float>::quiet_NaN());
+    for (int k = 0; k < nseg; ++k) ring_med[id[k]] = med[k];
+  }
   return true;
 }
 
@@ -383,11 +553,12 @@ RingRecoveryStats recoverRings(PointCloud& cloud, const RingRecoveryOptions& o) 
   }
   const std::vector<float>& el = elevationsDeg(cloud, o.z_offset_m);
   std::vector<uint16_t> ring;
+  std::vector<float> med;  // per ring id
   bool done = false;
   if (o.use_scan_order) {
-    done = scanOrderRings(cloud, el, nrings, ring, st);
+    done = scanOrderRings(cloud, el, nrings, ring, st, med);
     if (done) {
-      const auto med = ringMedians(ring, el, nrings);
+      if (med.empty()) med = ringMedians(ring, el, nrings);
       st.monotonic_violations = countViolations(med);
       // A few rings out of elevation order are tolerated (a sparse ring's median can sit off);
       // more means the runs are not rings.
@@ -405,8 +576,9 @@ RingRecoveryStats recoverRings(PointCloud& cloud, const RingRecoveryOptions& o) 
   if (!done) {
     elevationRings(el, o, ring);
     st.method = RingMethod::kElevation;
+    med = ringMedians(ring, el, nrings);
   }
-  st.ring_median_elevation_deg = ringMedians(ring, el, nrings);
+  st.ring_median_elevation_deg = std::move(med);
   st.monotonic_violations = countViolations(st.ring_median_elevation_deg);
   st.rings_found = 0;
   for (float m : st.ring_median_elevation_deg) st.rings_found += std::isfinite(m);

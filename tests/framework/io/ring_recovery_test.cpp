@@ -89,6 +89,39 @@ TEST(RingRecovery, KittiSeq00Frame0Has64RingsFromScanOrder) {
   EXPECT_GT(st.elevation_consistency, 0.4);
 }
 
+// elevation_consistency is computed without a search per point (each point is tested against its
+// own ring's sorted neighbours); check it against the plain definition, on scan-order rings and on
+// shuffled points (elevation binning, no runs).
+TEST(RingRecovery, ElevationConsistencyMatchesNearestMedian) {
+  auto reference = [](const PointCloud& c, const RingRecoveryStats& st) {
+    const auto& med = st.ring_median_elevation_deg;
+    std::size_t good = 0;
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      const double e = std::atan2(c.z[i], std::hypot(c.x[i], c.y[i])) * 180 / M_PI;
+      int best = -1;
+      double bd = 1e9;
+      for (int k = 0; k < int(med.size()); ++k)
+        if (std::isfinite(med[k]) && std::fabs(e - med[k]) < bd)
+          bd = std::fabs(e - med[k]), best = k;
+      good += best == c.ring[i];
+    }
+    return double(good) / c.size();
+  };
+  PointCloud c = readScan(seqScan(0));
+  const RingRecoveryStats st = recoverRings(c);
+  ASSERT_EQ(st.method, RingMethod::kScanOrder);
+  // The library's polynomial atan2 and tie rule differ from the reference by ~1e-5 rad.
+  EXPECT_NEAR(st.elevation_consistency, reference(c, st), 0.002);
+  std::vector<std::size_t> order(c.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::shuffle(order.begin(), order.end(), std::mt19937(11));
+  PointCloud sh = permuted(c, order);
+  const RingRecoveryStats ss = recoverRings(sh);
+  ASSERT_EQ(ss.method, RingMethod::kElevation);
+  EXPECT_NEAR(ss.elevation_consistency, reference(sh, ss), 0.002);
+  EXPECT_GT(ss.elevation_consistency, 0.9);  // binning puts every point at its nearest centre
+}
+
 TEST(RingRecovery, EveryKittiScanOfTheDataIsRingOrdered) {
   std::vector<std::string> scans;
   for (int i = 0; i < 6; ++i) scans.push_back(seqScan(i));
