@@ -4,6 +4,10 @@
 #include <iostream>
 #include <map>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include "commands.hpp"
 
 namespace {
@@ -34,6 +38,13 @@ const char* kUsageText =
 
 int main(int argc, char** argv) {
   using namespace terramrf::cli;
+#if defined(__GLIBC__)
+  // Each scan's arrays are megabytes: glibc serves them by mmap and gives them back to the kernel
+  // when freed, so the next scan's arrays page-fault in afresh (~1 ms per SemanticKITTI read,
+  // docs/plugins/readers.md). Kept in the heap instead, they are reused scan after scan.
+  mallopt(M_MMAP_THRESHOLD, 64 << 20);
+  mallopt(M_TRIM_THRESHOLD, 256 << 20);
+#endif
   if (argc < 2 || std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help" ||
       std::string(argv[1]) == "help") {
     std::fputs(kUsageText, argc < 2 ? stderr : stdout);
