@@ -39,13 +39,16 @@ void morph(const std::vector<float>& in, std::vector<float>& tmp, std::vector<fl
   const float neutral = kMin ? kInf : -kInf;
   tmp.resize(in.size());
   out.resize(in.size());
+  // Along rows, offset by offset: each cell still meets its window from left to right (the same
+  // picks in the same order as a loop over the window, which matters only for ±0), and the
+  // inner loop runs along contiguous cells, which vectorises (half the stage's time otherwise).
   for (int r = 0; r < R; ++r) {
     const float* row = &in[r * C];
-    for (int c = 0; c < C; ++c) {
-      float best = neutral;
-      for (int cc = std::max(0, c - w), ce = std::min(C - 1, c + w); cc <= ce; ++cc) best = pick(best, row[cc]);
-      tmp[r * C + c] = best;
-    }
+    float* t = &tmp[r * C];
+    for (int c = 0; c < C; ++c) t[c] = neutral;
+    for (int d = -w; d <= w; ++d)
+      for (int c = std::max(0, -d), ce = std::min(C, C - d); c < ce; ++c)
+        t[c] = pick(t[c], row[c + d]);
   }
   for (int r = 0; r < R; ++r) {
     const int r0 = std::max(0, r - w), r1 = std::min(R - 1, r + w);

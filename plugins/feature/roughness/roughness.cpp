@@ -18,6 +18,10 @@
 #include <utility>
 #include <vector>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -65,70 +69,72 @@ class Roughness final : public Stage {
                        "roughness needs the laser ring of every point; this scan has none (use a "
                        "source that reads or recovers rings)");
     // Stable counting sort by ring keeps each ring in scan order, whatever the file's layout.
-    int rings = 0;
-    for (uint16_t r : pc.ring)
-      if (r != kUnknownRing) rings = std::max(rings, r + 1);
-    offsets_.assign(rings + 1, 0);
-    for (uint16_t r : pc.ring)
-      if (r != kUnknownRing) ++offsets_[r + 1];
+    // The counts grow with the largest ring seen, so one pass over the rings counts and sizes.
+    // Both passes go run by run of equal rings (KITTI stores ring after ring): a counter
+    // incremented per point in memory was a store-to-load chain.
+    const uint16_t* ring = pc.ring.data();
+    offsets_.assign(1, 0);
+    for (std::size_t i = 0, j; i < n; i = j) {
+      const uint16_t r = ring[i];
+      j = runEnd(ring, i, n);
+      if (r == kUnknownRing) continue;
+      if (r + 2u > offsets_.size()) offsets_.resize(r + 2u, 0);
+      offsets_[r + 1] += static_cast<uint32_t>(j - i);
+    }
+    const int rings = static_cast<int>(offsets_.size()) - 1;
     for (int r = 0; r < rings; ++r) offsets_[r + 1] += offsets_[r];
     order_.resize(offsets_[rings]);
     cursor_.assign(offsets_.begin(), offsets_.end() - 1);
-    for (std::size_t i = 0; i < n; ++i)
-      if (pc.ring[i] != kUnknownRing) order_[cursor_[pc.ring[i]]++] = static_cast<uint32_t>(i);
+    for (std::size_t i = 0, j; i < n; i = j) {
+      const uint16_t r = ring[i];
+      j = runEnd(ring, i, n);
+      if (r == kUnknownRing) continue;
+      uint32_t* dst = order_.data() + cursor_[r];
+      for (std::size_t t = i; t < j; ++t) *dst++ = static_cast<uint32_t>(t);
+      cursor_[r] += static_cast<uint32_t>(j - i);
+    }
     sorted_rings_ = 0;
     if (azimuth_order_ != "scan") sortRings(pc, rings);
     ctx.metrics[name() + ".sorted_rings"] = sorted_rings_;
-    range_.resize(order_.size());
     const bool elev = max_elev_step_deg_ > 0;
     const bool vertical = residual_ == "vertical";
-    if (elev || vertical) sin_el_.resize(order_.size());
-    const float max_dsin = static_cast<float>(std::sin(max_elev_step_deg_ * M_PI / 180));
     // Passed-over neighbours widen the search, up to 4 windows along the ring.
     const int span = elev ? 4 * window_ : window_;
-    for (std::size_t k = 0; k < order_.size(); ++k) {
-      const uint32_t i = order_[k];
-      range_[k] = std::sqrt(pc.x[i] * pc.x[i] + pc.y[i] * pc.y[i] + pc.z[i] * pc.z[i]);
-      if (elev || vertical) sin_el_[k] = pc.z[i] / std::max(range_[k], 1e-3f);
-    }
+    // range_ and sin_el_ carry `pad` slots before and after the ring-ordered values, so the
+    // four-point groups of the SSE2 path may load past either end (those lanes are masked).
+    const std::size_t pad = static_cast<std::size_t>(span) + 4;
+    range_.resize(order_.size() + 2 * pad);
+    if (elev || vertical) sin_el_.resize(order_.size() + 2 * pad);
+    cell_.resize(order_.size() + 4);
+    rangesInRingOrder(pc, g.cellOfPoint().data(), pad, elev || vertical);
+    Filter f;
+    f.range = range_.data() + pad;
+    f.sin_el = elev || vertical ? sin_el_.data() + pad : nullptr;
+    f.cell = cell_.data();
+    f.max_dsin = static_cast<float>(std::sin(max_elev_step_deg_ * M_PI / 180));
+    f.jump = static_cast<float>(max_jump_m_);
+    f.window = window_;
+    f.span = span;
+    f.elev = elev;
+    f.vertical = vertical;
     sum_.assign(g.cells(), 0.f);
     cnt_.assign(g.cells(), 0);
-    const auto& cell_of = g.cellOfPoint();
-    const float jump = static_cast<float>(max_jump_m_);
-    std::size_t passed_over = 0, residuals = 0;
+    CellSums acc{sum_.data(), cnt_.data()};
     for (int r = 0; r < rings; ++r) {
       const int b = static_cast<int>(offsets_[r]), e = static_cast<int>(offsets_[r + 1]);
-      for (int k = b; k < e; ++k) {
-        const int cell = cell_of[order_[k]];
-        if (cell < 0) continue;
-        const float rk = range_[k];
-        float s = 0;
-        int m = 0;
-        const float sk = elev ? sin_el_[k] : 0.f;
-        for (int j = k - 1, got = 0; j >= b && j >= k - span && got < window_; --j) {
-          if (elev && std::abs(sin_el_[j] - sk) > max_dsin) {
-            ++passed_over;
-            continue;
-          }
-          if (std::abs(range_[j] - rk) > jump) break;
-          s += range_[j], ++m, ++got;
-        }
-        const int left = m;
-        for (int j = k + 1, got = 0; j < e && j <= k + span && got < window_; ++j) {
-          if (elev && std::abs(sin_el_[j] - sk) > max_dsin) {
-            ++passed_over;
-            continue;
-          }
-          if (std::abs(range_[j] - rk) > jump) break;
-          s += range_[j], ++m, ++got;
-        }
-        if (left == 0 || m == left) continue;  // need neighbours on both sides
-        const float res = vertical ? (rk - s / m) * std::abs(sin_el_[k]) : rk - s / m;
-        sum_[cell] += res * res;
-        ++cnt_[cell];
-        ++residuals;
-      }
+#if defined(__SSE2__)
+      if (elev)
+        ringResidualsX4<true>(b, e, f, acc);
+      else
+        ringResidualsX4<false>(b, e, f, acc);
+#else
+      ringResiduals(b, e, f, acc);
+#endif
     }
+    acc.flush();
+    std::size_t residuals = 0;  // counted here, not per point (a counter in memory was 10 %)
+    for (std::size_t c = 0; c < g.cells(); ++c) residuals += cnt_[c];
+    const std::size_t passed_over = acc.passed_over;
     // Neighbours passed over per residual: 2.6–3.0 on the Open3D-ML scans, whose recovered rings
     // interleave lasers; about 0.2 on KITTI's own ring order, from points beyond object edges
     // (their z/r differs through the laser's offset from the point origin).
@@ -139,6 +145,211 @@ class Roughness final : public Stage {
   }
 
  private:
+  /// End of the run of points with ring[i]'s ring that starts at i.
+  static std::size_t runEnd(const uint16_t* ring, std::size_t i, std::size_t n) {
+    const uint16_t r = ring[i];
+    std::size_t j = i + 1;
+#if defined(__SSE2__)
+    const __m128i rv = _mm_set1_epi16(static_cast<short>(r));
+    for (; j + 8 <= n; j += 8) {
+      const int eq = _mm_movemask_epi8(
+          _mm_cmpeq_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ring + j)), rv));
+      if (eq != 0xFFFF) return j + __builtin_ctz(static_cast<unsigned>(~eq)) / 2;
+    }
+#endif
+    while (j < n && ring[j] == r) ++j;
+    return j;
+  }
+
+  /// What the high-pass of one ring reads: ranges and sin elevations in ring order.
+  struct Filter {
+    const float* range = nullptr;
+    const float* sin_el = nullptr;  ///< null unless elev or vertical
+    const int32_t* cell = nullptr;  ///< grid cell of each point, −1 outside
+    float max_dsin = 0, jump = 0;
+    int window = 0, span = 0;
+    bool elev = false, vertical = false;
+  };
+
+  /// Per-cell sums of squared residuals, fed in ring order. Consecutive points of a ring mostly
+  /// fall in the same cell; its sum and count are carried in registers while they do (the same
+  /// additions in the same order as sum[cell] += ...), which takes the store-to-load round trip
+  /// through memory out of the per-point dependency chain.
+  struct CellSums {
+    float* sum;
+    uint32_t* cnt;
+    int cell = -1;
+    float s = 0;
+    uint32_t n = 0;
+    std::size_t passed_over = 0;
+    void add(int c, float sq) {
+      if (c != cell) {
+        flush();
+        cell = c, s = sum[c], n = cnt[c];
+      }
+      s += sq;
+      ++n;
+    }
+    void flush() {
+      if (cell >= 0) sum[cell] = s, cnt[cell] = n;
+    }
+  };
+
+  /// The filter as defined (file comment), one point after the other: residuals of the points
+  /// k in [b, e) of one ring that lie in the grid.
+  void ringResiduals(int b, int e, const Filter& filter, CellSums& sums) const {
+    const Filter f = filter;  // local copies stay in registers
+    CellSums acc = sums;
+    const float* range = f.range;
+    for (int k = b; k < e; ++k) {
+      const int cell = f.cell[k];
+      if (cell < 0) continue;
+      const float rk = range[k];
+      float s = 0;
+      int m = 0;
+      const float sk = f.elev ? f.sin_el[k] : 0.f;
+      for (int j = k - 1, got = 0; j >= b && j >= k - f.span && got < f.window; --j) {
+        if (f.elev && std::abs(f.sin_el[j] - sk) > f.max_dsin) {
+          ++acc.passed_over;
+          continue;
+        }
+        if (std::abs(range[j] - rk) > f.jump) break;
+        s += range[j], ++m, ++got;
+      }
+      const int left = m;
+      for (int j = k + 1, got = 0; j < e && j <= k + f.span && got < f.window; ++j) {
+        if (f.elev && std::abs(f.sin_el[j] - sk) > f.max_dsin) {
+          ++acc.passed_over;
+          continue;
+        }
+        if (std::abs(range[j] - rk) > f.jump) break;
+        s += range[j], ++m, ++got;
+      }
+      if (left == 0 || m == left) continue;  // need neighbours on both sides
+      const float res = f.vertical ? (rk - s / m) * std::abs(f.sin_el[k]) : rk - s / m;
+      acc.add(cell, res * res);
+    }
+    sums = acc;
+  }
+
+#if defined(__SSE2__)
+  /// ringResiduals for four consecutive points at a time, one per lane. The window walks are
+  /// data-dependent loops (passed-over neighbours, edges, ring ends) whose branches the CPU
+  /// mispredicts; here each lane carries its walk's state as masks and the loop runs until every
+  /// lane is done. A lane adds the same neighbours in the same order as ringResiduals and the
+  /// squares reach CellSums in point order, so the result is bit-identical (tested against the
+  /// definition in roughness_test.cpp).
+  template <bool kElev>  // a compile-time constant: no test of it in the innermost loop
+  void ringResidualsX4(int b, int e, const Filter& filter, CellSums& sums) const {
+    // Local copies stay in registers (the stores into the cell sums could alias the originals).
+    const Filter f = filter;
+    CellSums acc = sums;
+    const __m128 sign = _mm_set1_ps(-0.f), max_dsin = _mm_set1_ps(f.max_dsin),
+                 jump = _mm_set1_ps(f.jump);
+    const __m128i window = _mm_set1_epi32(f.window), lane = _mm_setr_epi32(0, 1, 2, 3),
+                  one = _mm_set1_epi32(1), none = _mm_set1_epi32(-1);
+    __m128i passed = _mm_setzero_si128();  // per lane, summed at the end
+    for (int k0 = b; k0 < e; k0 += 4) {
+      const int32_t* cells = f.cell + k0;
+      const __m128i in_grid = _mm_and_si128(
+          _mm_cmpgt_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(cells)), none),
+          _mm_cmpgt_epi32(_mm_set1_epi32(e - k0), lane));  // lanes past the ring
+      if (!_mm_movemask_epi8(in_grid)) continue;
+      const __m128 rk = _mm_loadu_ps(f.range + k0);
+      const __m128 sk = f.sin_el ? _mm_loadu_ps(f.sin_el + k0) : _mm_setzero_ps();
+      __m128 s = _mm_setzero_ps();
+      __m128i m = _mm_setzero_si128();  // neighbours taken
+      // One side's walk; `room` = how many points the ring has on that side of each lane's point,
+      // `full` = m once the side has its window.
+      auto walk = [&](int dir, __m128i room, __m128i full) {
+        __m128i active = in_grid;
+        for (int d = 1; d <= f.span; ++d) {
+          room = _mm_sub_epi32(room, one);
+          active = _mm_and_si128(active, _mm_cmpgt_epi32(room, none));
+          if (!_mm_movemask_epi8(active)) break;
+          const int j = k0 + dir * d;
+          const __m128 rj = _mm_loadu_ps(f.range + j);
+          __m128 take = _mm_castsi128_ps(active);
+          if (kElev) {  // another laser: passed over
+            const __m128 other = _mm_cmpgt_ps(
+                _mm_andnot_ps(sign, _mm_sub_ps(_mm_loadu_ps(f.sin_el + j), sk)), max_dsin);
+            passed = _mm_sub_epi32(passed, _mm_castps_si128(_mm_and_ps(take, other)));
+            take = _mm_andnot_ps(other, take);
+          }
+          const __m128 edge = _mm_cmpgt_ps(_mm_andnot_ps(sign, _mm_sub_ps(rj, rk)), jump);
+          active = _mm_andnot_si128(_mm_castps_si128(_mm_and_ps(take, edge)), active);  // ends
+          take = _mm_andnot_ps(edge, take);
+          // Lanes not taking add +0, which leaves s alone: s is a sum of ranges, never −0.
+          s = _mm_add_ps(s, _mm_and_ps(take, rj));
+          m = _mm_sub_epi32(m, _mm_castps_si128(take));
+          active = _mm_andnot_si128(_mm_cmpeq_epi32(m, full), active);
+        }
+      };
+      walk(-1, _mm_add_epi32(_mm_set1_epi32(k0 - b), lane), window);
+      const __m128i left = m;
+      walk(+1, _mm_sub_epi32(_mm_set1_epi32(e - 1 - k0), lane), _mm_add_epi32(left, window));
+      // Neighbours on both sides.
+      const int valid = _mm_movemask_ps(_mm_castsi128_ps(
+          _mm_and_si128(_mm_cmpgt_epi32(left, _mm_setzero_si128()), _mm_cmpgt_epi32(m, left))));
+      if (!valid) continue;
+      __m128 res = _mm_sub_ps(rk, _mm_div_ps(s, _mm_cvtepi32_ps(m)));
+      if (f.vertical) res = _mm_mul_ps(res, _mm_andnot_ps(sign, sk));
+      alignas(16) float sq[4];
+      _mm_store_ps(sq, _mm_mul_ps(res, res));
+      const __m128i same = _mm_cmpeq_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(cells)),
+                                           _mm_set1_epi32(acc.cell));
+      if (valid == 0xF && _mm_movemask_epi8(same) == 0xFFFF) {
+        // Most groups: four residuals in the cell being summed (one branch, not eight).
+        acc.s = (((acc.s + sq[0]) + sq[1]) + sq[2]) + sq[3];
+        acc.n += 4;
+        continue;
+      }
+      for (int l = 0; l < 4; ++l)
+        if (valid >> l & 1) acc.add(cells[l], sq[l]);
+    }
+    alignas(16) int32_t p[4];
+    _mm_store_si128(reinterpret_cast<__m128i*>(p), passed);
+    acc.passed_over += static_cast<std::size_t>(p[0]) + p[1] + p[2] + p[3];
+    sums = acc;
+  }
+#endif
+
+  /// range_[pad + k] (and sin_el_[pad + k] = z / range when `with_sin`) and cell_[k] of the
+  /// point order_[k].
+  void rangesInRingOrder(const PointCloud& pc, const int32_t* cell_of, std::size_t pad,
+                         bool with_sin) {
+    const float *X = pc.x.data(), *Y = pc.y.data(), *Z = pc.z.data();
+    const uint32_t* o = order_.data();
+    const std::size_t m = order_.size();
+    float* range = range_.data() + pad;
+    float* sin_el = with_sin ? sin_el_.data() + pad : nullptr;
+    std::size_t k = 0;
+#if defined(__SSE2__)
+    // GCC keeps sqrt and the division scalar here (sqrt may set errno); four lanes with the same
+    // IEEE operations in the same order (no FMA without -march) give bit-identical values.
+    // maxps(1e-3, r) picks what std::max(r, 1e-3f) picks, NaN included.
+    const __m128 floor = _mm_set1_ps(1e-3f);
+    for (; k + 4 <= m; k += 4) {
+      const uint32_t i0 = o[k], i1 = o[k + 1], i2 = o[k + 2], i3 = o[k + 3];
+      cell_[k] = cell_of[i0], cell_[k + 1] = cell_of[i1], cell_[k + 2] = cell_of[i2],
+      cell_[k + 3] = cell_of[i3];
+      const __m128 x = _mm_setr_ps(X[i0], X[i1], X[i2], X[i3]);
+      const __m128 y = _mm_setr_ps(Y[i0], Y[i1], Y[i2], Y[i3]);
+      const __m128 z = _mm_setr_ps(Z[i0], Z[i1], Z[i2], Z[i3]);
+      const __m128 r =
+          _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z)));
+      _mm_storeu_ps(range + k, r);
+      if (with_sin) _mm_storeu_ps(sin_el + k, _mm_div_ps(z, _mm_max_ps(floor, r)));
+    }
+#endif
+    for (; k < m; ++k) {
+      const uint32_t i = o[k];
+      cell_[k] = cell_of[i];
+      range[k] = std::sqrt(X[i] * X[i] + Y[i] * Y[i] + Z[i] * Z[i]);
+      if (with_sin) sin_el[k] = Z[i] / std::max(range[k], 1e-3f);
+    }
+  }
+
   /// Puts the points of each ring in azimuth order where the cloud's order is not the scan
   /// order. The high-pass compares each point with its neighbours along the ring; in a shuffled
   /// cloud consecutive points of a ring are anywhere on it, and asphalt reads as rough.
@@ -182,6 +393,7 @@ class Roughness final : public Stage {
   std::vector<uint32_t> offsets_, cursor_, order_, cnt_;
   double max_elev_step_deg_ = 0.15;
   std::vector<float> range_, sin_el_, sum_;
+  std::vector<int32_t> cell_;  // in ring order, + 4 for the SSE2 path's last group
 };
 
 }  // namespace terramrf

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "plugin_harness.hpp"
@@ -27,17 +28,21 @@ TEST(RelativeHeight, DitchFloorIsBelowItsSurroundings) {
 }
 
 // Against the definition, computed the obvious way (nth_element per cell), on random grids with
-// empty cells, ties (heights on a 1 cm lattice) and every radius the fast selection must handle.
+// empty cells, ties (heights on a 1 cm lattice) and every radius and quantile the fast selection
+// (a walk from the neighbour's reference, rank selection where that does not apply) must handle.
 TEST(RelativeHeight, EqualsTheMedianOfItsNeighboursOnRandomGrids) {
   std::mt19937 rng(7);
-  for (int radius : {1, 2, 3, 5}) {
+  for (const auto& [radius, quantile] : std::vector<std::pair<int, double>>{
+           {1, 0.5}, {2, 0.5}, {3, 0.5}, {5, 0.5}, {3, 0.2}, {2, 0.9}, {3, 0.0}, {4, 1.0}}) {
     test::StageHarness h(10, 0.5);  // 20 × 20 cells
     std::uniform_real_distribution<float> pos(-5.f, 5.f);
     std::uniform_int_distribution<int> level(-30, 30);
     for (int i = 0; i < 500; ++i)
       h.frame.points.push_back(pos(rng), pos(rng), -1.7f + 0.01f * level(rng), 0);
     h.bin();
-    h.make("relative_height", "{radius_cells: " + std::to_string(radius) + ", min_neighbours: 1}")
+    h.make("relative_height", "{radius_cells: " + std::to_string(radius) +
+                                  ", min_neighbours: 1, quantile: " + std::to_string(quantile) +
+                                  "}")
         ->process(h.ctx);
     const TerrainGrid& g = h.grid;
     std::vector<float> zmin(g.cells(), NAN);
@@ -58,8 +63,11 @@ TEST(RelativeHeight, EqualsTheMedianOfItsNeighboursOnRandomGrids) {
           EXPECT_TRUE(std::isnan(out)) << r << "," << c;
           continue;
         }
-        std::nth_element(w.begin(), w.begin() + w.size() / 2, w.end());
-        ASSERT_EQ(out, z - w[w.size() / 2]) << "radius " << radius << " cell " << r << "," << c;
+        const int n = static_cast<int>(w.size()),
+                  k = std::min(n - 1, static_cast<int>(quantile * n));
+        std::nth_element(w.begin(), w.begin() + k, w.end());
+        ASSERT_EQ(out, z - w[k]) << "radius " << radius << " quantile " << quantile << " cell " << r
+                                 << "," << c;
         ++checked;
       }
     EXPECT_GT(checked, 250) << radius;  // ~70 % of 400 cells hold a point

@@ -1,8 +1,12 @@
 #include <gtest/gtest.h>
 
-#include <cmath>
 #include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
 #include <random>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -173,6 +177,147 @@ TEST(Roughness, VerticalResidualReadsTheSameReliefAtEveryRange) {
   h.make("roughness", "{window: 1, max_elevation_step_deg: 0, residual: vertical}")->process(h.ctx);
   EXPECT_NEAR(h.at("roughness", near_x, 0.05), 0.02, 1e-3);
   EXPECT_NEAR(h.at("roughness", far_x, 0.05), 0.02, 1e-3);
+}
+
+}  // namespace terramrf
+
+namespace terramrf {
+
+namespace {
+// The filter of roughness.cpp's file comment written out point by point, with the plugin's float
+// operations in the plugin's order: the reference for the four-points-at-a-time SSE2 path.
+struct ReferenceRoughness {
+  std::vector<float> layer;
+  double passed_over_per_point = 0;
+};
+ReferenceRoughness referenceRoughness(const PointCloud& pc, const TerrainGrid& g, int window,
+                                      double max_jump_m, double max_elev_step_deg, bool vertical,
+                                      int min_points) {
+  const bool elev = max_elev_step_deg > 0;
+  const int span = elev ? 4 * window : window;
+  const float jump = float(max_jump_m), max_dsin = float(std::sin(max_elev_step_deg * M_PI / 180));
+  std::vector<std::vector<uint32_t>> rings;
+  for (std::size_t i = 0; i < pc.size(); ++i) {
+    if (pc.ring[i] == kUnknownRing) continue;
+    if (pc.ring[i] >= rings.size()) rings.resize(pc.ring[i] + 1);
+    rings[pc.ring[i]].push_back(uint32_t(i));
+  }
+  std::vector<float> sum(g.cells(), 0.f);
+  std::vector<uint32_t> cnt(g.cells(), 0);
+  std::size_t passed = 0, residuals = 0;
+  for (const auto& ring : rings) {
+    const int e = int(ring.size());
+    std::vector<float> range(e), sin_el(e);
+    for (int k = 0; k < e; ++k) {
+      const uint32_t i = ring[k];
+      range[k] = std::sqrt(pc.x[i] * pc.x[i] + pc.y[i] * pc.y[i] + pc.z[i] * pc.z[i]);
+      sin_el[k] = pc.z[i] / std::max(range[k], 1e-3f);
+    }
+    for (int k = 0; k < e; ++k) {
+      const int cell = g.cellOfPoint()[ring[k]];
+      if (cell < 0) continue;
+      float s = 0;
+      int m = 0, left = 0;
+      for (int dir : {-1, +1}) {
+        for (int d = 1, got = 0; d <= span && got < window; ++d) {
+          const int j = k + dir * d;
+          if (j < 0 || j >= e) break;
+          if (elev && std::abs(sin_el[j] - sin_el[k]) > max_dsin) {
+            ++passed;
+            continue;
+          }
+          if (std::abs(range[j] - range[k]) > jump) break;
+          s += range[j], ++m, ++got;
+        }
+        if (dir < 0) left = m;
+      }
+      if (left == 0 || m == left) continue;
+      const float res = vertical ? (range[k] - s / m) * std::abs(sin_el[k]) : range[k] - s / m;
+      sum[cell] += res * res;
+      ++cnt[cell];
+      ++residuals;
+    }
+  }
+  ReferenceRoughness out;
+  out.layer.assign(g.cells(), std::numeric_limits<float>::quiet_NaN());
+  for (std::size_t c = 0; c < g.cells(); ++c)
+    if (cnt[c] >= uint32_t(min_points)) out.layer[c] = std::sqrt(sum[c] / cnt[c]);
+  out.passed_over_per_point = residuals ? double(passed) / residuals : 0.0;
+  return out;
+}
+}  // namespace
+
+// Rings of every length from 1 to 13 points and longer ones, stored interleaved, running in and
+// out of the grid, with range jumps (edges) and points of another laser (passed over) at random
+// places: the plugin's layer and passed-over metric must equal the definition's bit for bit,
+// whatever the window, so the SSE2 path's lanes, ring ends and masks are checked.
+TEST(Roughness, FourPointGroupsEqualTheDefinitionBitForBit) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<std::vector<std::array<float, 3>>> rings;
+  for (int r = 0; r < 40; ++r) {
+    const int n = r < 13 ? r + 1 : 30 + int(u(rng) * 400);
+    const double el = -(2 + 0.4 * r) * M_PI / 180, a0 = u(rng) * 2 * M_PI;
+    const double base = 2 + u(rng) * 14;  // up to 16 m: the 20 m grid ends at 10 m
+    std::vector<std::array<float, 3>> pts;
+    for (int i = 0; i < n; ++i) {
+      double range = base + 0.02 * (u(rng) - 0.5), e = el;
+      if (u(rng) < 0.08) range += 0.3 + u(rng);                           // an edge
+      if (u(rng) < 0.1) e += (u(rng) < 0.5 ? -1 : 1) * 0.5 * M_PI / 180;  // another laser
+      const double a = a0 + 0.003 * i;
+      pts.push_back({float(range * std::cos(e) * std::cos(a)),
+                     float(range * std::cos(e) * std::sin(a)), float(range * std::sin(e))});
+    }
+    rings.push_back(pts);
+  }
+  test::StageHarness h;
+  // Interleaved in storage, each ring in its own order; a few points without a ring.
+  std::vector<std::size_t> next(rings.size(), 0);
+  for (std::size_t left = 1; left;) {
+    left = 0;
+    for (std::size_t r = 0; r < rings.size(); ++r) {
+      const int take = int(u(rng) * 6);
+      for (int t = 0; t < take && next[r] < rings[r].size(); ++t, ++next[r]) {
+        const auto& p = rings[r][next[r]];
+        h.frame.points.push_back(p[0], p[1], p[2], 0, uint16_t(r));
+      }
+      left += rings[r].size() - next[r];
+    }
+    if (u(rng) < 0.3) h.frame.points.push_back(1.f, 1.f, -1.f, 0, kUnknownRing);
+  }
+  h.bin();
+  struct Case {
+    std::string params;
+    int window;
+    double jump, elev;
+    bool vertical;
+    int min_points;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"{}", 2, 0.5, 0.15, false, 1},
+           {"{window: 1}", 1, 0.5, 0.15, false, 1},
+           {"{window: 3, max_elevation_step_deg: 0}", 3, 0.5, 0, false, 1},
+           {"{window: 5, residual: vertical, max_jump_m: 0.3}", 5, 0.3, 0.15, true, 1},
+           {"{window: 7, max_elevation_step_deg: 0.3, min_points: 2}", 7, 0.5, 0.3, false, 2},
+           {"{window: 2, residual: vertical, max_elevation_step_deg: 0}", 2, 0.5, 0, true, 1}}) {
+    SCOPED_TRACE(c.params);
+    h.bin();
+    auto p = h.make("roughness", c.params.substr(0, c.params.size() - 1) +
+                                     (c.params == "{}" ? "" : ", ") + "azimuth_order: scan}");
+    p->process(h.ctx);
+    const ReferenceRoughness ref = referenceRoughness(h.frame.points, h.grid, c.window, c.jump,
+                                                      c.elev, c.vertical, c.min_points);
+    const auto& got = h.grid.layer("roughness");
+    int valid = 0, differ = 0;
+    for (std::size_t i = 0; i < got.size(); ++i) {
+      valid += !std::isnan(ref.layer[i]);
+      const bool both_nan = std::isnan(got[i]) && std::isnan(ref.layer[i]);
+      differ += !both_nan && std::memcmp(&got[i], &ref.layer[i], sizeof(float)) != 0;
+    }
+    EXPECT_EQ(differ, 0) << "of " << valid << " valid cells";
+    EXPECT_GT(valid, 30);
+    EXPECT_EQ(h.ctx.metrics.at("roughness.passed_over_per_point"), ref.passed_over_per_point);
+  }
 }
 
 }  // namespace terramrf
