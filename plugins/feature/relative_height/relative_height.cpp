@@ -129,6 +129,17 @@ class RelativeHeight final : public Stage {
   /// counted at all, so only a handful of the n are (as in a quickselect with random pivots).
   static float rankSelect(const float* v, int padded, int k) {
     float lo = -std::numeric_limits<float>::infinity(), hi = std::numeric_limits<float>::infinity();
+    // x with `less` values below it and `leq` not above it: the answer, or a new bound.
+    auto isRankK = [&](float x, int less, int leq) {
+      if (less > k) {
+        hi = x;
+      } else if (leq <= k) {
+        lo = x;
+      } else {
+        return true;
+      }
+      return false;
+    };
 #if defined(__SSE2__)
     // The same candidates in the same order as the loop below (the first value inside (lo, hi)
     // after the last one evaluated; a value skipped once stays outside, as the interval only
@@ -170,23 +181,11 @@ class RelativeHeight final : public Stage {
       const __m128i s1 = hsum4(less1, leq1, less2, leq2);  // {less1, leq1, less2, leq2}
       alignas(16) int32_t c[4];
       _mm_store_si128(reinterpret_cast<__m128i*>(c), s1);
-      if (c[0] > k) {
-        hi = x1;
-      } else if (c[1] <= k) {
-        lo = x1;
-      } else {
-        return x1;
-      }
+      if (isRankK(x1, c[0], c[1])) return x1;
       if (i2 < 0) return v[0];  // unreachable: x1 was the last candidate and not the answer
       i = i2 + 1;               // values between i1 and i2 were outside (lo, hi) already
       if (!(x2 > lo && x2 < hi)) continue;
-      if (c[2] > k) {
-        hi = x2;
-      } else if (c[3] <= k) {
-        lo = x2;
-      } else {
-        return x2;
-      }
+      if (isRankK(x2, c[2], c[3])) return x2;
     }
 #else
     for (int i = 0; i < padded; ++i) {
@@ -197,13 +196,7 @@ class RelativeHeight final : public Stage {
         less += v[j] < x;
         leq += v[j] <= x;
       }
-      if (less > k) {
-        hi = x;
-      } else if (leq <= k) {
-        lo = x;
-      } else {
-        return x;
-      }
+      if (isRankK(x, less, leq)) return x;
     }
     return v[0];  // unreachable for k < the number of finite values
 #endif
