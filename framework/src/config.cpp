@@ -91,8 +91,7 @@ void checkDuplicateKeys(const YAML::Node& n, Diags& d) {
     YAML::Mark m;
     m.line = r.line - 1;
     m.column = r.column - 1;
-    d.add(m, "duplicate key '" + r.key + "' (first at line " + std::to_string(r.first_line) +
-                 "): only one of the two would be used");
+    d.add(m, r.what());  // Diags puts the position in front
   }
 }
 

@@ -27,9 +27,13 @@ void collect(const YAML::Node& n, std::vector<RepeatedYamlKey>& out) {
 
 }  // namespace
 
+std::string RepeatedYamlKey::what() const {
+  return "duplicate key '" + key + "' (first at line " + std::to_string(first_line) +
+         "): only one of the two would be used";
+}
+
 std::string RepeatedYamlKey::message() const {
-  return "line " + std::to_string(line) + ":" + std::to_string(column) + ": duplicate key '" + key +
-         "' (first at line " + std::to_string(first_line) + "): only one of the two would be used";
+  return "line " + std::to_string(line) + ":" + std::to_string(column) + ": " + what();
 }
 
 std::vector<RepeatedYamlKey> repeatedYamlKeys(const YAML::Node& root) {

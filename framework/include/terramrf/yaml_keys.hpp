@@ -18,7 +18,9 @@ struct RepeatedYamlKey {
   std::string key;
   int line = 0, column = 0;  ///< of the repeat
   int first_line = 0;        ///< of the first occurrence
-  /// "line 12:3: duplicate key 'road' (first at line 4): only one of the two would be used"
+  /// "duplicate key 'road' (first at line 4): only one of the two would be used"
+  std::string what() const;
+  /// what(), prefixed with the repeat's position: "line 12:3: duplicate key 'road' …"
   std::string message() const;
 };
 

@@ -64,7 +64,7 @@ class CameraFusion final : public Stage {
           "the gaps between rings in the image (0 = its own pixel only); with occlusion_splat: "
           "ring_gap, used where the gap cannot be measured")
         .unit("px")
-        .range(0, 16);
+        .range(0, kMaxSplatPx);
     d.add("occlusion_splat", occlusion_splat_,
           "fixed: the half-width is occlusion_splat_px; ring_gap: per frame and camera the "
           "half-width r whose square spans the median vertical gap g between adjacent rings in "
@@ -375,7 +375,7 @@ class CameraFusion final : public Stage {
   double occlusion_margin_ = 0.2;
   int occlusion_splat_px_ = 2;
   std::string occlusion_splat_ = "ring_gap";
-  static constexpr int kMaxSplatPx = 16;  // as occlusion_splat_px's range
+  static constexpr int kMaxSplatPx = 16;  // bound of occlusion_splat_px and of the ring_gap splat
   RingGapScratch gap_scratch_;
 
   FootprintRaster raster_;
