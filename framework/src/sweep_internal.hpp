@@ -182,12 +182,19 @@ void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& te
 void prepareItem(Item& it, PluginRegistry& reg, const Frame0& f0, const std::string& out_dir,
                  std::size_t limit, Diags& d, bool tolerate_missing,
                  const std::shared_ptr<FrameBudget>& cache = nullptr);
-/// Parses split.train / split.test lists, and split.validation (optional) where `validation` is
-/// given (sweeps; train configs have no validation set).
+/// Parses split.train / split.test lists, and split.validation and split.folds (both optional)
+/// where `validation` and `folds` are given (sweeps; train configs have neither). A fold is a list
+/// of items or one item.
 void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>* datasets,
                 const YAML::Node& base_source, const std::string& base_dir, Diags& d,
                 std::vector<std::unique_ptr<Item>>& train, std::vector<std::unique_ptr<Item>>& test,
-                bool need_both, std::vector<std::unique_ptr<Item>>* validation = nullptr);
+                bool need_both, std::vector<std::unique_ptr<Item>>* validation = nullptr,
+                std::vector<std::vector<std::unique_ptr<Item>>>* folds = nullptr);
+/// Every fold item must be part of split.train (same data, its frames inside a train item's):
+/// folds divide the train split, they never bring data of their own. Folds must not share data
+/// with each other. Diagnostics at the fold item.
+void checkFolds(const std::vector<Item*>& train,
+                const std::vector<std::vector<std::unique_ptr<Item>>>& folds, Diags& d);
 /// Unique labels: an item named like another gets its frame range appended.
 void uniqueLabels(std::vector<std::unique_ptr<Item>>& items);
 
@@ -287,6 +294,8 @@ struct Sweep {
   std::map<std::string, YAML::Node> datasets;
   std::vector<std::unique_ptr<Item>> train, test;
   std::vector<std::unique_ptr<Item>> validation;  ///< split.validation (scores `select:`)
+  /// split.folds: `select:` by cross-validation inside split.train (instead of split.validation).
+  std::vector<std::vector<std::unique_ptr<Item>>> folds;
   Selection select;
   /// Feature-set specific training items (`train:` of a feature set), overriding split.train.
   std::vector<std::vector<std::unique_ptr<Item>>> train_groups;
@@ -344,9 +353,10 @@ void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec);
 /// writes the model to `model_path` and advances the progress bar by the training frames (also
 /// when it throws: ConfigError for bad parameters, std::runtime_error otherwise).
 /// With `with_validation` the validation items are training data too (select: refit).
+/// `fold` >= 0 trains on the other folds of split.folds only, holding that fold out.
 TrainResult trainFeatureSet(SweepRun& run, const FeatureSet& f, const YAML::Node& overrides,
                             const std::string& model_path, const std::string& run_root,
-                            const std::string& what, bool with_validation = false);
+                            const std::string& what, bool with_validation = false, int fold = -1);
 
 /// Distinct training overrides of the candidates, in first-use order; `of[c]` = index of
 /// candidate c's (candidates that differ only in energy parameters share a model).
@@ -362,8 +372,10 @@ struct Selected {
 
 /// Trains every distinct training candidate of `select:` for `f` (unless it has a given model),
 /// runs every candidate on every validation item with the selection optimiser and chooses the
-/// first candidate within `tie` of the best score. ConfigError propagates; other failures of a
-/// candidate are noted in the record.
+/// first candidate within `tie` of the best score. With split.folds, each candidate is trained
+/// once per fold on the other folds and scored on that fold, the counts summed over the folds;
+/// `model` is then not set (the caller learns the choice on split.train). ConfigError
+/// propagates; other failures of a candidate are noted in the record.
 Selected selectParameters(SweepRun& run, const FeatureSet& f);
 
 }  // namespace terramrf::sweep_detail

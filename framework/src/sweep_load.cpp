@@ -300,7 +300,11 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   // split
   if (const YAML::Node split = root["split"]) {
     parseSplit(split, &s->datasets, YAML::Node(), s->f0.base_dir, d, s->train, s->test, true,
-               &s->validation);
+               &s->validation, &s->folds);
+    if (!s->validation.empty() && split["folds"])
+      d.add(split["folds"].Mark(),
+            "split: give either validation (a split of its own) or folds (cross-validation inside "
+            "split.train) for select:, not both");
   } else {
     d.add(root.Mark(),
           "missing key 'split' ({train: [...], test: [...]}); train and test sets "
@@ -309,6 +313,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   uniqueLabels(s->test);
   uniqueLabels(s->train);
   uniqueLabels(s->validation);
+  for (auto& fold : s->folds) uniqueLabels(fold);
   // common stages
   auto stageList = [&](const YAML::Node& l, const std::string& what, std::vector<YAML::Node>& out,
                        std::string& unavailable) {
@@ -534,12 +539,28 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   }
   if (const YAML::Node sel = root["select"]) {
     parseSelect(sel, *s, reg, d);
-    if (s->validation.empty())
+    if (s->validation.empty() && s->folds.empty())
       d.add(sel.Mark(),
-            "select needs split.validation: the candidates are scored there, never on "
-            "the test split");
+            "select needs split.validation or split.folds: the candidates are scored there, "
+            "never on the test split");
+    if (!s->folds.empty()) {
+      if (s->select.refit)
+        d.add(sel["refit"].Mark(),
+              "select.refit: with split.folds the chosen candidate is always learnt on the whole "
+              "train split; refit is for split.validation");
+      // Folds divide split.train; a feature set that learns from other items has nothing to
+      // cross-validate on.
+      for (const auto& f : s->feature_sets)
+        if (f.train_group >= 0 && f.model.empty())
+          d.add(f.mark, "feature set '" + f.name +
+                            "': trains on its own 'train:' items, but split.folds divide "
+                            "split.train; give select: a split.validation instead, or the "
+                            "feature set a model");
+    }
   } else if (!s->validation.empty()) {
     s->notes.push_back("split.validation is only used by 'select:', which this sweep has not");
+  } else if (!s->folds.empty()) {
+    s->notes.push_back("split.folds are only used by 'select:', which this sweep has not");
   }
   if (const YAML::Node out = root["outputs"]) {
     if (!out.IsSequence()) {
@@ -595,6 +616,8 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   for (auto& it : s->train) identify(*it, s->f0.base_dir, reg);
   for (auto& it : s->test) identify(*it, s->f0.base_dir, reg);
   for (auto& it : s->validation) identify(*it, s->f0.base_dir, reg);
+  for (auto& fold : s->folds)
+    for (auto& it : fold) identify(*it, s->f0.base_dir, reg);
   for (auto& g : s->train_groups)
     for (auto& it : g) identify(*it, s->f0.base_dir, reg);
   std::vector<Item*> tr, te, va;
@@ -607,6 +630,11 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   // Validation data must be unseen in training, and choosing on it must not peek at the test.
   checkDisjoint(tr, va, d, "validation", "train");
   checkDisjoint(va, te, d, "test", "validation");
+  {
+    std::vector<Item*> split_train;
+    for (auto& it : s->train) split_train.push_back(it.get());
+    checkFolds(split_train, s->folds, d);
+  }
   d.throwIfAny();
   for (auto& it : s->train)
     prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true, s->frame_cache);
@@ -616,6 +644,9 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
     prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true, s->frame_cache);
   for (auto& it : s->validation)
     prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true, s->frame_cache);
+  for (auto& fold : s->folds)
+    for (auto& it : fold)
+      prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true, s->frame_cache);
   std::set<std::string> used;
   for (auto& it : s->train) used.insert(it->dataset);
   for (auto& g : s->train_groups)

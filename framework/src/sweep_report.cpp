@@ -280,11 +280,18 @@ double cellF1(const EvalCounts& e, LabelId c) { return e.cell_wise.scores(c).f1(
 std::string selectionSection(const SweepResult& r) {
   if (r.selections.empty()) return "";
   std::ostringstream o;
-  o << "## Parameters selected on validation\n\n"
-       "Every candidate was trained on the train split and scored on the validation split (";
+  o << "## Parameters selected on validation\n\n";
+  if (r.folds > 0)
+    o << r.folds << "-fold cross-validation inside the train split: for each fold, every "
+      << "candidate was trained on the other folds and scored on that fold (";
+  else
+    o << "Every candidate was trained on the train split and scored on the validation split (";
   for (std::size_t i = 0; i < r.validation_items.size(); ++i)
     o << (i ? "; " : "") << r.validation_items[i];
-  o << "), never on the test split. The first candidate listed whose score is within the tie "
+  o << (r.folds > 0 ? "), the counts of all folds summed; the chosen candidate was then learnt "
+                      "on the whole train split"
+                    : ")")
+    << ", never on the test split. The first candidate listed whose score is within the tie "
        "margin of the best wins (a few cells are noise, not a reason for a larger model). "
        "Cell-wise F1 (paper 001 §VI-B rules).\n\n";
   const std::vector<LabelId> classes = scoredClasses(r.labels);
@@ -502,7 +509,7 @@ std::string resultsJson(const SweepResult& r) {
     o << (i ? "," : "") << "\n    {\"feature_set\": " << jsonQuote(s.feature_set)
       << ", \"optimiser\": " << jsonQuote(s.optimiser) << ", \"score\": " << jsonQuote(s.score)
       << ", \"tie\": " << jsonNum(s.tie) << ", \"refit\": " << (s.refit ? "true" : "false")
-      << ", \"chosen\": "
+      << ", \"folds\": " << s.folds << ", \"chosen\": "
       << (s.chosen < 0 ? std::string("null") : jsonQuote(s.candidates[s.chosen]))
       << ", \"candidates\": [";
     for (std::size_t k = 0; k < s.candidates.size(); ++k)
@@ -637,7 +644,8 @@ void writeSweepReport(const SweepResult& r, const std::string& dir) {
        << "\n- created: " << utcNow() << " (terramrf " << TERRAMRF_VERSION << ")\n- train split:";
   for (const auto& t : r.train_items) head << " " << t << ";";
   if (!r.validation_items.empty()) {
-    head << "\n- validation split (select:):";
+    head << (r.folds > 0 ? "\n- validation folds of the train split (select:):"
+                         : "\n- validation split (select:):");
     for (const auto& t : r.validation_items) head << " " << t << ";";
   }
   head << "\n- test datasets:";

@@ -200,10 +200,16 @@ SweepPlan planSweep(const std::string& sweep_path, const std::vector<std::string
           plan.skipped.push_back({run, why});
       }
   for (const auto& f : s->feature_sets)
-    for (const auto& c : s->select.candidates)
+    for (const auto& c : s->select.candidates) {
       for (const auto& v : s->validation)
         plan.selection_runs.push_back(f.name + ": " + v->label + " × " + s->select.optimiser +
                                       " [" + c.text() + "]");
+      for (std::size_t k = 0; k < s->folds.size(); ++k)
+        for (const auto& v : s->folds[k])
+          plan.selection_runs.push_back(f.name + ": fold " + std::to_string(k + 1) + " " +
+                                        v->described() + " × " + s->select.optimiser + " [" +
+                                        c.text() + "] (trained on the other folds)");
+    }
   return plan;
 }
 
@@ -284,13 +290,23 @@ void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec) {
 
 TrainResult trainFeatureSet(SweepRun& run, const FeatureSet& f, const YAML::Node& overrides,
                             const std::string& model_path, const std::string& run_root,
-                            const std::string& what, bool with_validation) {
+                            const std::string& what, bool with_validation, int fold) {
   const Sweep& s = run.s;
   TrainJob job;
   job.f0 = &s.f0;
   job.stages = s.common_stages;
   job.stages.insert(job.stages.end(), f.stages.begin(), f.stages.end());
-  for (auto& t : trainItems(s, f)) job.items.push_back(t.get());
+  if (fold < 0) {
+    for (auto& t : trainItems(s, f)) job.items.push_back(t.get());
+  } else {
+    for (std::size_t k = 0; k < s.folds.size(); ++k)
+      for (auto& t : s.folds[k]) {
+        if (static_cast<int>(k) != fold)
+          job.items.push_back(t.get());
+        else
+          job.held_out.push_back(t->described("validation fold " + std::to_string(k + 1)));
+      }
+  }
   if (with_validation)
     for (auto& t : s.validation) job.items.push_back(t.get());
   job.features = f.features;
@@ -353,6 +369,10 @@ SweepResult runSweep(const CompareOptions& o) {
   for (const auto& op : s->optimisers) res.optimisers.push_back(op.name);
   for (const auto& t : s->train) res.train_items.push_back(t->described());
   for (const auto& t : s->validation) res.validation_items.push_back(t->described());
+  for (std::size_t k = 0; k < s->folds.size(); ++k)
+    for (const auto& t : s->folds[k])
+      res.validation_items.push_back("fold " + std::to_string(k + 1) + ": " + t->described());
+  res.folds = s->folds.size();
   fs::create_directories(s->output_dir);
   writeFileAtomic(s->output_dir + "/sweep.yaml", readFile(o.sweep_path));
 
@@ -360,8 +380,14 @@ SweepResult runSweep(const CompareOptions& o) {
   const bool selecting = !sel.candidates.empty();
   std::vector<std::size_t> training_of;
   const std::size_t trainings = distinctTraining(sel, training_of).size();
-  std::size_t validation_frames = 0;
+  // Frames each candidate is validated on, and (folds) trained on besides split.train: every
+  // fold is held out once and trains the others.
+  std::size_t validation_frames = 0, fold_training_frames = 0;
   for (const auto& v : s->validation) validation_frames += v->count;
+  for (const auto& fold : s->folds)
+    for (const auto& v : fold) validation_frames += v->count;
+  if (!s->folds.empty()) fold_training_frames = validation_frames * (s->folds.size() - 1);
+  const bool folds = !s->folds.empty();
 
   // Progress total: training frames of every feature set that trains (once per distinct training
   // candidate), validation frames of every candidate, test frames of every run.
@@ -378,7 +404,9 @@ SweepResult runSweep(const CompareOptions& o) {
     if (!why.empty()) continue;
     std::size_t train_frames = 0;
     for (const auto& t : trainItems(*s, f)) train_frames += t->count;
-    if (f.model.empty()) total += train_frames * (selecting ? trainings : 1);
+    if (f.model.empty())
+      total += selecting && !folds ? train_frames * trainings
+                                   : train_frames + (selecting ? fold_training_frames * trainings : 0);
     if (selecting) total += validation_frames * sel.candidates.size();
     if (selecting && sel.refit && f.model.empty()) total += train_frames + validation_frames;
   }
@@ -427,18 +455,23 @@ SweepResult runSweep(const CompareOptions& o) {
       } else {
         energy_of[i] = chosen.energy;
         mr.selected = chosen.record.candidates[chosen.record.chosen];
-        if (f.model.empty() && sel.refit) {
-          // The winner's parameters, learnt again with the validation data.
+        if (f.model.empty() && (sel.refit || folds)) {
+          // The winner's parameters, learnt again with the validation data (refit), or on the
+          // whole train split after cross-validation on its folds.
           try {
-            const TrainResult tr =
-                trainFeatureSet(run, f, sel.candidates[chosen.record.chosen].training, model_path,
-                                s->output_dir + "/models/" + sanitize(f.name) + ".train",
-                                "refit " + f.name + " [" + mr.selected + "]: ", true);
+            const TrainResult tr = trainFeatureSet(
+                run, f, sel.candidates[chosen.record.chosen].training, model_path,
+                s->output_dir + "/models/" + sanitize(f.name) + ".train",
+                (folds ? "train " : "refit ") + f.name + " [" + mr.selected + "]: ", sel.refit);
             mr.path = tr.model_path;
             record(tr);
-            for (const auto& t : s->validation)
-              mr.train_items.push_back(t->described("validation"));
-            mr.selected += " (refit on train + validation)";
+            if (sel.refit) {
+              for (const auto& t : s->validation)
+                mr.train_items.push_back(t->described("validation"));
+              mr.selected += " (refit on train + validation)";
+            } else {
+              mr.selected += " (" + std::to_string(s->folds.size()) + "-fold cross-validation)";
+            }
           } catch (const ConfigError&) {
             throw;
           } catch (const std::exception& e) {

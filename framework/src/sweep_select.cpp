@@ -1,5 +1,6 @@
 // `select:` of `terramrf compare`: every candidate (training and energy parameters) trained on the
-// train split and scored on the validation split; the test split is not read here.
+// train split and scored on the validation split — or cross-validated on split.folds: trained on
+// all folds but one, scored on that one, for each fold; the test split is not read here.
 #include <cmath>
 
 #include "sweep_internal.hpp"
@@ -26,16 +27,17 @@ double selectionScore(const EvalCounts& counts, const LabelSet& labels, const st
   return n ? sum / n : kNaN;
 }
 
-/// The validation counts of one candidate summed over the validation items, or why there are
-/// none.
+/// The validation counts of one candidate summed over `items` (added to `sum`), or why there
+/// are none.
 std::string validate(SweepRun& run, const FeatureSet& f, const Candidate& cand,
-                     const std::string& model, const std::string& run_dir, EvalCounts& sum) {
+                     const std::string& model, const std::string& run_dir,
+                     const std::vector<std::unique_ptr<Item>>& items, EvalCounts& sum) {
   const Sweep& s = run.s;
   const OptimiserDef* opt = nullptr;
   for (const auto& op : s.optimisers)
     if (op.name == s.select.optimiser) opt = &op;
   std::string note;
-  for (const auto& v : s.validation) {
+  for (const auto& v : items) {
     if (note.empty()) {
       RunRecord rec;
       rec.dataset = v->label;
@@ -67,7 +69,6 @@ std::string validate(SweepRun& run, const FeatureSet& f, const Candidate& cand,
     run.done += v->count;
     run.progress.advanceTo(run.done, "validated " + f.name);
   }
-  if (note.empty() && sum.scans == 0) note = "no validation frame with ground truth";
   return note;
 }
 
@@ -96,42 +97,68 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
   sr.score = sel.score;
   sr.tie = sel.tie;
   sr.refit = sel.refit;
+  sr.folds = s.folds.size();
   const std::string dir = s.output_dir + "/select/" + sanitize(f.name);
   std::vector<std::size_t> training_of;
   const std::vector<const Candidate*> trainings = distinctTraining(sel, training_of);
-  std::vector<TrainResult> trained(trainings.size());
+  // One validation set (split.validation), or one per fold, each scored with models trained on
+  // the other folds.
+  const bool folds = !s.folds.empty();
+  std::vector<const std::vector<std::unique_ptr<Item>>*> parts;
+  if (folds)
+    for (const auto& fold : s.folds) parts.push_back(&fold);
+  else
+    parts.push_back(&s.validation);
+  // trained[k][p]: training candidate k for part p.
+  std::vector<std::vector<TrainResult>> trained(trainings.size(),
+                                                std::vector<TrainResult>(parts.size()));
   std::vector<std::string> train_error(trainings.size());
   if (f.model.empty()) {
-    for (std::size_t k = 0; k < trainings.size(); ++k) {
-      const std::string tag = std::to_string(k + 1);
-      try {
-        trained[k] = trainFeatureSet(run, f, trainings[k]->training, dir + "/model_" + tag + ".yaml",
-                                     dir + "/model_" + tag + ".train",
-                                     "train " + f.name + " [" + trainings[k]->training_text + "]: ");
-      } catch (const ConfigError&) {
-        throw;
-      } catch (const std::exception& e) {
-        train_error[k] = std::string("training failed: ") + e.what();
-        run.progress.breakLine();
-        run.log << "feature set " << f.name << " [" << trainings[k]->training_text
-                << "]: " << train_error[k] << "\n";
+    for (std::size_t k = 0; k < trainings.size(); ++k)
+      for (std::size_t p = 0; p < parts.size() && train_error[k].empty(); ++p) {
+        const std::string tag = std::to_string(k + 1) + (folds ? "_fold" + std::to_string(p + 1) : "");
+        const std::string what = "train " + f.name + " [" + trainings[k]->training_text + "]" +
+                                 (folds ? " without fold " + std::to_string(p + 1) : "") + ": ";
+        try {
+          trained[k][p] = trainFeatureSet(run, f, trainings[k]->training,
+                                          dir + "/model_" + tag + ".yaml",
+                                          dir + "/model_" + tag + ".train", what, false,
+                                          folds ? static_cast<int>(p) : -1);
+        } catch (const ConfigError&) {
+          throw;
+        } catch (const std::exception& e) {
+          train_error[k] = std::string("training") +
+                           (folds ? " without fold " + std::to_string(p + 1) : "") +
+                           " failed: " + e.what();
+          run.progress.breakLine();
+          run.log << "feature set " << f.name << " [" << trainings[k]->training_text
+                  << "]: " << train_error[k] << "\n";
+        }
       }
-    }
   }
   for (std::size_t c = 0; c < sel.candidates.size(); ++c) {
     const Candidate& cand = sel.candidates[c];
     const std::size_t k = training_of[c];
-    const std::string model = f.model.empty() ? trained[k].model_path : f.model;
     sr.candidates.push_back(cand.text());
-    sr.models.push_back(model);
+    std::string models;
     EvalCounts sum(run.labels.size());
     std::string note = f.model.empty() ? train_error[k] : "";
-    if (note.empty()) {
-      note = validate(run, f, cand, model, dir + "/runs/" + std::to_string(c + 1), sum);
-    } else {
-      for (const auto& v : s.validation) run.done += v->count;  // not run: its frames count as done
-      run.progress.advanceTo(run.done, "validated " + f.name);
+    for (std::size_t p = 0; p < parts.size(); ++p) {
+      const std::string model = f.model.empty() ? trained[k][p].model_path : f.model;
+      if (p == 0 || f.model.empty()) models += (p ? "; " : "") + model;
+      if (note.empty()) {
+        note = validate(run, f, cand, model,
+                        dir + "/runs/" + std::to_string(c + 1) +
+                            (folds ? "_fold" + std::to_string(p + 1) : ""),
+                        *parts[p], sum);
+        if (!note.empty() && folds) note = "fold " + std::to_string(p + 1) + ": " + note;
+      } else {
+        for (const auto& v : *parts[p]) run.done += v->count;  // not run: counted as done
+        run.progress.advanceTo(run.done, "validated " + f.name);
+      }
     }
+    if (note.empty() && sum.scans == 0) note = "no validation frame with ground truth";
+    sr.models.push_back(models);
     sr.counts.push_back(sum);
     sr.scores.push_back(note.empty() ? selectionScore(sum, run.labels, sel.score) : kNaN);
     sr.notes.push_back(note);
@@ -153,7 +180,7 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
     return out;
   }
   out.energy = sel.candidates[sr.chosen].energy;
-  if (f.model.empty()) out.model = trained[training_of[sr.chosen]];
+  if (f.model.empty() && !folds) out.model = trained[training_of[sr.chosen]][0];
   return out;
 }
 

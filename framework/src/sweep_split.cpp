@@ -274,12 +274,15 @@ void prepareItem(Item& it, PluginRegistry& reg, const Frame0& f0, const std::str
 void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>* datasets,
                 const YAML::Node& base_source, const std::string& base_dir, Diags& d,
                 std::vector<std::unique_ptr<Item>>& train, std::vector<std::unique_ptr<Item>>& test,
-                bool need_both, std::vector<std::unique_ptr<Item>>* validation) {
+                bool need_both, std::vector<std::unique_ptr<Item>>* validation,
+                std::vector<std::vector<std::unique_ptr<Item>>>* folds) {
   if (!split.IsMap()) {
     d.add(split.Mark(), "'split' must be a map {train: [...], test: [...]}");
     return;
   }
-  if (validation)
+  if (validation && folds)
+    detail::checkKeys(d, split, {"train", "validation", "folds", "test"}, "split", kKeyHint);
+  else if (validation)
     detail::checkKeys(d, split, {"train", "validation", "test"}, "split", kKeyHint);
   else
     detail::checkKeys(d, split, {"train", "test"}, "split", kKeyHint);
@@ -303,6 +306,58 @@ void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>
   list("train", train);
   if (validation) list("validation", *validation);
   list("test", test);
+  const YAML::Node f = folds ? split["folds"] : YAML::Node();
+  if (!f) return;
+  if (!f.IsSequence() || f.size() < 2) {
+    d.add(f.Mark(),
+          "split.folds: expected a list of at least two folds, each a list of items of split.train");
+    return;
+  }
+  for (std::size_t k = 0; k < f.size(); ++k) {
+    const YAML::Node fold = f[k];
+    std::vector<std::unique_ptr<Item>> items;
+    if (fold.IsSequence() && fold.size() == 0) {
+      d.add(fold.Mark(), "split.folds: fold " + std::to_string(k + 1) + " is empty");
+      continue;
+    }
+    const std::vector<YAML::Node> entries =
+        fold.IsSequence() ? std::vector<YAML::Node>(fold.begin(), fold.end())
+                          : std::vector<YAML::Node>{fold};
+    for (const auto& n : entries) {
+      auto it = std::make_unique<Item>();
+      if (parseItem(n, datasets, base_source, base_dir, d, *it)) items.push_back(std::move(it));
+    }
+    folds->push_back(std::move(items));
+  }
+}
+
+void checkFolds(const std::vector<Item*>& train,
+                const std::vector<std::vector<std::unique_ptr<Item>>>& folds, Diags& d) {
+  auto inside = [](const FrameRange& a, const FrameRange& b) {  // a within b
+    return b.first <= a.first && a.last <= b.last;
+  };
+  for (std::size_t k = 0; k < folds.size(); ++k) {
+    for (const auto& f : folds[k]) {
+      bool found = false;
+      for (const Item* t : train) {
+        const bool same = !f->path.empty() ? f->path == t->path
+                                           : t->path.empty() && f->identity == t->identity;
+        if (same && inside(f->frames, t->frames)) found = true;
+      }
+      if (!found)
+        d.add(f->mark, "split.folds: fold " + std::to_string(k + 1) + " item " + itemText(*f) +
+                           " is not part of split.train (same data, frames inside a train "
+                           "item's); folds divide the train split");
+    }
+    std::vector<Item*> mine;
+    for (const auto& f : folds[k]) mine.push_back(f.get());
+    for (std::size_t j = 0; j < k; ++j) {
+      std::vector<Item*> other;
+      for (const auto& f : folds[j]) other.push_back(f.get());
+      checkDisjoint(other, mine, d, "fold " + std::to_string(k + 1) + "'s",
+                    "fold " + std::to_string(j + 1) + "'s");
+    }
+  }
 }
 
 void uniqueLabels(std::vector<std::unique_ptr<Item>>& items) {

@@ -137,16 +137,18 @@ struct ModelRecord {
 
 /// How `select:` chose one feature set's training and energy parameters: every candidate was
 /// trained on the train split and scored on the validation split (never on the test split) with
-/// one optimiser; the first candidate within `tie` of the best score won.
+/// one optimiser — or, with split.folds, trained on all folds but one and scored on that one, for
+/// each fold in turn; the first candidate within `tie` of the best score won.
 struct SelectionRecord {
   std::string feature_set;
   std::string optimiser;  ///< the optimiser that scored the candidates
   std::string score;      ///< "macro_f1" or "f1_<class>" (cell-wise, paper 001 §VI-B rules)
   double tie = 0;         ///< scores this close to the best count as ties
   bool refit = false;     ///< the test runs used the choice learnt again on train + validation
+  std::size_t folds = 0;  ///< split.folds cross-validated (0 = scored on split.validation)
   std::vector<std::string> candidates;  ///< "components=2, beta=0.8", in sweep order
-  std::vector<std::string> models;      ///< model file each candidate used
-  std::vector<EvalCounts> counts;       ///< per candidate, summed over the validation items
+  std::vector<std::string> models;  ///< model file each candidate used (folds: one each, "; ")
+  std::vector<EvalCounts> counts;  ///< per candidate, summed over the validation items (or folds)
   std::vector<double> scores;           ///< per candidate; NaN = it failed (see notes)
   std::vector<std::string> notes;       ///< per candidate: why it failed, or ""
   int chosen = -1;                      ///< index into candidates, -1 = none could be scored
@@ -159,7 +161,11 @@ struct SweepResult {
   std::vector<std::string> feature_sets;  ///< in sweep order
   std::vector<std::string> optimisers;    ///< in sweep order
   std::vector<std::string> train_items;   ///< descriptions of the train split
-  std::vector<std::string> validation_items;  ///< descriptions of the validation split
+  /// Descriptions of the validation split, or of the folds' items ("fold 1: …").
+  std::vector<std::string> validation_items;
+  /// Number of split.folds: select: cross-validated inside the train split (0 = it used
+  /// split.validation, or there is no select:).
+  std::size_t folds = 0;
   std::vector<ModelRecord> models;
   std::vector<SelectionRecord> selections;  ///< one per feature set that `select:` tuned
   std::vector<RunRecord> runs;  ///< dataset-major, then feature set, then optimiser

@@ -640,8 +640,8 @@ TEST(SweepSelect, SelectNeedsAValidationSplitDisjointFromTrainAndTest) {
       put(dir, "none.yaml",
           tinySweep("  icm: {type: icm}") + "select: {energy: {beta_diagonal: [0.4, 0.8]}}\n");
   EXPECT_NE(std::string(expectConfigError(none).what())
-                .find("select needs split.validation: the candidates are scored there, never on "
-                      "the test split"),
+                .find("select needs split.validation or split.folds: the candidates are scored "
+                      "there, never on the test split"),
             std::string::npos);
   // Validation = the test world, then = the training world.
   for (const char* world : {"seed: 1", "seed: 7"}) {
@@ -663,6 +663,115 @@ TEST(SweepSelect, SelectNeedsAValidationSplitDisjointFromTrainAndTest) {
               std::string::npos)
         << all;
   }
+}
+
+// ---- select: by cross-validation on folds of the train split ----------------------------------
+
+/// tinySweep whose train split (frames 0 and 1 of world 7) is cut into two folds, with
+/// `select_yaml` appended.
+std::string foldSweep(const std::string& select_yaml) {
+  std::string s = tinySweep("  icm: {type: icm}");
+  const std::string test_line = "  test: [sim_test]\n";
+  s.replace(s.find(test_line), test_line.size(),
+            "  folds: [[{dataset: sim_train, frames: [0, 0]}], {dataset: sim_train, frames: 1}]\n" +
+                test_line);
+  return s + select_yaml;
+}
+
+TEST(SweepSelectFolds, EachFoldIsScoredByModelsLearntOnTheOtherFolds) {
+  test::TempDir dir;
+  // The class_cost -1000 candidates make every cell an obstacle: they must lose.
+  const std::string sweep = put(dir, "folds.yaml", foldSweep(R"(select:
+  training: {components: [1, 2]}
+  energy: {class_cost: [[0, 0, -1000], [0, 0, 0]]}
+)"));
+  const SweepPlan plan = planSweep(sweep, {test::pluginDir()});
+  ASSERT_EQ(plan.selection_runs.size(), 16u);  // 2 feature sets × 4 candidates × 2 folds
+  EXPECT_EQ(plan.selection_runs[0],
+            "L0: fold 1 sim_train (frame 0) × icm [components=1, class_cost=[0, 0, -1000]] "
+            "(trained on the other folds)");
+  std::ostringstream log;
+  const std::string out = dir.str() + "/out";
+  const SweepResult r = runQuiet(sweep, out, log);
+  ASSERT_EQ(r.exitCode(), 0) << log.str();
+  EXPECT_EQ(r.folds, 2u);
+  EXPECT_EQ(r.validation_items, (std::vector<std::string>{"fold 1: sim_train (frame 0)",
+                                                          "fold 2: sim_train (frame 1)"}));
+  ASSERT_EQ(r.selections.size(), 2u);
+  for (const auto& s : r.selections) {
+    SCOPED_TRACE(s.feature_set);
+    EXPECT_EQ(s.folds, 2u);
+    ASSERT_EQ(s.candidates.size(), 4u);
+    ASSERT_GE(s.chosen, 0);
+    EXPECT_EQ(s.candidates[s.chosen].find("class_cost=[0, 0, 0]"), 14u) << s.candidates[s.chosen];
+    for (std::size_t c = 0; c < 4; ++c) {
+      EXPECT_EQ(s.counts[c].scans, 2u);  // each fold's scan once, never the test scan
+      // One model per fold, learnt without it.
+      EXPECT_NE(s.models[c].find("_fold1.yaml; "), std::string::npos) << s.models[c];
+      EXPECT_NE(s.models[c].find("_fold2.yaml"), std::string::npos) << s.models[c];
+    }
+    EXPECT_LT(s.scores[0], s.scores[1]);
+  }
+  // A fold's model learnt the other fold only, and names its own fold as held out.
+  const YAML::Node fold1 = YAML::LoadFile(out + "/select/L/model_1_fold1.yaml")["trained_from"];
+  ASSERT_EQ(fold1["data"].size(), 1u);
+  EXPECT_EQ(fold1["data"][0]["frames"].as<std::string>(), "frame 1");
+  EXPECT_EQ(fold1["held_out"][0].as<std::string>(), "sim_train (frame 0, validation fold 1)");
+  // The choice is then learnt on the whole train split for the test runs.
+  for (const auto& m : r.models) {
+    SCOPED_TRACE(m.feature_set);
+    EXPECT_EQ(m.labelled_frames, 2u);
+    EXPECT_NE(m.selected.find("(2-fold cross-validation)"), std::string::npos) << m.selected;
+  }
+  const YAML::Node model = YAML::LoadFile(out + "/models/L.yaml")["trained_from"];
+  EXPECT_EQ(model["data"][0]["frames"].as<std::string>(), "frames 0-1");
+  const std::string summary = readFile(out + "/summary.md");
+  EXPECT_NE(summary.find("2-fold cross-validation inside the train split"), std::string::npos)
+      << summary;
+  EXPECT_NE(summary.find("validation folds of the train split (select:): fold 1: sim_train"),
+            std::string::npos);
+  EXPECT_EQ(YAML::LoadFile(out + "/results.json")["selection"][0]["folds"].as<int>(), 2);
+}
+
+TEST(SweepSelectFolds, FoldsOutsideTheTrainSplitOrSharingDataAreRejectedAtTheirPlace) {
+  test::TempDir dir;
+  const std::string sel = "select: {training: {components: [1, 2]}}\n";
+  auto errors = [&](const std::string& text) {
+    return std::string(expectConfigError(put(dir, "bad_folds.yaml", text)).what());
+  };
+  auto with_folds = [&](const std::string& folds, const std::string& select) {
+    std::string s = foldSweep(select);
+    const std::size_t at = s.find("  folds:");
+    s.replace(at, s.find('\n', at) - at, "  folds: " + folds);
+    return s;
+  };
+  // One fold is no cross-validation.
+  EXPECT_NE(errors(with_folds("[{dataset: sim_train, frames: 0}]", sel))
+                .find("split.folds: expected a list of at least two folds"),
+            std::string::npos);
+  // A fold of the test world, and frames the train split does not have.
+  const std::string outside =
+      errors(with_folds("[{dataset: sim_train, frames: 0}, [sim_test]]", sel));
+  EXPECT_NE(outside.find(":9:45: split.folds: fold 2 item 'sim_test'"), std::string::npos)
+      << outside;
+  EXPECT_NE(outside.find("is not part of split.train"), std::string::npos) << outside;
+  // Two folds that share a frame.
+  const std::string shared = errors(
+      with_folds("[{dataset: sim_train, frames: [0, 1]}, {dataset: sim_train, frames: 1}]", sel));
+  EXPECT_NE(shared.find("split: fold 2's item 'sim_train'"), std::string::npos) << shared;
+  EXPECT_NE(shared.find("overlaps fold 1's item 'sim_train'"), std::string::npos) << shared;
+  // Folds and a validation split; refit; a feature set that learns from other data.
+  std::string both = foldSweep(sel);
+  both.replace(both.find("  test: [sim_test]"), 0, "  validation: [sim_test]\n");
+  EXPECT_NE(errors(both).find("split: give either validation"), std::string::npos);
+  EXPECT_NE(errors(foldSweep("select: {training: {components: [1, 2]}, refit: true}\n"))
+                .find("select.refit: with split.folds the chosen candidate is always learnt"),
+            std::string::npos);
+  std::string own = foldSweep(sel);
+  own.replace(own.find("    extends: L0\n"), 0, "    train: [sim_test]\n");
+  EXPECT_NE(errors(own).find("feature set 'L': trains on its own 'train:' items, but split.folds"),
+            std::string::npos)
+      << errors(own);
 }
 
 // ---- the frame cache ---------------------------------------------------------------------------
