@@ -171,6 +171,11 @@ void BM_AlphaExpansion(benchmark::State& s) { runOptimiser(s, "alpha_expansion",
 void BM_AlphaExpansionNoPreIcm(benchmark::State& s) {
   runOptimiser(s, "alpha_expansion", "{pre_icm: false}");
 }
+// The expansions alone: the difference to BM_AlphaExpansion is what the 2×2 block moves cost
+// (their passes and the expansions after the moves they take).
+void BM_AlphaExpansionNoBlockMoves(benchmark::State& s) {
+  runOptimiser(s, "alpha_expansion", "{block_moves: false}");
+}
 void BM_Gibbs100Sweeps(benchmark::State& s) { runOptimiser(s, "gibbs", "{sweeps: 100, seed: 1}"); }
 // The annealing alone: the scores averaged over its sweeps instead of the marginal sweeps, so the
 // difference to BM_Gibbs100Sweeps is what the marginals at marginal_temperature cost.
@@ -184,6 +189,10 @@ BENCHMARK(BM_AlphaExpansion)
     ->Repetitions(10)
     ->ReportAggregatesOnly(true);
 BENCHMARK(BM_AlphaExpansionNoPreIcm)
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(10)
+    ->ReportAggregatesOnly(true);
+BENCHMARK(BM_AlphaExpansionNoBlockMoves)
     ->Unit(benchmark::kMillisecond)
     ->Repetitions(10)
     ->ReportAggregatesOnly(true);

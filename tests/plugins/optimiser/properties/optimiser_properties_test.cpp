@@ -113,7 +113,9 @@ TEST(OptimiserProperties, AlphaExpansionIsWithinItsFactorTwoBoundOfTheOptimum) {
     const auto [e_star, best] = test::bruteForce(em);
     const bool pre_icm = n % 3 == 0;
     const auto r = h.run("alpha_expansion",
-                         pre_icm ? "{max_cycles: 100}" : "{max_cycles: 100, pre_icm: false}", em);
+                         pre_icm ? "{max_cycles: 100, block_moves: false}"
+                                 : "{max_cycles: 100, pre_icm: false, block_moves: false}",
+                         em);
     test::expectValidResult(r, em, "grid " + std::to_string(n));
     ASSERT_TRUE(r.report.converged) << "the bound holds for a converged labelling";
     const auto lab = OptimiserHarness::labelling(r, em);
@@ -129,7 +131,7 @@ TEST(OptimiserProperties, AlphaExpansionIsWithinItsFactorTwoBoundOfTheOptimum) {
     std::uniform_int_distribution<int> label(0, s.labels - 1);
     for (int probe = 0; probe < 50; ++probe) {
       for (auto& l : start.initial) l = static_cast<uint8_t>(label(rng));
-      const auto one = h.run("alpha_expansion", "{max_cycles: 1, pre_icm: false}", start);
+      const auto one = h.run("alpha_expansion", "{max_cycles: 1, pre_icm: false, block_moves: false}", start);
       int cycles = 0;
       EXPECT_EQ(OptimiserHarness::labelling(one, start),
                 test::referenceExpansion(start, &cycles, nullptr, 1))
