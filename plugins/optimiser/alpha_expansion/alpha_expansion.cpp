@@ -332,6 +332,41 @@ class AlphaExpansion final : public Stage {
   double blockPass(const EnergyModel& em, std::vector<uint8_t>& lab) {
     const int R = em.rows, C = em.cols, K = em.numLabels();
     const double wb = em.beta, wd = em.beta_diagonal;
+    // nsum_[i·K + k]: eq. 12 for cell i under k given all its current neighbours; a block's cells
+    // then need only their three inner pairs taken back out, and a taken move updates the sums of
+    // its cells' neighbours.
+    nsum_.resize(em.cells() * std::size_t(K));
+    for (int i = 0; i < R * C; ++i) {
+      if (em.fixed[i]) continue;
+      double* s = &nsum_[std::size_t(i) * K];
+      const float* u = &em.unary[std::size_t(i) * K];
+      for (int k = 0; k < K; ++k) s[k] = u[k];
+      const int ri = i / C, ci = i % C;
+      for (int d = 0; d < 8; ++d) {
+        const int rr = ri + kDr[d], cc = ci + kDc[d];
+        if (rr < 0 || rr >= R || cc < 0 || cc >= C || em.fixed[rr * C + cc]) continue;
+        // w·δ(k, lab[n]) for every k: +w, and −2w for the neighbour's own label.
+        const double w = isDiagonal(d) ? wd : wb;
+        for (int k = 0; k < K; ++k) s[k] += w;
+        s[lab[rr * C + cc]] -= 2 * w;
+      }
+    }
+    auto relabel = [&](int i, int to) {
+      const int from = lab[i], ri = i / C, ci = i % C;
+      lab[i] = static_cast<uint8_t>(to);
+      for (int d = 0; d < 8; ++d) {
+        const int rr = ri + kDr[d], cc = ci + kDc[d];
+        if (rr < 0 || rr >= R || cc < 0 || cc >= C || em.fixed[rr * C + cc]) continue;
+        const double w = isDiagonal(d) ? wd : wb;
+        double* s = &nsum_[std::size_t(rr * C + cc) * K];
+        s[from] += 2 * w;
+        s[to] -= 2 * w;
+      }
+      touchBlocks(i, R, C);
+    };
+    // Inner neighbours of block cell j (cells 0 1 / 2 3) and the pair weights.
+    static constexpr int kInner[4][3] = {{1, 2, 3}, {0, 3, 2}, {3, 0, 1}, {2, 1, 0}};
+    const double w_inner[3] = {wb, wb, wd};
     // Cells 0 1 / 2 3; inner pairs 0–1, 2–3, 0–2, 1–3 (edges) and 0–3, 1–2 (diagonals).
     const double inner_min = -4 * std::max(0.0, wb) - 2 * std::max(0.0, wd);
     auto dl = [](int a, int b) { return a == b ? -1.0 : 1.0; };
@@ -347,22 +382,13 @@ class AlphaExpansion final : public Stage {
         // local[j][k]: unary of cell j under k plus its pairs with non-fixed cells outside.
         double bound = inner_min, now = 0;
         int cur[4];
+        for (int j = 0; j < 4; ++j) cur[j] = lab[cell[j]];
         for (int j = 0; j < 4; ++j) {
-          const int i = cell[j], ri = i / C, ci = i % C;
-          cur[j] = lab[i];
-          const float* u = &em.unary[std::size_t(i) * K];
-          for (int k = 0; k < K; ++k) local[j][k] = u[k];
-          for (int d = 0; d < 8; ++d) {
-            const int rr = ri + kDr[d], cc = ci + kDc[d];
-            if (rr < 0 || rr >= R || cc < 0 || cc >= C) continue;
-            if (rr >= r && rr <= r + 1 && cc >= c && cc <= c + 1) continue;  // inside
-            const int n = rr * C + cc;
-            if (em.fixed[n]) continue;
-            // w·δ(k, lab[n]) for every k: +w, and −2w for the neighbour's own label.
-            const double w = isDiagonal(d) ? wd : wb;
-            for (int k = 0; k < K; ++k) local[j][k] += w;
-            local[j][lab[n]] -= 2 * w;
-          }
+          const double* s = &nsum_[std::size_t(cell[j]) * K];
+          double inner_all = 0;
+          for (int m = 0; m < 3; ++m) inner_all += w_inner[m];
+          for (int k = 0; k < K; ++k) local[j][k] = s[k] - inner_all;
+          for (int m = 0; m < 3; ++m) local[j][cur[kInner[j][m]]] += 2 * w_inner[m];
           bound += *std::min_element(local[j], local[j] + K);
           now += local[j][cur[j]];
         }
@@ -424,10 +450,7 @@ class AlphaExpansion final : public Stage {
           }
         if (best[0] < 0) continue;
         for (int j = 0; j < 4; ++j)
-          if (lab[cell[j]] != best[j]) {
-            lab[cell[j]] = static_cast<uint8_t>(best[j]);
-            touchBlocks(cell[j], R, C);
-          }
+          if (lab[cell[j]] != best[j]) relabel(cell[j], best[j]);
         total += best_e - now;
         ++block_moves_taken_;
       }
@@ -626,6 +649,7 @@ class AlphaExpansion final : public Stage {
   std::vector<std::size_t> dist_;
   std::vector<uint8_t> lab_, dirty_, in_move_;
   std::vector<uint8_t> block_dirty_;  ///< per block (top-left cell): its best move may have changed
+  std::vector<double> nsum_;          ///< per cell and label: eq. 12 given the current neighbours
   PaddedLabels pad_;
   std::vector<int> move_;
 };
