@@ -5,7 +5,8 @@
 //   sweep_pipeline.cpp  plugins from YAML entries, pipelines assembled from them
 //   sweep_training.cpp  learning a model with feature_stats (`terramrf train`)
 //   sweep_run.cpp       running the grid of a sweep (`terramrf compare`)
-//   sweep_select.cpp    `select:`: candidates trained, scored on split.validation, one chosen
+//   sweep_select.cpp    `select:`: candidates trained, scored on split.validation (or on
+//                       split.folds, each learnt on the other folds), one chosen
 //   cached_source.hpp   frames kept between the runs of a sweep
 //   sweep_report.cpp    Markdown/CSV/JSON/SVG reports
 //
@@ -269,7 +270,7 @@ struct Candidate {
 };
 
 /// `select:`: the candidates (the product of the listed values, first listed first) and how they
-/// are scored on split.validation.
+/// are scored on split.validation or split.folds.
 struct Selection {
   std::vector<Candidate> candidates;  ///< empty = no selection
   std::string optimiser;              ///< name of one of the sweep's optimisers

@@ -306,7 +306,8 @@ void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>
   list("train", train);
   if (validation) list("validation", *validation);
   list("test", test);
-  const YAML::Node f = folds ? split["folds"] : YAML::Node();
+  if (!folds) return;
+  const YAML::Node f = split["folds"];
   if (!f) return;
   if (!f.IsSequence() || f.size() < 2) {
     d.add(f.Mark(),
