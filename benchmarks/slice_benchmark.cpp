@@ -6,7 +6,7 @@
 //       paper 000's laser set L: pre-class + height difference + roughness + energy + optimiser
 //   BM_LG_Icm / BM_LG_AlphaExpansion:
 //       configs/semantickitti.yaml: L + relative height + height above ground, roughness on a log
-//       scale, + energy + optimiser
+//       scale, + energy + optimiser; BM_LG_AlphaExpansionNoBlockMoves without the 2×2 block moves
 // Data: SemanticKITTI sequence 00 frame 000000 (HDL-64E, 124668 points; rings recovered by the
 // reader), 40 m grid, 0.5 m cells (80 × 80), one thread.
 #include <benchmark/benchmark.h>
@@ -71,6 +71,15 @@ struct SliceFixture {
                                                 {"potts_gaussian", lg_energy},
                                                 {opt, params}});
     }
+    // The block moves' share of α-expansion on a real scan.
+    chains["LG_alpha_expansion_no_block_moves"] = chain({{"eigen_preclass", "{}"},
+                                                        {"height_difference", "{}"},
+                                                        {"roughness", "{}"},
+                                                        {"relative_height", "{}"},
+                                                        {"height_above_ground", "{}"},
+                                                        {"log_transform", "{input: roughness}"},
+                                                        {"potts_gaussian", lg_energy},
+                                                        {"alpha_expansion", "{block_moves: false}"}});
   }
   std::unique_ptr<Plugin> make(const std::string& type, const std::string& params) {
     auto p = reg.create(type);
@@ -115,6 +124,9 @@ void BM_L_Icm(benchmark::State& s) { runChain(s, "L_icm"); }
 void BM_L_AlphaExpansion(benchmark::State& s) { runChain(s, "L_alpha_expansion"); }
 void BM_LG_Icm(benchmark::State& s) { runChain(s, "LG_icm"); }
 void BM_LG_AlphaExpansion(benchmark::State& s) { runChain(s, "LG_alpha_expansion"); }
+void BM_LG_AlphaExpansionNoBlockMoves(benchmark::State& s) {
+  runChain(s, "LG_alpha_expansion_no_block_moves");
+}
 
 #define TERRAMRF_BENCH(fn) \
   BENCHMARK(fn)->Unit(benchmark::kMillisecond)->Repetitions(10)->ReportAggregatesOnly(true)
@@ -124,6 +136,7 @@ TERRAMRF_BENCH(BM_L_Icm);
 TERRAMRF_BENCH(BM_L_AlphaExpansion);
 TERRAMRF_BENCH(BM_LG_Icm);
 TERRAMRF_BENCH(BM_LG_AlphaExpansion);
+TERRAMRF_BENCH(BM_LG_AlphaExpansionNoBlockMoves);
 
 }  // namespace
 }  // namespace terramrf
