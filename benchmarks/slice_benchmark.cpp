@@ -55,6 +55,17 @@ struct SliceFixture {
                               "{model: models/laser_simulator.yaml, features: [height_diff, "
                               "normal_eigenvalue], preclass_layer: preclass}"},
                              {"icm", "{report_energy: false}"}});
+    // configs/semantickitti.yaml's stages, then the optimiser `opt` with `params`.
+    auto lg = [&](const std::string& opt, const std::string& params) {
+      return chain({{"eigen_preclass", "{}"},
+                    {"height_difference", "{}"},
+                    {"roughness", "{}"},
+                    {"relative_height", "{}"},
+                    {"height_above_ground", "{}"},
+                    {"log_transform", "{input: roughness}"},
+                    {"potts_gaussian", lg_energy},
+                    {opt, params}});
+    };
     for (const char* opt : {"icm", "alpha_expansion"}) {
       const std::string params = std::string(opt) == "icm" ? "{report_energy: false}" : "{}";
       chains[std::string("L_") + opt] = chain({{"eigen_preclass", "{}"},
@@ -62,24 +73,10 @@ struct SliceFixture {
                                                {"roughness", "{}"},
                                                {"potts_gaussian", l_energy},
                                                {opt, params}});
-      chains[std::string("LG_") + opt] = chain({{"eigen_preclass", "{}"},
-                                                {"height_difference", "{}"},
-                                                {"roughness", "{}"},
-                                                {"relative_height", "{}"},
-                                                {"height_above_ground", "{}"},
-                                                {"log_transform", "{input: roughness}"},
-                                                {"potts_gaussian", lg_energy},
-                                                {opt, params}});
+      chains[std::string("LG_") + opt] = lg(opt, params);
     }
     // The block moves' share of α-expansion on a real scan.
-    chains["LG_alpha_expansion_no_block_moves"] = chain({{"eigen_preclass", "{}"},
-                                                        {"height_difference", "{}"},
-                                                        {"roughness", "{}"},
-                                                        {"relative_height", "{}"},
-                                                        {"height_above_ground", "{}"},
-                                                        {"log_transform", "{input: roughness}"},
-                                                        {"potts_gaussian", lg_energy},
-                                                        {"alpha_expansion", "{block_moves: false}"}});
+    chains["LG_alpha_expansion_no_block_moves"] = lg("alpha_expansion", "{block_moves: false}");
   }
   std::unique_ptr<Plugin> make(const std::string& type, const std::string& params) {
     auto p = reg.create(type);

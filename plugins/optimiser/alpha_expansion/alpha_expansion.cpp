@@ -367,6 +367,7 @@ class AlphaExpansion final : public Stage {
     // Inner neighbours of block cell j (cells 0 1 / 2 3) and the pair weights.
     static constexpr int kInner[4][3] = {{1, 2, 3}, {0, 3, 2}, {3, 0, 1}, {2, 1, 0}};
     const double w_inner[3] = {wb, wb, wd};
+    const double inner_all = 2 * wb + wd;  // Σ w_inner: every cell has two inner edges, one diagonal
     // Cells 0 1 / 2 3; inner pairs 0–1, 2–3, 0–2, 1–3 (edges) and 0–3, 1–2 (diagonals).
     const double inner_min = -4 * std::max(0.0, wb) - 2 * std::max(0.0, wd);
     auto dl = [](int a, int b) { return a == b ? -1.0 : 1.0; };
@@ -385,8 +386,6 @@ class AlphaExpansion final : public Stage {
         for (int j = 0; j < 4; ++j) cur[j] = lab[cell[j]];
         for (int j = 0; j < 4; ++j) {
           const double* s = &nsum_[std::size_t(cell[j]) * K];
-          double inner_all = 0;
-          for (int m = 0; m < 3; ++m) inner_all += w_inner[m];
           for (int k = 0; k < K; ++k) local[j][k] = s[k] - inner_all;
           for (int m = 0; m < 3; ++m) local[j][cur[kInner[j][m]]] += 2 * w_inner[m];
           bound += *std::min_element(local[j], local[j] + K);
