@@ -1,5 +1,6 @@
 #include "terramrf/io/kitti.hpp"
 
+#include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -9,9 +10,8 @@
 #include <memory>
 #include <sstream>
 
-#include "terramrf/errors.hpp"
-
 #include "fs_checks.hpp"
+#include "terramrf/errors.hpp"
 
 namespace terramrf {
 namespace fs = std::filesystem;
@@ -226,6 +226,35 @@ KittiCalib readKittiCalib(const std::string& path) {
   return c;
 }
 
+namespace {
+
+/// P = K · [R | t] with K upper triangular (positive diagonal, K(2,2) = 1) and R a rotation
+/// (RQ decomposition of P's left 3×3 through a QR of its flipped transpose). False when the left
+/// 3×3 is singular: no camera centre, not a projection.
+bool decomposeProjection(const Matrix34d& P_in, Eigen::Matrix3d& K, Eigen::Isometry3d& T) {
+  Matrix34d P = P_in;
+  if (P.leftCols<3>().determinant() < 0) P = -P;  // P and −P project alike
+  const Eigen::Matrix3d M = P.leftCols<3>();
+  if (!(std::abs(M.determinant()) > 1e-12 * std::pow(M.norm(), 3))) return false;
+  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+  J(0, 2) = J(1, 1) = J(2, 0) = 1;
+  const Eigen::HouseholderQR<Eigen::Matrix3d> qr((J * M).transpose());
+  const Eigen::Matrix3d Q = qr.householderQ();
+  const Eigen::Matrix3d Rt = qr.matrixQR().triangularView<Eigen::Upper>();
+  K = J * Rt.transpose() * J;
+  Eigen::Matrix3d R = J * Q.transpose();
+  const Eigen::Vector3d sign = K.diagonal().array().sign();
+  K = K * sign.asDiagonal();  // D·D = I: K·D · D·R = K·R
+  R = sign.asDiagonal() * R;
+  T = Eigen::Isometry3d::Identity();
+  T.linear() = R;
+  T.translation() = K.inverse() * P.col(3);
+  K /= K(2, 2);
+  return true;
+}
+
+}  // namespace
+
 CameraModel kittiCamera(const KittiCalib& calib, int index, int width_px, int height_px) {
   CameraModel m;
   m.name = "image_" + std::to_string(index);
@@ -236,6 +265,22 @@ CameraModel kittiCamera(const KittiCalib& calib, int index, int width_px, int he
   m.calibration = (calib.path.empty() ? std::string("KITTI calibration") : calib.path) + " (P" +
                   std::to_string(index) +
                   (calib.object_format ? ", R0_rect, Tr_velo_to_cam)" : ", Tr)");
+  // KITTI's own cameras differ from camera 0 by a translation only, and P keeps it in its last
+  // column. A P whose left 3×3 is not upper triangular also turns the camera (a rig written by
+  // `terramrf simulate` with a camera looking sideways or back): its rotation moves into
+  // T_camera_lidar, so that depth (front/behind, occlusion tests) is measured along its own axis.
+  const Eigen::Matrix3d M = m.P.leftCols<3>();
+  const double scale = M.cwiseAbs().maxCoeff();
+  if (std::abs(M(1, 0)) + std::abs(M(2, 0)) + std::abs(M(2, 1)) > 1e-9 * scale) {
+    Eigen::Matrix3d K;
+    Eigen::Isometry3d T_cam_cam0;
+    if (!decomposeProjection(m.P, K, T_cam_cam0))
+      throw InputError(calib.path, "P" + std::to_string(index) +
+                                       " is not a camera projection (its left 3×3 is singular)");
+    m.P.setZero();
+    m.P.leftCols<3>() = K;
+    m.T_camera_lidar = T_cam_cam0 * calib.T_cam_velo;
+  }
   return m;
 }
 
@@ -291,8 +336,8 @@ std::string KittiLayout::scanPath(std::size_t i) const {
 std::string KittiLayout::labelPath(std::size_t i) const {
   return (fs::path(root) / "labels" / (stems.at(i) + ".label")).string();
 }
-std::string KittiLayout::imagePath(std::size_t i) const {
-  return (fs::path(root) / "image_2" / (stems.at(i) + ".png")).string();
+std::string KittiLayout::imagePath(std::size_t i, const std::string& camera) const {
+  return (fs::path(root) / camera / (stems.at(i) + ".png")).string();
 }
 std::string KittiLayout::ringPath(std::size_t i) const {
   return (fs::path(root) / "rings" / (stems.at(i) + ".bin")).string();

@@ -82,14 +82,27 @@ void KittiSequenceWriter::write(const Frame& f) {
                              (f.pose ? " has a pose but earlier frames had none"
                                      : " has no pose but earlier frames had one") +
                              "; poses.txt needs one pose per frame");
-  const CameraImage* cam = nullptr;
-  for (const CameraImage& c : f.cameras)
-    if (c.model.name == "image_2") cam = &c;
-  if (!cam && !f.cameras.empty()) cam = &f.cameras.front();
-  if (cam && camera_ && !sameCamera(*camera_, cam->model))
-    throw std::runtime_error(name +
-                             ": camera calibration differs from the sequence's first "
-                             "camera; calib.txt holds one calibration per sequence");
+  if (f.cameras.size() > 2)
+    throw std::runtime_error(name + " has " + std::to_string(f.cameras.size()) +
+                             " cameras; calib.txt holds two colour cameras (image_2, image_3)");
+  // image_2 first: the camera named so, else the first one.
+  std::vector<const CameraImage*> cams;
+  for (const CameraImage& c : f.cameras) cams.push_back(&c);
+  if (cams.size() == 2 && cams[1]->model.name == "image_2") std::swap(cams[0], cams[1]);
+  for (const CameraImage* c : cams)
+    for (double k : c->model.distortion)
+      if (k != 0)
+        throw std::runtime_error(name + ": camera '" + c->model.name +
+                                 "' has lens distortion, which KITTI's calib.txt cannot hold");
+  if (cameras_set_) {
+    bool same = cams.size() == cameras_.size();
+    for (std::size_t k = 0; same && k < cams.size(); ++k)
+      same = sameCamera(cameras_[k], cams[k]->model);
+    if (!same)
+      throw std::runtime_error(name +
+                               ": cameras or their calibration differ from the sequence's first "
+                               "frame; calib.txt holds one calibration per sequence");
+  }
 
   const std::string s = stem(count_);
   {
@@ -109,10 +122,14 @@ void KittiSequenceWriter::write(const Frame& f) {
     writeFileAtomic(dir_ + "/labels/" + s + ".label", bytesOf(lab));
   }
   if (pc.hasRing()) writeFileAtomic(dir_ + "/rings/" + s + ".bin", bytesOf(pc.ring));
-  if (cam) {
-    if (cam->image) writeImageAtomic(dir_ + "/image_2/" + s + ".png", *cam->image);
-    if (cam->truth) writeImageAtomic(dir_ + "/image_2_truth/" + s + ".png", *cam->truth);
-    if (!camera_) camera_ = cam->model;
+  for (std::size_t k = 0; k < cams.size(); ++k) {
+    const std::string folder = "/image_" + std::to_string(2 + k);
+    if (cams[k]->image) writeImageAtomic(dir_ + folder + "/" + s + ".png", *cams[k]->image);
+    if (cams[k]->truth) writeImageAtomic(dir_ + folder + "_truth/" + s + ".png", *cams[k]->truth);
+  }
+  if (!cameras_set_) {
+    for (const CameraImage* c : cams) cameras_.push_back(c->model);
+    cameras_set_ = true;
   }
 
   times_.push_back(f.timestamp_s);
@@ -142,13 +159,18 @@ void KittiSequenceWriter::finish() {
   Eigen::Matrix<double, 3, 4> P = Eigen::Matrix<double, 3, 4>::Zero();
   P.leftCols<3>().setIdentity();
   Eigen::Isometry3d Tr = Eigen::Isometry3d::Identity();
-  if (camera_) {
-    P = camera_->P;
-    Tr = camera_->T_camera_lidar;
+  if (!cameras_.empty()) {
+    P = cameras_[0].P;
+    Tr = cameras_[0].T_camera_lidar;
   }
-  // Odometry-style calib: a reader projecting with P2 · Tr · X gets the camera's own pixels.
+  // Odometry-style calib: a reader projecting with P2 · Tr · X gets image_2's own pixels, and
+  // with P3 · Tr · X the second camera's (its pose relative to image_2 folded into P3).
+  Eigen::Matrix<double, 3, 4> P3 = P;
+  if (cameras_.size() > 1)
+    P3 = cameras_[1].P * (cameras_[1].T_camera_lidar * Tr.inverse()).matrix();
   std::string calib;
-  for (int i = 0; i < 4; ++i) calib += "P" + std::to_string(i) + ": " + row34(P) + "\n";
+  for (int i = 0; i < 4; ++i)
+    calib += "P" + std::to_string(i) + ": " + row34(i == 3 ? P3 : P) + "\n";
   calib += "Tr: " + row34(top34(Tr)) + "\n";
   writeFileAtomic(dir_ + "/calib.txt", calib);
 

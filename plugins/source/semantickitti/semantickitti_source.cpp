@@ -1,5 +1,6 @@
 // Source plugin "semantickitti": KITTI odometry / SemanticKITTI sequences and KITTI object
-// `training` folders (velodyne .bin, optional .label, calib, poses, image_2).
+// `training` folders (velodyne .bin, optional .label, calib, poses, image_2 / image_3 / …).
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -38,7 +39,11 @@ class SemanticKittiSource : public Source {
         .existingPath();
     d.add("use_labels", use_labels_, "read labels/<id>.label when it exists");
     d.add("use_images", use_images_,
-          "read image_2/<id>.png with its calibration (missing files are errors)");
+          "read each of `cameras` (<camera>/<id>.png) with its calibration (missing files are "
+          "errors)");
+    d.add("cameras", cameras_,
+          "with use_images: the camera folders to read, each projected with its own P "
+          "(image_0 … image_3: P0 … P3; KITTI's colour pair is image_2, image_3)");
     d.add("image_size", image_size_,
           "with use_images: [width, height] of the images the calibration was made for; another "
           "size is an error. Empty: not checked exactly (the files store no size), but the "
@@ -68,6 +73,20 @@ class SemanticKittiSource : public Source {
   }
 
   void configure(const PluginContext& ctx) override {
+    camera_index_.clear();
+    if (use_images_ && cameras_.empty())
+      throw ParamError("cameras", "is empty; expected at least one, e.g. [image_2]");
+    for (const std::string& c : cameras_) {
+      const bool known =
+          c.size() == 7 && c.compare(0, 6, "image_") == 0 && c[6] >= '0' && c[6] <= '3';
+      if (!known)
+        throw ParamError("cameras", "unknown camera '" + c +
+                                        "'; expected image_0, image_1, image_2 or image_3 (the "
+                                        "calibration holds P0 … P3)");
+      if (std::count(cameras_.begin(), cameras_.end(), c) > 1)
+        throw ParamError("cameras", "'" + c + "' is listed twice");
+      camera_index_.push_back(c[6] - '0');
+    }
     layout_ = resolveKittiLayout(path_, sequence_);
     expected_image_size_ = imageSizeParam(image_size_);
     if (layout_.stems.empty())
@@ -137,13 +156,13 @@ class SemanticKittiSource : public Source {
                                                  " poses; frame " + f.id + " has none");
       f.pose = kittiLidarPose(poses_[frame_no], calib(i).T_cam_velo);
     }
-    if (use_images_) {
-      const std::string img = layout_.imagePath(i);
+    for (std::size_t c = 0; use_images_ && c < cameras_.size(); ++c) {
+      const std::string img = layout_.imagePath(i, cameras_[c]);
       if (!std::filesystem::exists(img))
         throw InputError(img, "camera image missing (use_images is on)");
       CameraImage cam;
       auto image = std::make_shared<Image>(readImage(img));
-      cam.model = kittiCamera(calib(i), 2, image->width, image->height);
+      cam.model = kittiCamera(calib(i), camera_index_[c], image->width, image->height);
       cam.image = std::move(image);
       cam.source_path = img;
       checkCalibrationFitsImage(cam, expected_image_size_);
@@ -180,7 +199,8 @@ class SemanticKittiSource : public Source {
     if (!calib_ || calib_->path != path) {
       if (!std::filesystem::exists(path))
         throw InputError(path, "calibration missing (needed for " +
-                                   std::string(use_images_ ? "image_2" : "the LiDAR pose") + ")");
+                                   std::string(use_images_ ? "the cameras" : "the LiDAR pose") +
+                                   ")");
       calib_ = std::make_unique<KittiCalib>(readKittiCalib(path));
     }
     return *calib_;
@@ -208,6 +228,7 @@ class SemanticKittiSource : public Source {
   std::string label_map_;
   bool use_labels_ = true;
   bool use_images_ = false;
+  std::vector<std::string> cameras_{"image_2"};
   std::vector<double> image_size_;
   bool use_poses_ = true;
   bool drop_no_return_ = true;
@@ -217,6 +238,7 @@ class SemanticKittiSource : public Source {
   int rings_ = 64;
   double ring_z_offset_m_ = 0.2;
 
+  std::vector<int> camera_index_;  ///< P index of each of cameras_
   KittiLayout layout_;
   std::optional<ImageSize> expected_image_size_;
   std::unique_ptr<LabelMap> map_;
@@ -232,4 +254,4 @@ class SemanticKittiSource : public Source {
 
 TERRAMRF_PLUGIN(terramrf::SemanticKittiSource, terramrf::PluginKind::kSource, "semantickitti",
                 "KITTI odometry / SemanticKITTI sequences and KITTI object folders (.bin, .label, "
-                "calib, poses, image_2)")
+                "calib, poses, image_2 / image_3)")

@@ -242,6 +242,60 @@ TEST(KittiCalib, ObjectVariantProjectsIntoTheImage) {
   }
 }
 
+// KITTI's own P2 / P3 only translate (baseline in the last column) and are kept as they are; a
+// P that also turns the camera (a rear camera written by `terramrf simulate`) is split into
+// K [I | 0] and a pose, so that front / behind is judged along that camera's own axis.
+TEST(KittiCalib, TurnedCameraIsSplitIntoIntrinsicsAndPose) {
+  const std::string base = test::dataPath("kitti_object_fusion/training");
+  const KittiCalib real = readKittiCalib(base + "/calib/000000.txt");
+  const CameraModel right = kittiCamera(real, 3, 1224, 370);
+  EXPECT_EQ(right.name, "image_3");
+  EXPECT_TRUE(right.P == real.P[3]);  // untouched, bit for bit
+  EXPECT_TRUE(right.T_camera_lidar.matrix() == real.T_cam_velo.matrix());
+
+  // A rear camera: camera 0 turned 180° about its y (down) axis, 1.5 m behind camera 0.
+  KittiCalib c = real;
+  c.path = "rig/calib.txt";
+  Eigen::Matrix3d K;
+  K << 500, 0, 320, 0, 480, 120, 0, 0, 1;
+  Eigen::Isometry3d T_rear_cam0 = Eigen::Isometry3d::Identity();
+  T_rear_cam0.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+                         Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  T_rear_cam0.translation() = Eigen::Vector3d(0.1, -0.2, -1.5);
+  Eigen::Matrix<double, 3, 4> Rt = T_rear_cam0.matrix().topRows<3>();
+  c.P[3] = -2.0 * K * Rt;  // any non-zero scale, even negative, is the same projection
+  const CameraModel rear = kittiCamera(c, 3, 640, 240);
+  EXPECT_TRUE(rear.P.leftCols<3>().isApprox(K, 1e-9)) << rear.P;
+  EXPECT_TRUE(rear.P.col(3).isZero(1e-12));
+  EXPECT_TRUE(rear.T_camera_lidar.isApprox(T_rear_cam0 * real.T_cam_velo, 1e-9));
+  EXPECT_EQ(rear.calibration, "rig/calib.txt (P3, R0_rect, Tr_velo_to_cam)");
+  int behind_seen = 0;
+  for (const Eigen::Vector3d& x : {Eigen::Vector3d(-8, 0.5, -1.2), Eigen::Vector3d(-15, -3, 0),
+                                   Eigen::Vector3d(-4, 1, -1.5)}) {
+    // Reference: the file's P3 applied to the camera-0 point, as a KITTI user would.
+    const Eigen::Vector3d q = c.P[3] * (real.T_cam_velo * x).homogeneous();
+    const auto uv = rear.projectUnbounded(x);
+    ASSERT_TRUE(uv.has_value());
+    EXPECT_NEAR(uv->x(), q.x() / q.z(), 1e-6);
+    EXPECT_NEAR(uv->y(), q.y() / q.z(), 1e-6);
+    behind_seen += rear.project(x).has_value();
+  }
+  EXPECT_GT(behind_seen, 0);  // points behind the vehicle are in the rear camera's image
+  EXPECT_FALSE(rear.projectUnbounded(Eigen::Vector3d(10, 0, -1)).has_value());  // ahead
+
+  c.P[3].setZero();
+  c.P[3](0, 0) = 1;
+  c.P[3](1, 0) = 1;  // rank-deficient left 3×3, not upper triangular
+  try {
+    kittiCamera(c, 3, 640, 240);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "rig/calib.txt");
+    EXPECT_NE(std::string(e.what()).find("P3 is not a camera projection"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(KittiCalib, RejectsBrokenFiles) {
   test::TempDir dir;
   const std::string p = dir.str() + "/calib.txt";

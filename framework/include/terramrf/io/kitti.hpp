@@ -80,9 +80,12 @@ struct KittiCalib {
 /// missing P0..P3 / Tr entries or a wrong number count.
 KittiCalib readKittiCalib(const std::string& path);
 
-/// Camera model of camera `index` (2 = image_2, the left colour camera): P = P_index,
-/// T_camera_lidar = calib.T_cam_velo, size [px] from the image (calib.txt stores none; see
-/// checkCalibrationFitsImage), calibration = "<path> (P2, R0_rect, Tr_velo_to_cam)" or "(P2, Tr)".
+/// Camera model of camera `index` (2 = image_2, the left colour camera; 3 = image_3, the right
+/// one): P = P_index, T_camera_lidar = calib.T_cam_velo, size [px] from the image (calib.txt
+/// stores none; see checkCalibrationFitsImage), calibration = "<path> (P2, R0_rect,
+/// Tr_velo_to_cam)" or "(P2, Tr)". A P_index that also rotates (left 3×3 not upper triangular)
+/// is split into K [I | 0] and a camera-0 → camera transform folded into T_camera_lidar; a
+/// singular one is an InputError naming the file.
 CameraModel kittiCamera(const KittiCalib& calib, int index, int width_px, int height_px);
 
 /// poses.txt: camera-0 poses (T_world_cam0), one per line. Throws InputError naming the file and
@@ -107,7 +110,8 @@ struct KittiLayout {
 
   std::string scanPath(std::size_t i) const;
   std::string labelPath(std::size_t i) const;  ///< labels/<stem>.label (may not exist)
-  std::string imagePath(std::size_t i) const;  ///< image_2/<stem>.png (may not exist)
+  /// <camera>/<stem>.png, e.g. image_2/000000.png (may not exist)
+  std::string imagePath(std::size_t i, const std::string& camera = "image_2") const;
   std::string ringPath(std::size_t i) const;   ///< rings/<stem>.bin (may not exist)
   std::string calibPath(std::size_t i) const;  ///< object: calib/<stem>.txt, else calib_file
 };

@@ -8,7 +8,10 @@
 //                            of KITTI (its .bin has no rings) — ground truth for ring recovery
 //   image_2/NNNNNN.png       the camera named "image_2" (else the first camera), RGB
 //   image_2_truth/NNNNNN.png its per-pixel truth (project LabelId), if present
-//   calib.txt                P0..P3 (all = the camera's P) and Tr (= its T_camera_lidar, velo→cam0)
+//   image_3/, image_3_truth/ the frame's other camera, if it has two
+//   calib.txt                P0..P3 and Tr: Tr = image_2's T_camera_lidar (velo→cam0), P0 = P1 =
+//                            P2 = its P; P3 = the other camera's P · T_camera_lidar · Tr⁻¹ (it may
+//                            be turned: the reader splits the rotation off), else P2
 //   poses.txt                camera-0 poses T_w_cam0 = Tr · T_w_lidar · Tr⁻¹ (so LiDAR pose =
 //                            Tr⁻¹ · P · Tr), in the frames' world frame (first pose not identity)
 //   times.txt                frame timestamp [s] per line
@@ -39,8 +42,9 @@ class KittiSequenceWriter {
   KittiSequenceWriter& operator=(const KittiSequenceWriter&) = delete;
 
   /// Writes one frame's files. Throws std::runtime_error naming the frame when its arrays
-  /// disagree in length, the camera calibration changes within the sequence, or only some
-  /// frames carry a pose; file errors name the path.
+  /// disagree in length, the camera calibration changes within the sequence, a frame has more
+  /// than two cameras or a distorted one (calib.txt holds neither), or only some frames carry
+  /// a pose; file errors name the path.
   void write(const Frame& frame);
   /// Writes calib.txt, times.txt, poses.txt (if frames have poses), imu.txt, gps.txt and
   /// odometry.txt. Idempotent.
@@ -56,7 +60,9 @@ class KittiSequenceWriter {
   std::string dir_;
   std::size_t count_ = 0;
   bool finished_ = false;
-  std::optional<CameraModel> camera_;  ///< calibration source (first camera seen)
+  /// Calibration source: the first frame's cameras, image_2 first (empty: no camera).
+  std::vector<CameraModel> cameras_;
+  bool cameras_set_ = false;
   std::vector<double> times_;
   std::vector<Eigen::Isometry3d> lidar_poses_;
   std::size_t frames_without_pose_ = 0;

@@ -12,6 +12,7 @@
 
 #include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/errors.hpp"
+#include "terramrf/io/kitti.hpp"
 #include "terramrf/io/label_map.hpp"
 #include "terramrf/param_values.hpp"
 #include "terramrf/registry.hpp"
@@ -225,6 +226,71 @@ TEST_F(SemanticKittiSourceTest, MissingImageOrCalibrationWhenRequested) {
   EXPECT_EQ(f.cameras[0].model.calibration, seq2 + "/calib.txt (P2, Tr)");
   EXPECT_EQ(f.truth.label,
             (std::vector<LabelId>{labels::kRoad, labels::kRough, labels::kObstacle}));
+}
+
+// KITTI's colour pair: image_2 and image_3, each projected with its own P (P3 holds the
+// 0.54 m baseline), from the real object frame's calibration.
+TEST_F(SemanticKittiSourceTest, StereoPairReadsEachCameraWithItsOwnProjection) {
+  const std::string real = test::dataPath("kitti_object_fusion/training");
+  test::TempDir dir;
+  const std::string root = dir.str() + "/training";
+  for (const char* sub : {"velodyne", "calib", "image_2", "image_3"})
+    std::filesystem::create_directories(root + "/" + sub);
+  for (const char* f : {"/velodyne/000000.bin", "/calib/000000.txt", "/image_2/000000.png"})
+    std::filesystem::create_symlink(real + f, root + f);
+  // The data holds no right image; the left one stands in (same size, only geometry is tested).
+  std::filesystem::create_symlink(real + "/image_2/000000.png", root + "/image_3/000000.png");
+
+  const Frame f =
+      make("{path: " + root + ", use_images: true, cameras: [image_2, image_3]}")->read(0);
+  ASSERT_EQ(f.cameras.size(), 2u);
+  EXPECT_EQ(f.cameras[0].model.name, "image_2");
+  EXPECT_EQ(f.cameras[1].model.name, "image_3");
+  EXPECT_EQ(f.cameras[1].source_path, root + "/image_3/000000.png");
+  EXPECT_EQ(f.cameras[1].model.calibration,
+            root + "/calib/000000.txt (P3, R0_rect, Tr_velo_to_cam)");
+  const KittiCalib c = readKittiCalib(root + "/calib/000000.txt");
+  int both = 0;
+  for (std::size_t k = 0; k < f.points.size(); k += 97) {
+    const Eigen::Vector3d x(f.points.x[k], f.points.y[k], f.points.z[k]);
+    const Eigen::Vector3d x0 = c.T_cam_velo * x;  // rectified camera-0 frame
+    const auto l = f.cameras[0].model.project(x), r = f.cameras[1].model.project(x);
+    if (!l || !r) continue;
+    ++both;
+    const Eigen::Vector3d q = c.P[3] * x0.homogeneous();
+    EXPECT_NEAR(r->x(), q.x() / q.z(), 1e-6);
+    EXPECT_NEAR(r->y(), q.y() / q.z(), 1e-6);
+    // Rectified pair: the same row and a disparity of f·b / z with b = (P2(0,3) − P3(0,3)) / f ≈
+    // 0.54 m, up to the cameras' small offsets along y and z (P(1,3), P(2,3): < 1 px beyond 4 m).
+    EXPECT_NEAR(r->y(), l->y(), 1.0);
+    EXPECT_NEAR(l->x() - r->x(), (c.P[2](0, 3) - c.P[3](0, 3)) / x0.z(), 1.0);
+    EXPECT_GT(l->x() - r->x(), 0.0);
+  }
+  EXPECT_GT(both, 100);
+
+  // Bad camera lists and a missing right image.
+  for (const auto& [cams, says] :
+       {std::pair<std::string, std::string>{"[image_5]",
+                                            "unknown camera 'image_5'; expected "
+                                            "image_0, image_1, image_2 or image_3"},
+        {"[image_2, image_2]", "'image_2' is listed twice"},
+        {"[]", "is empty; expected at least one"}}) {
+    try {
+      make("{path: " + root + ", use_images: true, cameras: " + cams + "}");
+      FAIL() << "expected an error for cameras: " << cams;
+    } catch (const std::exception& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("cameras"), std::string::npos) << what;
+      EXPECT_NE(what.find(says), std::string::npos) << what;
+    }
+  }
+  std::filesystem::remove(root + "/image_3/000000.png");
+  try {
+    make("{path: " + root + ", use_images: true, cameras: [image_2, image_3]}")->read(0);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), root + "/image_3/000000.png");
+  }
 }
 
 /// A KITTI object folder in `dir` whose frame 000001 is the real one (scan and calibration linked,
