@@ -266,17 +266,15 @@ CameraModel kittiCamera(const KittiCalib& calib, int index, int width_px, int he
                   std::to_string(index) +
                   (calib.object_format ? ", R0_rect, Tr_velo_to_cam)" : ", Tr)");
   // KITTI's own cameras differ from camera 0 by a translation only, and P keeps it in its last
-  // column. A P whose left 3×3 is not upper triangular also turns the camera (a rig written by
-  // `terramrf simulate` with a camera looking sideways or back): its rotation moves into
-  // T_camera_lidar, so that depth (front/behind, occlusion tests) is measured along its own axis.
-  const Eigen::Matrix3d M = m.P.leftCols<3>();
-  const double scale = M.cwiseAbs().maxCoeff();
-  if (std::abs(M(1, 0)) + std::abs(M(2, 0)) + std::abs(M(2, 1)) > 1e-9 * scale) {
-    Eigen::Matrix3d K;
-    Eigen::Isometry3d T_cam_cam0;
-    if (!decomposeProjection(m.P, K, T_cam_cam0))
-      throw InputError(calib.path, "P" + std::to_string(index) +
-                                       " is not a camera projection (its left 3×3 is singular)");
+  // column. A P that also turns the camera (a rig written by `terramrf simulate` with a camera
+  // looking sideways or back) has its rotation moved into T_camera_lidar, so that depth
+  // (front/behind, occlusion tests) is measured along that camera's own axis.
+  Eigen::Matrix3d K;
+  Eigen::Isometry3d T_cam_cam0;
+  if (!decomposeProjection(m.P, K, T_cam_cam0))
+    throw InputError(calib.path, "P" + std::to_string(index) +
+                                     " is not a camera projection (its left 3×3 is singular)");
+  if (!T_cam_cam0.linear().isIdentity(1e-9)) {
     m.P.setZero();
     m.P.leftCols<3>() = K;
     m.T_camera_lidar = T_cam_cam0 * calib.T_cam_velo;

@@ -25,14 +25,18 @@ CameraRenderer::CameraRenderer(const World& world, const CameraParams& params)
   if (p_.width < 16 || p_.height < 16 || !(p_.fx > 1))
     throw std::invalid_argument("bad camera size/fx");
   const double th = p_.pitch_deg * 3.141592653589793 / 180.0;
+  const double yaw = p_.yaw_deg * 3.141592653589793 / 180.0;
   // Camera axes (x right, y down, z optical) expressed in the LiDAR frame.
-  const Eigen::Vector3d zc(std::cos(th), 0, -std::sin(th)), xc(0, -1, 0);
+  const Eigen::Vector3d zc(std::cos(th) * std::cos(yaw), std::cos(th) * std::sin(yaw),
+                           -std::sin(th));
+  const Eigen::Vector3d xc(std::sin(yaw), -std::cos(yaw), 0);
   const Eigen::Vector3d yc = zc.cross(xc);
   Eigen::Matrix3d R_lc;
   R_lc << xc, yc, zc;
   T_lidar_camera_ = Eigen::Isometry3d::Identity();
   T_lidar_camera_.linear() = R_lc;
-  T_lidar_camera_.translation() = p_.position_lidar_m;
+  T_lidar_camera_.translation() =
+      Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * p_.position_lidar_m;
 
   model_.name = p_.name;
   model_.width = p_.width;

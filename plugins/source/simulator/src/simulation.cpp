@@ -79,7 +79,7 @@ void declareSimulationParams(ParamDecl& d, SimulationConfig& c) {
         "ring, each from azimuth 0 counter-clockwise)")
       .choices({"column", "ring"});
   d.add("enable_camera", c.enable_camera,
-        "render the forward camera (image_2) and its pixel truth");
+        "render the cameras (image_2, and image_3 with a second yaw) and their pixel truth");
   d.add("camera_width", c.camera_width, "image width").unit("px").range(64, 4096);
   d.add("camera_height", c.camera_height, "image height").unit("px").range(64, 4096);
   d.add("camera_fx", c.camera_fx, "focal length (fy = fx; principal point at the image centre)")
@@ -88,6 +88,11 @@ void declareSimulationParams(ParamDecl& d, SimulationConfig& c) {
   d.add("camera_pitch_deg", c.camera_pitch_deg, "optical axis below horizontal")
       .unit("deg")
       .range(-45, 45);
+  d.add("camera_yaws_deg", c.camera_yaws_deg,
+        "one camera per entry (at most two: image_2, image_3), its optical axis turned this far "
+        "left of the driving direction; e.g. [0, 180] adds a rear camera")
+      .unit("deg")
+      .range(-180, 180);
   d.add("camera_far_m", c.camera_far_m, "view distance; beyond is haze/sky")
       .unit("m")
       .range(10, 1000);
@@ -193,14 +198,23 @@ Simulation::Simulation(const SimulationConfig& config) : c_(config) {
     throw ParamError("azimuth_step_deg", e.what());
   }
   if (c_.enable_camera) {
-    CameraParams cp;
-    cp.width = c_.camera_width;
-    cp.height = c_.camera_height;
-    cp.fx = c_.camera_fx;
-    cp.pitch_deg = c_.camera_pitch_deg;
-    cp.far_m = c_.camera_far_m;
-    cp.pixel_noise = c_.pixel_noise;
-    camera_ = std::make_unique<CameraRenderer>(*world_, cp);
+    if (c_.camera_yaws_deg.empty() || c_.camera_yaws_deg.size() > 2)
+      throw ParamError("camera_yaws_deg",
+                       "has " + std::to_string(c_.camera_yaws_deg.size()) +
+                           " entries; expected one or two (image_2, image_3), or enable_camera: "
+                           "false for none");
+    for (std::size_t k = 0; k < c_.camera_yaws_deg.size(); ++k) {
+      CameraParams cp;
+      cp.name = "image_" + std::to_string(2 + k);
+      cp.width = c_.camera_width;
+      cp.height = c_.camera_height;
+      cp.fx = c_.camera_fx;
+      cp.pitch_deg = c_.camera_pitch_deg;
+      cp.yaw_deg = c_.camera_yaws_deg[k];
+      cp.far_m = c_.camera_far_m;
+      cp.pixel_noise = c_.pixel_noise;
+      cameras_.push_back(std::make_unique<CameraRenderer>(*world_, cp));
+    }
   }
   const ImuParams ip{c_.imu_rate_hz, c_.gyro_noise_rad_s, c_.gyro_bias_rad_s, c_.accel_noise_m_s2,
                      c_.accel_bias_m_s2};
@@ -229,8 +243,9 @@ Frame Simulation::frame(std::size_t i) const {
   lidar_->scan([&](double tau) { return traj.pose(t + tau); },
                hashKeys(seed, uint64_t(Stream::kLidar), i), f);
   f.pose = traj.pose(t);
-  if (camera_)
-    f.cameras.push_back(camera_->render(*f.pose, hashKeys(seed, uint64_t(Stream::kCamera), i)));
+  for (std::size_t k = 0; k < cameras_.size(); ++k)  // k = 0: the key of the one-camera rig
+    f.cameras.push_back(
+        cameras_[k]->render(*f.pose, hashKeys(seed, uint64_t(Stream::kCamera), i, k)));
   f.imu = sensors_->imu(t - period, t);
   f.gps = sensors_->gps(t - period, t);
   f.odometry = sensors_->odometry(t - period, t);

@@ -40,10 +40,13 @@ void runAll(Frame& f, StageRunner& r) {
   r.add("colour", "{space: lab}");
   r.run(f);
   ASSERT_EQ(r.grid.cellPixels().size(), f.cameras.size());
-  const CellPixels& cp = r.grid.cellPixels()[0];
+  std::size_t pixels = 0;
+  for (const CellPixels& cp : r.grid.cellPixels()) pixels += cp.pixels.size();
   int with_pixels = 0, texture = 0;
   for (int c = 0; c < int(r.grid.cells()); ++c) {
-    if (cp.count(c) == 0) {
+    std::size_t n = 0;  // in any camera
+    for (const CellPixels& cp : r.grid.cellPixels()) n += cp.count(c);
+    if (n == 0) {
       EXPECT_TRUE(std::isnan(r.grid.layer("homogeneity")[c]));
       EXPECT_TRUE(std::isnan(r.grid.layer("colour_r")[c]));
       continue;
@@ -66,7 +69,7 @@ void runAll(Frame& f, StageRunner& r) {
   EXPECT_GT(with_pixels, 300);
   EXPECT_GT(texture, with_pixels / 2);
   std::printf("  cells with pixels %d, with texture %d, pixels %zu\n", with_pixels, texture,
-              cp.pixels.size());
+              pixels);
 }
 
 /// Numbers of "KEY: v v v" lines of a KITTI calibration file.
@@ -195,6 +198,45 @@ TEST(CameraFusionReal, SimulatorPointsLandOnPixelsOfTheirClass) {
   EXPECT_GT(mean("haralick_asm", labels::kRoad), 2.0 * mean("haralick_asm", labels::kRough));
   EXPECT_GT(mean("haralick_idm", labels::kRoad), mean("haralick_idm", labels::kRough) + 0.1);
   EXPECT_GT(mean("colour_s", labels::kRough), 3.0 * mean("colour_s", labels::kRoad));
+}
+
+// Two cameras of one frame (the simulator's front and rear): each gets its own pixel sets, a
+// point lands on a pixel of its class in both, and the image features (camera: −1, per cell the
+// camera that sees it with most pixels) now also cover the cells behind the vehicle, which the
+// front camera alone leaves NaN.
+TEST(CameraFusionReal, FrontAndRearCamerasCoverBothHalvesOfTheGrid) {
+  Frame f = readFrame("simulator", "{frames: 1, camera_yaws_deg: [0, 180]}");
+  ASSERT_EQ(f.cameras.size(), 2u);
+  Frame front = f;
+  front.cameras.pop_back();
+  StageRunner r(grid40()), r1(grid40());
+  runAll(f, r);
+  runAll(front, r1);
+  ASSERT_EQ(r.grid.cellPixels().size(), 2u);
+  for (int c = 0; c < 2; ++c) {
+    const double agree = pointPixelAgreement(f, r.grid.cellPixels()[c]);
+    std::printf("  simulator frame 0, camera %s: point/pixel class agreement %.3f\n",
+                f.cameras[c].model.name.c_str(), agree);
+    EXPECT_GT(agree, 0.9);
+  }
+  const GridGeometry& g = r.grid.geometry();
+  int behind_two = 0, behind_one = 0, ahead_two = 0, ahead_one = 0;
+  for (int row = 0; row < g.rows(); ++row) {
+    const double x = g.cellCentre(row, 0).x();  // LiDAR frame: x forward
+    if (std::abs(x) < 2) continue;
+    for (int col = 0; col < g.cols(); ++col) {
+      const int c = row * g.cols() + col;
+      const int two = !std::isnan(r.grid.layer("colour_r")[c]);
+      const int one = !std::isnan(r1.grid.layer("colour_r")[c]);
+      (x < 0 ? behind_two : ahead_two) += two;
+      (x < 0 ? behind_one : ahead_one) += one;
+    }
+  }
+  std::printf("  cells with colour behind / ahead: front camera %d / %d, both %d / %d\n",
+              behind_one, ahead_one, behind_two, ahead_two);
+  EXPECT_EQ(behind_one, 0);
+  EXPECT_GT(behind_two, 300);
+  EXPECT_EQ(ahead_two, ahead_one);  // the rear camera adds nothing ahead of the vehicle
 }
 
 /// camera_fusion's InputError on `f`, "" if none.

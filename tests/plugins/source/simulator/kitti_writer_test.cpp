@@ -144,5 +144,56 @@ TEST(KittiSequenceWriter, WithoutCameraOrPose) {
   EXPECT_THROW(w2.write(h), std::runtime_error);
 }
 
+// calib.txt holds P0..P3 and no distortion: three cameras, a distorted camera, or a frame whose
+// cameras differ from the first frame's are refused, naming the frame, before anything is written.
+TEST(KittiSequenceWriter, RefusesCamerasCalibTxtCannotHold) {
+  Frame f;
+  f.id = "f7";
+  f.points.push_back(1, 2, 3, 0.5);
+  CameraImage cam;
+  cam.model.name = "image_2";
+  cam.model.width = 8;
+  cam.model.height = 4;
+  cam.model.P.leftCols<3>() << 4, 0, 4, 0, 4, 2, 0, 0, 1;
+  cam.image = std::make_shared<Image>(8, 4, 3);
+  auto expectError = [&](const Frame& frame, const std::string& says) {
+    test::TempDir dir;
+    KittiSequenceWriter w(dir.str());
+    try {
+      w.write(frame);
+      FAIL() << "expected an error: " << says;
+    } catch (const std::runtime_error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("frame 'f7'"), std::string::npos) << what;
+      EXPECT_NE(what.find(says), std::string::npos) << what;
+    }
+    EXPECT_FALSE(std::filesystem::exists(dir.str() + "/velodyne/000000.bin"));
+  };
+  Frame three = f;
+  three.cameras = {cam, cam, cam};
+  expectError(three, "has 3 cameras; calib.txt holds two colour cameras");
+  Frame distorted = f;
+  distorted.cameras = {cam};
+  distorted.cameras[0].model.distortion[0] = -0.1;
+  expectError(distorted, "camera 'image_2' has lens distortion");
+
+  test::TempDir dir;
+  KittiSequenceWriter w(dir.str());
+  Frame two = f;
+  two.cameras = {cam, cam};
+  two.cameras[1].model.name = "image_3";
+  w.write(two);
+  Frame one = f;
+  one.cameras = {cam};
+  try {
+    w.write(one);
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("cameras or their calibration differ"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(w.frames(), 1u);
+}
+
 }  // namespace
 }  // namespace terramrf

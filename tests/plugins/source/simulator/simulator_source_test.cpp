@@ -247,6 +247,50 @@ TEST(SimulatorSource, CameraImageAndPixelTruth) {
   EXPECT_GT(double(agree) / in, 0.93) << agree << " of " << in;
 }
 
+// A second yaw adds a camera looking that way (image_3): the rear one sees what lies behind the
+// vehicle, its pixel truth agrees with the LiDAR points there, and the first camera is the same
+// as in the one-camera rig.
+TEST(SimulatorSource, RearCameraSeesBehindTheVehicle) {
+  auto p = makeSource(
+      "{frames: 2, camera_yaws_deg: [0, 180], camera_width: 320, "
+      "camera_height: 128, camera_fx: 185}");
+  const Frame f = src(p).read(1);
+  ASSERT_EQ(f.cameras.size(), 2u);
+  EXPECT_EQ(f.cameras[0].model.name, "image_2");
+  EXPECT_EQ(f.cameras[1].model.name, "image_3");
+  auto one = makeSource("{frames: 2, camera_width: 320, camera_height: 128, camera_fx: 185}");
+  const Frame g = src(one).read(1);
+  ASSERT_EQ(g.cameras.size(), 1u);
+  EXPECT_EQ(g.cameras[0].image->data, f.cameras[0].image->data);
+  const CameraModel& rear = f.cameras[1].model;
+  EXPECT_FALSE(rear.project({10, 0, -1}).has_value());  // ahead
+  EXPECT_TRUE(rear.project({-10, 0, -1}).has_value());  // behind, low: the road
+  // The rear camera sits as far behind the LiDAR as the front one sits ahead of it.
+  EXPECT_NEAR(
+      (rear.T_camera_lidar.inverse().translation() - Eigen::Vector3d(-0.27, 0, -0.08)).norm(), 0.0,
+      1e-9);
+  std::size_t in = 0, agree = 0;
+  for (std::size_t i = 0; i < f.points.size(); i += 5) {
+    const auto uv = rear.project({f.points.x[i], f.points.y[i], f.points.z[i]});
+    if (!uv) continue;
+    EXPECT_LT(f.points.x[i], 0.3f);
+    ++in;
+    agree += *f.cameras[1].truth->at(int(std::lround(uv->x())), int(std::lround(uv->y()))) ==
+             f.truth.label[i];
+  }
+  EXPECT_GT(in, 1000u);
+  EXPECT_GT(double(agree) / in, 0.9) << agree << " of " << in;
+  // KITTI's calibration holds two colour cameras.
+  try {
+    makeSource("{camera_yaws_deg: [0, 90, 180]}");
+    FAIL() << "expected ParamError";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("camera_yaws_deg"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("has 3 entries; expected one or two"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(SimulatorSource, SensorSamplesBetweenFrames) {
   auto p = makeSource("{frames: 6, enable_camera: false, azimuth_step_deg: 1.0}");
   std::size_t gps = 0;

@@ -1,6 +1,6 @@
 #pragma once
-// Forward-looking pinhole camera rendering the simulated world by ray casting, with per-pixel
-// ground truth (project class; sky = unknown).
+// Pinhole camera (forward-looking unless turned by yaw_deg) rendering the simulated world by ray
+// casting, with per-pixel ground truth (project class; sky = unknown).
 #include <Eigen/Geometry>
 #include <string>
 
@@ -15,7 +15,9 @@ struct CameraParams {
   int height = 256;        ///< [px]
   double fx = 370.0;       ///< focal length [px] (fy = fx; KITTI's 721 px scaled to 640 px width)
   double pitch_deg = 0.0;  ///< optical axis below the LiDAR's horizontal plane [deg]
-  /// Camera centre in the LiDAR frame [m] (KITTI: ~0.27 m ahead, 0.08 m below the Velodyne).
+  double yaw_deg = 0.0;    ///< optical axis turned left of the LiDAR's x axis [deg]
+  /// Camera centre in the LiDAR frame before the yaw [m] (KITTI: ~0.27 m ahead, 0.08 m below
+  /// the Velodyne); a turned camera sits as far out in its own direction.
   Eigen::Vector3d position_lidar_m{0.27, 0.0, -0.08};
   double far_m = 200.0;      ///< rays longer than this see haze/sky [m]
   double pixel_noise = 2.0;  ///< 1σ sensor noise [grey levels]

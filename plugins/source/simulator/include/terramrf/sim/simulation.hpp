@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "terramrf/frame.hpp"
 #include "terramrf/params.hpp"
@@ -49,6 +50,9 @@ struct SimulationConfig {
   int camera_height = 256;
   double camera_fx = 370.0;
   double camera_pitch_deg = 0.0;
+  /// One camera per entry, turned this far to the left of straight ahead [deg]; named image_2,
+  /// image_3 in this order (KITTI's calibration holds two colour cameras, P2 and P3).
+  std::vector<double> camera_yaws_deg{0.0};
   double camera_far_m = 200.0;
   double pixel_noise = 2.0;
   // IMU / GPS / odometry
@@ -88,8 +92,8 @@ class Simulation {
   const World& world() const { return *world_; }
   const Trajectory& trajectory() const { return *trajectory_; }
   const LidarModel& lidar() const { return *lidar_; }
-  /// nullptr when enable_camera is false.
-  const CameraRenderer* camera() const { return camera_.get(); }
+  /// One per camera_yaws_deg entry; empty when enable_camera is false.
+  const std::vector<std::unique_ptr<CameraRenderer>>& cameras() const { return cameras_; }
   const SensorModel& sensors() const { return *sensors_; }
 
  private:
@@ -97,7 +101,7 @@ class Simulation {
   std::unique_ptr<World> world_;
   std::unique_ptr<Trajectory> trajectory_;
   std::unique_ptr<LidarModel> lidar_;
-  std::unique_ptr<CameraRenderer> camera_;
+  std::vector<std::unique_ptr<CameraRenderer>> cameras_;
   std::unique_ptr<SensorModel> sensors_;
 };
 
