@@ -28,13 +28,7 @@ class Colour final : public Stage {
         .choices({"rgb", "hsv", "lab"});
     d.add("prefix", prefix_,
           "layer names: <prefix>_<channel>, channels r g b | h s v | lab_l lab_a lab_b");
-    d.add("camera", camera_,
-          "index into the frame's cameras; −1: per cell the fused camera that sees it with the "
-          "most pixels")
-        .range(-1, 64);
-    d.add("min_pixels", min_pixels_, "cells with fewer pixels get NaN")
-        .unit("px")
-        .range(1, 1 << 22);
+    fusion::declareCameraChoice(d, camera_, min_pixels_, 1);
   }
 
   void configure(const PluginContext&) override {

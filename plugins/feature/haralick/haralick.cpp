@@ -30,13 +30,7 @@ class Haralick final : public Stage {
           "symmetric, so (du, dv) and (−du, −dv) are the same")
         .unit("px")
         .range(-64, 64);
-    d.add("camera", camera_,
-          "index into the frame's cameras; −1: per cell the fused camera that sees it with the "
-          "most pixels")
-        .range(-1, 64);
-    d.add("min_pixels", min_pixels_, "cells with fewer pixels get NaN")
-        .unit("px")
-        .range(2, 1 << 22);
+    fusion::declareCameraChoice(d, camera_, min_pixels_, 2);
     d.add("prefix", prefix_, "layer names: <prefix>_asm, <prefix>_variance, <prefix>_idm");
   }
 

@@ -31,13 +31,7 @@ class Homogeneity final : public Stage {
           "grey-level difference to the 3×3 mean at which a pixel's homogeneity is 1/2")
         .unit("grey levels")
         .range(0.01, 255);
-    d.add("camera", camera_,
-          "index into the frame's cameras; −1: per cell the fused camera that sees it with the "
-          "most pixels")
-        .range(-1, 64);
-    d.add("min_pixels", min_pixels_, "cells with fewer pixels get NaN")
-        .unit("px")
-        .range(1, 1 << 22);
+    fusion::declareCameraChoice(d, camera_, min_pixels_, 1);
   }
 
   void configure(const PluginContext&) override {

@@ -11,6 +11,18 @@
 
 namespace terramrf::fusion {
 
+/// Declares the two parameters every image feature has: `camera` (which fused camera) and
+/// `min_pixels` (fewer pixels in a cell give NaN; `least` is the feature's own lower bound).
+inline void declareCameraChoice(ParamDecl& d, int& camera, int& min_pixels, int least) {
+  d.add("camera", camera,
+        "index into the frame's cameras; −1: per cell the fused camera that sees it with the "
+        "most pixels")
+      .range(-1, 64);
+  d.add("min_pixels", min_pixels, "cells with fewer pixels get NaN")
+      .unit("px")
+      .range(least, 1 << 22);
+}
+
 struct FusedCamera {
   const CellPixels* pixels = nullptr;
   const Image* image = nullptr;
