@@ -257,16 +257,31 @@ struct FeatureSet {
   int train_group = -1;     ///< index into Sweep::train_groups, -1 = split.train
 };
 
+/// A YAML value on one line ("[0.02, 0.05]"), as candidates are named.
+inline std::string flowText(const YAML::Node& v) {
+  if (v.IsScalar()) return v.Scalar();
+  YAML::Emitter e;
+  e << YAML::Flow << v;
+  return e.c_str();
+}
+
 /// One candidate of `select:`: parameter values that override the sweep's `training:`
-/// (feature_stats) and `energy:` parameters.
+/// (feature_stats) and `energy:` parameters and the parameters of feature-set stages.
 struct Candidate {
   YAML::Node training = YAML::Node(YAML::NodeType::Map);
   YAML::Node energy = YAML::Node(YAML::NodeType::Map);
-  std::string training_text, energy_text;  ///< "components=2", "beta=0.8"; "" = none
+  /// stage name -> {param: value}: applied to the stage of that name in each feature set.
+  YAML::Node stages = YAML::Node(YAML::NodeType::Map);
+  /// "components=2", "beta=0.8", "rough.residual=vertical"; "" = none
+  std::string training_text, energy_text, stages_text;
   std::string text() const {
-    if (training_text.empty()) return energy_text;
-    return energy_text.empty() ? training_text : training_text + ", " + energy_text;
+    std::string t;
+    for (const std::string* part : {&training_text, &stages_text, &energy_text})
+      if (!part->empty()) t += (t.empty() ? "" : ", ") + *part;
+    return t;
   }
+  /// What a trained model depends on: training and stage parameters, not the energy's.
+  std::string modelKey() const { return training_text + "|" + stages_text; }
 };
 
 /// `select:`: the candidates (the product of the listed values, first listed first) and how they
@@ -359,13 +374,28 @@ TrainResult trainFeatureSet(SweepRun& run, const FeatureSet& f, const YAML::Node
                             const std::string& model_path, const std::string& run_root,
                             const std::string& what, bool with_validation = false, int fold = -1);
 
-/// Distinct training overrides of the candidates, in first-use order; `of[c]` = index of
-/// candidate c's (candidates that differ only in energy parameters share a model).
-std::vector<const Candidate*> distinctTraining(const Selection& sel, std::vector<std::size_t>& of);
+/// The candidates of `select:` as they apply to feature set `f`: stage values only for the
+/// stages `f` has, and candidates that are then alike listed once (first listed first).
+std::vector<Candidate> candidatesFor(const Selection& sel, const FeatureSet& f);
+
+/// Whether `select:` has anything to choose for `f` (not only stage values for stages it lacks).
+inline bool selectsFor(const std::vector<Candidate>& cands) {
+  return !cands.empty() && !(cands.size() == 1 && cands[0].text().empty());
+}
+
+/// `f` with the stage parameters of `stages` ({stage name: {param: value}}) set.
+FeatureSet withStageParams(const FeatureSet& f, const YAML::Node& stages);
+
+/// Distinct models among the candidates (training and stage parameters), in first-use order;
+/// `of[c]` = index of candidate c's (candidates that differ only in energy parameters share a
+/// model).
+std::vector<const Candidate*> distinctTraining(const std::vector<Candidate>& cands,
+                                               std::vector<std::size_t>& of);
 
 /// Outcome of `select:` for one feature set.
 struct Selected {
   SelectionRecord record;  ///< every candidate's validation counts and score, and the choice
+  Candidate candidate;     ///< the chosen one, as it applies to the feature set
   TrainResult model;       ///< the chosen candidate's model (not set for a given `model:`)
   YAML::Node energy;       ///< the chosen candidate's energy parameters
   std::string error;       ///< why none could be chosen ("" = record.chosen >= 0)

@@ -71,29 +71,23 @@ void checkDeclaredValues(PluginRegistry& reg, const std::string& type, const YAM
   }
 }
 
-/// A YAML value on one line ("[0.02, 0.05]").
-std::string flow(const YAML::Node& v) {
-  if (v.IsScalar()) return v.Scalar();
-  YAML::Emitter e;
-  e << YAML::Flow << v;
-  return e.c_str();
-}
-
 /// `select:` — candidate values of training (feature_stats) and energy parameters, scored on
 /// split.validation. Every problem is a diagnostic at its place in the sweep.
 void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d) {
   if (!sel.IsMap()) {
     d.add(sel.Mark(),
           "'select' must be a map {training: {param: [values]}, energy: {param: "
-          "[values]}, optimiser, score}");
+          "[values]}, stages: {stage: {param: [values]}}, optimiser, score}");
     return;
   }
-  detail::checkKeys(d, sel, {"training", "energy", "optimiser", "score", "tie", "refit"}, "select",
-                    kKeyHint);
+  detail::checkKeys(d, sel, {"training", "energy", "stages", "optimiser", "score", "tie", "refit"},
+                    "select", kKeyHint);
   struct Axis {
     bool energy;
     std::string key;
     std::vector<YAML::Node> values;
+    std::string stage;  ///< a stage parameter's stage name ("" = training or energy)
+    std::string type;   ///< that stage's plugin type
   };
   std::vector<Axis> axes;
   const std::size_t before = d.list.size();
@@ -130,11 +124,93 @@ void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d)
   };
   section("training", false);
   section("energy", true);
+  // Stage parameters: a stage is named as in the feature sets (each set that has a stage of that
+  // name gets the values; the others are selected without it).
+  if (const YAML::Node st = sel["stages"]) {
+    if (!st.IsMap() || st.size() == 0) {
+      d.add(st.Mark(), "select.stages: expected a map stage name: {param: [candidate values]}");
+    } else {
+      std::vector<std::string> stage_names;
+      for (const auto& f : s.feature_sets)
+        for (const YAML::Node& e : f.stages)
+          if (e["name"] &&
+              std::find(stage_names.begin(), stage_names.end(), e["name"].Scalar()) ==
+                  stage_names.end())
+            stage_names.push_back(e["name"].Scalar());
+      for (auto it = st.begin(); it != st.end(); ++it) {
+        const std::string stage = it->first.Scalar();
+        const std::string what = "select.stages." + stage;
+        bool common = false;
+        for (const YAML::Node& e : s.common_stages)
+          common = common || (e["name"] && e["name"].Scalar() == stage);
+        // The stage's type, the same in every feature set that has it.
+        std::string type, first_set;
+        bool clash = false;
+        for (const auto& f : s.feature_sets)
+          for (const YAML::Node& e : f.stages) {
+            if (!e["name"] || e["name"].Scalar() != stage || !e["type"]) continue;
+            if (type.empty()) {
+              type = e["type"].Scalar();
+              first_set = f.name;
+            } else if (e["type"].Scalar() != type && !clash) {
+              clash = true;
+              d.add(it->first.Mark(), what + ": stage '" + stage + "' is a " + type +
+                                          " in feature set '" + first_set + "' and a " +
+                                          e["type"].Scalar() + " in '" + f.name +
+                                          "'; candidate values need one type");
+            }
+          }
+        if (type.empty()) {
+          std::string m = what + ": no feature set has a stage named '" + stage + "'";
+          if (common)
+            m += " (it is a common stage; move it into the feature sets to select its "
+                 "parameters)";
+          const std::string dym = common ? "" : detail::didYouMean(stage, stage_names);
+          m += dym.empty() ? "" : " (did you mean '" + dym + "'?)";
+          d.add(it->first.Mark(), m);
+          continue;
+        }
+        if (clash) continue;
+        if (!it->second.IsMap() || it->second.size() == 0) {
+          d.add(it->second.Mark(), what + ": expected a map parameter: [candidate values]");
+          continue;
+        }
+        const std::vector<std::string> allowed = settableKeys(reg, type);
+        if (!allowed.empty()) detail::checkKeys(d, it->second, allowed, what, kKeyHint);
+        for (auto p = it->second.begin(); p != it->second.end(); ++p) {
+          const std::string key = p->first.Scalar();
+          if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), key) == allowed.end())
+            continue;  // reported above
+          bool reported = false;  // once: feature sets that extend another share its stages
+          for (const auto& f : s.feature_sets)
+            for (const YAML::Node& e : f.stages)
+              if (!reported && e["name"] && e["name"].Scalar() == stage && e["params"] &&
+                  e["params"].IsMap() && e["params"][key]) {
+                reported = true;
+                d.add(p->first.Mark(), what + "." + key + ": also set in feature set '" + f.name +
+                                           "' (line " +
+                                           std::to_string(e["params"][key].Mark().line + 1) +
+                                           "); give it in one place (select's values replace it)");
+              }
+          if (!p->second.IsSequence() || p->second.size() == 0) {
+            d.add(p->second.Mark(), what + "." + key +
+                                        ": expected a non-empty list of candidate values, e.g. "
+                                        "[1, 2]");
+            continue;
+          }
+          Axis a{false, key, {}, stage, type};
+          for (const auto& v : p->second) a.values.push_back(v);
+          axes.push_back(std::move(a));
+        }
+      }
+    }
+  }
   if (axes.empty()) {
     if (d.list.size() == before)
       d.add(sel.Mark(),
             "select: list candidate values under 'training' (feature_stats "
-            "parameters) or 'energy' (energy parameters)");
+            "parameters), 'energy' (energy parameters) or 'stages' (parameters of a feature "
+            "set's stage)");
     return;
   }
   std::size_t n = 1;
@@ -147,12 +223,15 @@ void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d)
   }
   // Every value as the plugin would take it (type, range, choices), reported at the value.
   for (const auto& a : axes) {
-    const std::string type = a.energy ? s.energy["type"].Scalar() : std::string(kStatsPlugin);
+    const std::string type = !a.stage.empty() ? a.type
+                             : a.energy       ? s.energy["type"].Scalar()
+                                              : std::string(kStatsPlugin);
+    const std::string what = !a.stage.empty() ? "select.stages." + a.stage + "."
+                             : a.energy       ? "select.energy."
+                                              : "select.training.";
     for (const auto& v : a.values) {
       const std::string err = declaredValueError(reg, type, a.key, v);
-      if (!err.empty())
-        d.add(v.Mark(), std::string("select.") + (a.energy ? "energy." : "training.") + a.key +
-                            ": candidate " + flow(v) + ": " + err);
+      if (!err.empty()) d.add(v.Mark(), what + a.key + ": candidate " + flowText(v) + ": " + err);
     }
   }
   // The product, first axis outermost: candidates come in the order the values are listed.
@@ -162,8 +241,14 @@ void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d)
     for (std::size_t k = 0; k < axes.size(); ++k) {
       const Axis& a = axes[k];
       const YAML::Node& v = a.values[idx[k]];
+      if (!a.stage.empty()) {
+        cand.stages_text += (cand.stages_text.empty() ? "" : ", ") + a.stage + "." + a.key + "=" +
+                            flowText(v);
+        cand.stages[a.stage][a.key] = YAML::Clone(v);
+        continue;
+      }
       std::string& text = a.energy ? cand.energy_text : cand.training_text;
-      text += (text.empty() ? "" : ", ") + a.key + "=" + flow(v);
+      text += (text.empty() ? "" : ", ") + a.key + "=" + flowText(v);
       (a.energy ? cand.energy : cand.training)[a.key] = YAML::Clone(v);
     }
     s.select.candidates.push_back(std::move(cand));

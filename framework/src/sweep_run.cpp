@@ -199,8 +199,10 @@ SweepPlan planSweep(const std::string& sweep_path, const std::vector<std::string
         else
           plan.skipped.push_back({run, why});
       }
-  for (const auto& f : s->feature_sets)
-    for (const auto& c : s->select.candidates) {
+  for (const auto& f : s->feature_sets) {
+    const std::vector<sweep_detail::Candidate> cands = sweep_detail::candidatesFor(s->select, f);
+    if (!sweep_detail::selectsFor(cands)) continue;
+    for (const auto& c : cands) {
       for (const auto& v : s->validation)
         plan.selection_runs.push_back(f.name + ": " + v->label + " × " + s->select.optimiser +
                                       " [" + c.text() + "]");
@@ -210,6 +212,7 @@ SweepPlan planSweep(const std::string& sweep_path, const std::vector<std::string
                                         v->described() + " × " + s->select.optimiser + " [" +
                                         c.text() + "] (trained on the other folds)");
     }
+  }
   return plan;
 }
 
@@ -378,8 +381,6 @@ SweepResult runSweep(const CompareOptions& o) {
 
   const sweep_detail::Selection& sel = s->select;
   const bool selecting = !sel.candidates.empty();
-  std::vector<std::size_t> training_of;
-  const std::size_t trainings = distinctTraining(sel, training_of).size();
   // Frames each candidate is validated on, and (folds) trained on besides split.train: every
   // fold is held out once and trains the others.
   std::size_t validation_frames = 0, fold_training_frames = 0;
@@ -404,11 +405,17 @@ SweepResult runSweep(const CompareOptions& o) {
     if (!why.empty()) continue;
     std::size_t train_frames = 0;
     for (const auto& t : trainItems(*s, f)) train_frames += t->count;
+    // Candidates as they apply to this set (stage values only for its stages), and the models
+    // among them.
+    const std::vector<sweep_detail::Candidate> cands = sweep_detail::candidatesFor(sel, f);
+    const bool selects = sweep_detail::selectsFor(cands);
+    std::vector<std::size_t> training_of;
+    const std::size_t trainings = distinctTraining(cands, training_of).size();
     if (f.model.empty())
-      total += selecting && !folds ? train_frames * trainings
-                                   : train_frames + (selecting ? fold_training_frames * trainings : 0);
-    if (selecting) total += validation_frames * sel.candidates.size();
-    if (selecting && sel.refit && f.model.empty()) total += train_frames + validation_frames;
+      total += selects && !folds ? train_frames * trainings
+                                 : train_frames + (selects ? fold_training_frames * trainings : 0);
+    if (selects) total += validation_frames * cands.size();
+    if (selects && sel.refit && f.model.empty()) total += train_frames + validation_frames;
   }
   for (const auto& t : s->test)
     for (const auto& f : s->feature_sets)
@@ -420,6 +427,8 @@ SweepResult runSweep(const CompareOptions& o) {
   // 1. One model per feature set; with select: the candidate best on validation.
   std::vector<std::string> model_of(s->feature_sets.size());
   std::vector<YAML::Node> energy_of(s->feature_sets.size());
+  // The feature sets as the test runs use them: with the chosen stage parameters of select:.
+  std::vector<sweep_detail::FeatureSet> used = s->feature_sets;
   std::vector<bool> train_failed(s->feature_sets.size(), false);
   for (std::size_t i = 0; i < s->feature_sets.size(); ++i) {
     const FeatureSet& f = s->feature_sets[i];
@@ -448,19 +457,23 @@ SweepResult runSweep(const CompareOptions& o) {
     } else if (!fs_train_reason[i].empty()) {
       mr.reason = "not trained: " + fs_train_reason[i];
     }
-    if (selecting && fs_train_reason[i].empty()) {
+    if (selecting && fs_train_reason[i].empty() &&
+        sweep_detail::selectsFor(sweep_detail::candidatesFor(sel, f))) {
       sweep_detail::Selected chosen = selectParameters(run, f);
       if (!chosen.error.empty()) {
         fail(chosen.error);
       } else {
         energy_of[i] = chosen.energy;
+        // swap, not '=': assigning YAML::Nodes would write into the sweep's own stage nodes.
+        FeatureSet chosen_set = sweep_detail::withStageParams(f, chosen.candidate.stages);
+        used[i].stages.swap(chosen_set.stages);
         mr.selected = chosen.record.candidates[chosen.record.chosen];
         if (f.model.empty() && (sel.refit || folds)) {
           // The winner's parameters, learnt again with the validation data (refit), or on the
           // whole train split after cross-validation on its folds.
           try {
             const TrainResult tr = trainFeatureSet(
-                run, f, sel.candidates[chosen.record.chosen].training, model_path,
+                run, used[i], chosen.candidate.training, model_path,
                 s->output_dir + "/models/" + sanitize(f.name) + ".train",
                 (folds ? "train " : "refit ") + f.name + " [" + mr.selected + "]: ", sel.refit);
             mr.path = tr.model_path;
@@ -530,7 +543,7 @@ SweepResult runSweep(const CompareOptions& o) {
         rec.output_dir = s->output_dir + "/runs/" + sanitize(rec.key());
         RunSpec spec;
         spec.item = &t;
-        spec.features = &f;
+        spec.features = &used[fi];
         spec.optimiser = &op;
         spec.model = model_of[fi];
         spec.energy_params = energy_of[fi];

@@ -74,14 +74,62 @@ std::string validate(SweepRun& run, const FeatureSet& f, const Candidate& cand,
 
 }  // namespace
 
-std::vector<const Candidate*> distinctTraining(const Selection& sel, std::vector<std::size_t>& of) {
+std::vector<Candidate> candidatesFor(const Selection& sel, const FeatureSet& f) {
+  auto has = [&](const std::string& stage) {
+    for (const YAML::Node& e : f.stages)
+      if (e["name"] && e["name"].Scalar() == stage) return true;
+    return false;
+  };
+  std::vector<Candidate> out;
+  for (const Candidate& c : sel.candidates) {
+    Candidate k = c;
+    // reset(), not '=': assigning a YAML::Node writes into the node it shares with `c`.
+    k.stages.reset(YAML::Node(YAML::NodeType::Map));
+    k.stages_text.clear();
+    for (auto st = c.stages.begin(); st != c.stages.end(); ++st) {
+      const std::string stage = st->first.Scalar();
+      if (!has(stage)) continue;
+      for (auto p = st->second.begin(); p != st->second.end(); ++p) {
+        k.stages[stage][p->first.Scalar()] = YAML::Clone(p->second);
+        k.stages_text += (k.stages_text.empty() ? "" : ", ") + stage + "." + p->first.Scalar() +
+                         "=" + flowText(p->second);
+      }
+    }
+    // A candidate whose stage values all missed this set's stages is another one again; values
+    // listed twice by the sweep itself stay (the sweep asked for them).
+    bool seen = false;
+    if (k.stages_text != c.stages_text)
+      for (const Candidate& o : out) seen = seen || o.text() == k.text();
+    if (!seen) out.push_back(std::move(k));
+  }
+  return out;
+}
+
+FeatureSet withStageParams(const FeatureSet& f, const YAML::Node& stages) {
+  FeatureSet out = f;
+  if (!stages || stages.size() == 0) return out;
+  for (YAML::Node& e : out.stages) {
+    if (!e["name"] || !stages[e["name"].Scalar()]) continue;
+    const YAML::Node set = stages[e["name"].Scalar()];
+    YAML::Node copy = detail::copyMapKeepingPositions(e);  // f's own node stays as it is
+    YAML::Node params(YAML::NodeType::Map);
+    if (e["params"] && e["params"].IsMap()) params = detail::copyMapKeepingPositions(e["params"]);
+    for (auto p = set.begin(); p != set.end(); ++p)
+      params[p->first.Scalar()] = YAML::Clone(p->second);
+    copy["params"] = params;
+    e.reset(copy);
+  }
+  return out;
+}
+
+std::vector<const Candidate*> distinctTraining(const std::vector<Candidate>& cands,
+                                               std::vector<std::size_t>& of) {
   std::vector<const Candidate*> distinct;
-  of.assign(sel.candidates.size(), 0);
-  for (std::size_t c = 0; c < sel.candidates.size(); ++c) {
+  of.assign(cands.size(), 0);
+  for (std::size_t c = 0; c < cands.size(); ++c) {
     std::size_t k = 0;
-    while (k < distinct.size() && distinct[k]->training_text != sel.candidates[c].training_text)
-      ++k;
-    if (k == distinct.size()) distinct.push_back(&sel.candidates[c]);
+    while (k < distinct.size() && distinct[k]->modelKey() != cands[c].modelKey()) ++k;
+    if (k == distinct.size()) distinct.push_back(&cands[c]);
     of[c] = k;
   }
   return distinct;
@@ -99,8 +147,13 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
   sr.refit = sel.refit;
   sr.folds = s.folds.size();
   const std::string dir = s.output_dir + "/select/" + sanitize(f.name);
+  const std::vector<Candidate> cands = candidatesFor(sel, f);
   std::vector<std::size_t> training_of;
-  const std::vector<const Candidate*> trainings = distinctTraining(sel, training_of);
+  const std::vector<const Candidate*> trainings = distinctTraining(cands, training_of);
+  auto label = [](const Candidate& c) {
+    return c.training_text + (c.training_text.empty() || c.stages_text.empty() ? "" : ", ") +
+           c.stages_text;
+  };
   // One validation set (split.validation), or one per fold, each scored with models trained on
   // the other folds.
   const bool folds = !s.folds.empty();
@@ -117,10 +170,11 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
     for (std::size_t k = 0; k < trainings.size(); ++k)
       for (std::size_t p = 0; p < parts.size() && train_error[k].empty(); ++p) {
         const std::string tag = std::to_string(k + 1) + (folds ? "_fold" + std::to_string(p + 1) : "");
-        const std::string what = "train " + f.name + " [" + trainings[k]->training_text + "]" +
+        const std::string what = "train " + f.name + " [" + label(*trainings[k]) + "]" +
                                  (folds ? " without fold " + std::to_string(p + 1) : "") + ": ";
         try {
-          trained[k][p] = trainFeatureSet(run, f, trainings[k]->training,
+          trained[k][p] = trainFeatureSet(run, withStageParams(f, trainings[k]->stages),
+                                          trainings[k]->training,
                                           dir + "/model_" + tag + ".yaml",
                                           dir + "/model_" + tag + ".train", what, false,
                                           folds ? static_cast<int>(p) : -1);
@@ -131,13 +185,14 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
                            (folds ? " without fold " + std::to_string(p + 1) : "") +
                            " failed: " + e.what();
           run.progress.breakLine();
-          run.log << "feature set " << f.name << " [" << trainings[k]->training_text
+          run.log << "feature set " << f.name << " [" << label(*trainings[k])
                   << "]: " << train_error[k] << "\n";
         }
       }
   }
-  for (std::size_t c = 0; c < sel.candidates.size(); ++c) {
-    const Candidate& cand = sel.candidates[c];
+  for (std::size_t c = 0; c < cands.size(); ++c) {
+    const Candidate& cand = cands[c];
+    const FeatureSet fc = withStageParams(f, cand.stages);
     const std::size_t k = training_of[c];
     sr.candidates.push_back(cand.text());
     std::string models;
@@ -147,7 +202,7 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
       const std::string model = f.model.empty() ? trained[k][p].model_path : f.model;
       if (p == 0 || f.model.empty()) models += (p ? "; " : "") + model;
       if (note.empty()) {
-        note = validate(run, f, cand, model,
+        note = validate(run, fc, cand, model,
                         dir + "/runs/" + std::to_string(c + 1) +
                             (folds ? "_fold" + std::to_string(p + 1) : ""),
                         *parts[p], sum);
@@ -179,7 +234,13 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
       }
     return out;
   }
-  out.energy = sel.candidates[sr.chosen].energy;
+  out.candidate.training.reset(cands[sr.chosen].training);
+  out.candidate.energy.reset(cands[sr.chosen].energy);
+  out.candidate.stages.reset(cands[sr.chosen].stages);
+  out.candidate.training_text = cands[sr.chosen].training_text;
+  out.candidate.energy_text = cands[sr.chosen].energy_text;
+  out.candidate.stages_text = cands[sr.chosen].stages_text;
+  out.energy = cands[sr.chosen].energy;
   if (f.model.empty() && !folds) out.model = trained[training_of[sr.chosen]][0];
   return out;
 }

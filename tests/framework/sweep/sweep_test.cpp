@@ -531,6 +531,91 @@ TEST(SweepSelect, CandidatesTrainedAlikeTieAndTheFirstListedWins) {
   EXPECT_EQ(r.selections[0].chosen, 0);
 }
 
+// Stage parameters are candidates too: each one's features are computed with its values, in
+// training, validation and the test runs; a feature set without the stage is not selected.
+TEST(SweepSelect, StageParametersAreChosenPerFeatureSetAndUsedByTheTestRuns) {
+  test::TempDir dir;
+  const std::string sweep = put(dir, "stages.yaml", selectSweep(R"(select:
+  stages: {rough: {window: [1, 6]}}
+)"));
+  const SweepPlan plan = planSweep(sweep, {test::pluginDir()});
+  ASSERT_EQ(plan.selection_runs.size(), 2u);  // L only: L0 has no stage 'rough'
+  EXPECT_EQ(plan.selection_runs[1], "L: sim_val × icm [rough.window=6]");
+  std::ostringstream log;
+  const std::string out = dir.str() + "/out";
+  const SweepResult r = runQuiet(sweep, out, log);
+  ASSERT_EQ(r.exitCode(), 0) << log.str();
+  ASSERT_EQ(r.selections.size(), 1u);
+  const SelectionRecord& sr = r.selections[0];
+  EXPECT_EQ(sr.feature_set, "L");
+  ASSERT_EQ(sr.candidates, (std::vector<std::string>{"rough.window=1", "rough.window=6"}));
+  // Another window is another feature, so another model.
+  EXPECT_NE(sr.models[0], sr.models[1]);
+  ASSERT_GE(sr.chosen, 0);
+  const std::string window = sr.chosen == 0 ? "1" : "6";
+  EXPECT_EQ(r.models[1].selected, sr.candidates[sr.chosen]);
+  EXPECT_EQ(r.models[0].selected, "");  // L0: trained as usual
+  // The validation runs and the test run computed roughness with the candidate's window.
+  const std::string cand_cfg = readFile(out + "/select/L/runs/2__sim_val/resolved_config.yaml");
+  EXPECT_NE(cand_cfg.find("window: 6"), std::string::npos) << cand_cfg;
+  const std::string run_cfg = readFile(out + "/runs/sim_test__L__icm/resolved_config.yaml");
+  EXPECT_NE(run_cfg.find("window: " + window), std::string::npos) << run_cfg;
+  // With a training axis too: the product, training values first, for the sets each applies to.
+  const std::string both = put(dir, "both.yaml", selectSweep(R"(select:
+  training: {components: [1, 2]}
+  stages: {rough: {window: [1, 6]}}
+)"));
+  const SweepPlan plan2 = planSweep(both, {test::pluginDir()});
+  ASSERT_EQ(plan2.selection_runs.size(), 6u);
+  EXPECT_EQ(plan2.selection_runs[0], "L0: sim_val × icm [components=1]");
+  EXPECT_EQ(plan2.selection_runs[1], "L0: sim_val × icm [components=2]");
+  EXPECT_EQ(plan2.selection_runs[3], "L: sim_val × icm [components=1, rough.window=6]");
+  // The sweep's own feature set is left as written for the sets that extend it.
+  const std::string l0_cfg = readFile(out + "/runs/sim_test__L0__icm/resolved_config.yaml");
+  EXPECT_EQ(l0_cfg.find("type: roughness"), std::string::npos);
+}
+
+TEST(SweepSelect, BadStageSelectionsAreReportedWithTheirPlace) {
+  test::TempDir dir;
+  std::string text = selectSweep(R"(select:
+  stages:
+    rogh: {window: [1]}
+    pre: {threshold_m2: [0.01]}
+    rough: {windw: [1], window: [0, 2], residual: [range, height]}
+)");
+  const std::string sweep = put(dir, "bad_stages.yaml", text);
+  const ConfigError e = expectConfigError(sweep);
+  const std::string all = e.what();
+  EXPECT_NE(all.find("select.stages.rogh: no feature set has a stage named 'rogh' (did you mean "
+                     "'rough'?)"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(all.find("select.stages.pre: no feature set has a stage named 'pre' (it is a common "
+                     "stage; move it into the feature sets to select its parameters)"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(all.find("unknown key 'windw' in select.stages.rough (did you mean 'window'?)"),
+            std::string::npos)
+      << all;
+  const std::size_t at = text.find("    rough:");
+  const std::string line = std::to_string(std::count(text.begin(), text.begin() + at, '\n') + 1);
+  EXPECT_NE(all.find(sweep + ":" + line +
+                     ":34: select.stages.rough.window: candidate 0: value 0 out of range"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(all.find("select.stages.rough.residual: candidate height:"), std::string::npos) << all;
+  // A parameter the feature set sets itself.
+  std::string twice = selectSweep("select: {stages: {rough: {window: [1, 2]}}}\n");
+  twice.replace(twice.find("{name: rough, type: roughness}"),
+                std::string("{name: rough, type: roughness}").size(),
+                "{name: rough, type: roughness, params: {window: 3}}");
+  const ConfigError e2 = expectConfigError(put(dir, "twice.yaml", twice));
+  EXPECT_NE(std::string(e2.what()).find("select.stages.rough.window: also set in feature set 'L' "
+                                        "(line "),
+            std::string::npos)
+      << e2.what();
+}
+
 TEST(SweepSelect, RefitLearnsTheChoiceAgainWithTheValidationData) {
   test::TempDir dir;
   const std::string sweep = put(dir, "refit.yaml", selectSweep(R"(select:
