@@ -558,6 +558,9 @@ TEST(SweepSelect, StageParametersAreChosenPerFeatureSetAndUsedByTheTestRuns) {
   // The validation runs and the test run computed roughness with the candidate's window.
   const std::string cand_cfg = readFile(out + "/select/L/runs/2__sim_val/resolved_config.yaml");
   EXPECT_NE(cand_cfg.find("window: 6"), std::string::npos) << cand_cfg;
+  // … and each its own: no candidate's values leak into another's (YAML nodes are shared).
+  const std::string first_cfg = readFile(out + "/select/L/runs/1__sim_val/resolved_config.yaml");
+  EXPECT_NE(first_cfg.find("window: 1"), std::string::npos) << first_cfg;
   const std::string run_cfg = readFile(out + "/runs/sim_test__L__icm/resolved_config.yaml");
   EXPECT_NE(run_cfg.find("window: " + window), std::string::npos) << run_cfg;
   // With a training axis too: the product, training values first, for the sets each applies to.
