@@ -75,7 +75,9 @@ std::string validate(SweepRun& run, const FeatureSet& f, const Candidate& cand,
 }  // namespace
 
 std::vector<Candidate> candidatesFor(const Selection& sel, const FeatureSet& f) {
+  // A given model was learnt with its stages as they are: only its energy is selected.
   auto has = [&](const std::string& stage) {
+    if (!f.model.empty()) return false;
     for (const YAML::Node& e : f.stages)
       if (e["name"] && e["name"].Scalar() == stage) return true;
     return false;
