@@ -9,7 +9,7 @@ jobs="${TERRAMRF_JOBS:-$(nproc)}"
 packages=(
   build-essential cmake pkg-config git
   libeigen3-dev libyaml-cpp-dev libopencv-dev libpcl-dev libcgal-dev libmrpt-poses-dev
-  liblcm-dev liblcm-bin libglib2.0-dev libtbb-dev libboost-graph-dev libtinygltf-dev
+  liblcm-dev liblcm-bin libglib2.0-dev libtbb-dev libboost-graph-dev libmaxflow-dev libtinygltf-dev
   libgtest-dev libgmock-dev libbenchmark-dev
 )
 # Node.js runs the Khronos glTF validator test (tests/meshing/gltf_validator) and the browser viewer

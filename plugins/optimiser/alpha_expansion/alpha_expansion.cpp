@@ -1,12 +1,14 @@
-// α-expansion (Boykov, Veksler & Zabih 2001) with Boost's Boykov–Kolmogorov max-flow.
+// α-expansion (Boykov, Veksler & Zabih 2001) with Kolmogorov's Boykov–Kolmogorov max-flow
+// (Debian's libmaxflow), whose search trees survive between cuts.
 //
 // The Potts term of EnergyModel, w·δ with δ(equal) = −1 and δ(different) = +1, equals the metric
 // V(a, b) = 2w·[a ≠ b] minus the constant w per pair, so minimising one minimises the other and
 // α-expansion applies, with its factor-2 bound on the shifted energy (docs/optimisers.md). Every
-// expansion is one min-cut on a graph whose structure (cells, 8-neighbour pairs, terminal links) is
-// built once per grid size; between expansions and frames only capacities change (fixed cells get
-// none). Each label's cut is warm-started from the residual network of its previous cut. A move is
-// kept only if the exact EnergyModel energy drops, so the result never lies above the start.
+// expansion is one min-cut; each label keeps its own graph (cells, 8-neighbour pairs) for the
+// frame, and its next cut starts from the residual network and search trees of its previous one
+// (Kohli & Torr 2007): only the capacities that changed are written and their nodes marked, so a
+// cut after a few cells changed label costs little more than those cells. A move is kept only if
+// the exact EnergyModel energy drops, so the result never lies above the start.
 //
 // Once no expansion improves, exact 2×2 block moves follow (`block_moves`): each 2×2 block of
 // cells takes its best joint labelling given its neighbours. They contain the moves in which two
@@ -14,15 +16,18 @@
 // expansion (one label enters) and no swap (two labels trade cells) contains; after any accepted
 // block move the expansions run again.
 #include <algorithm>
-#include <boost/graph/boykov_kolmogorov_max_flow.hpp>
-#include <boost/graph/compressed_sparse_row_graph.hpp>
-#include <boost/property_map/property_map.hpp>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
+
+// The library instantiates no graph with 64-bit capacities; its template implementation is
+// shipped with the header for that.
+#define MAXFLOW_INCLUDE_TEMPLATE_IMPLEMENTATION
+#include <maxflow.h>
 
 #include "terramrf/padded_labels.hpp"
 #include "terramrf/plugin.hpp"
@@ -33,120 +38,60 @@ namespace {
 
 // 32-bit vertex and edge indices halve the size of edge descriptors (reverse and predecessor
 // maps) compared with the default std::size_t.
-using Graph =
-    boost::compressed_sparse_row_graph<boost::directedS, boost::no_property, boost::no_property,
-                                       boost::no_property, uint32_t, uint32_t>;
-using Vertex = boost::graph_traits<Graph>::vertex_descriptor;
-using Edge = boost::graph_traits<Graph>::edge_descriptor;
-
-// The 8 directions in a fixed order; kOpposite[d] points back.
 constexpr int kDr[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
 constexpr int kDc[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
-constexpr int kOpposite[8] = {7, 6, 5, 4, 3, 2, 1, 0};
 inline bool isDiagonal(int d) { return kDr[d] != 0 && kDc[d] != 0; }
 
-/// The flow network: one node per cell plus source and sink, every 8-neighbour pair linked both
-/// ways, every cell linked to both terminals. Its structure depends on the grid size only, so it
-/// is built once and serves every frame: fixed cells are left out by giving their edges no
-/// capacity. Edge ids are CSR positions, so capacities live in flat vectors indexed by id.
-struct FlowNetwork {
-  int rows = -1, cols = -1;
-  int nodes = 0;                         ///< cells
-  std::vector<int> src_edge, sink_edge;  ///< per cell: s→p and p→t
-  std::vector<int> dir_edge;             ///< per cell and direction: edge id p→q, −1 if none
-  std::vector<int> rev_id;               ///< reverse edge id per edge id
-  std::vector<Edge> rev;                 ///< the same as descriptors, for Boost
-  std::vector<int> target;               ///< target node per edge id
-  Graph g;
+/// 64-bit capacities: 2^36 units for the largest capacity leave room for 2^26 nodes.
+using CutGraph = maxflow::Graph<int64_t, int64_t, int64_t>;
 
-  Vertex source() const { return Vertex(nodes); }
-  Vertex sink() const { return Vertex(nodes + 1); }
+[[noreturn]] void maxflowError(const char* what) {
+  throw std::runtime_error(std::string("alpha_expansion: max-flow: ") + what);
+}
 
-  void build(int R, int C) {
-    if (R == rows && C == cols) return;
-    rows = R;
-    cols = C;
-    nodes = R * C;
-    // Out-edges in CSR (source-sorted) order: per cell p→t, p→s, then its neighbours by
-    // direction; then the source's s→p; then the sink's t→p.
-    std::vector<std::pair<uint32_t, uint32_t>> edges;
-    edges.reserve(std::size_t(nodes) * 12);
-    dir_edge.assign(std::size_t(nodes) * 8, -1);
-    std::vector<int> to_s(nodes), from_t(nodes);
-    sink_edge.resize(nodes);
-    src_edge.resize(nodes);
-    for (int p = 0; p < nodes; ++p) {
-      const int r = p / C, c = p % C;
-      // p→t first: Boost's max-flow looks it up by a linear scan of p's out-edges.
-      sink_edge[p] = static_cast<int>(edges.size());
-      edges.emplace_back(p, nodes + 1);
-      to_s[p] = static_cast<int>(edges.size());
-      edges.emplace_back(p, nodes);
-      for (int d = 0; d < 8; ++d) {
-        const int rr = r + kDr[d], cc = c + kDc[d];
-        if (rr < 0 || rr >= R || cc < 0 || cc >= C) continue;
-        dir_edge[std::size_t(p) * 8 + d] = static_cast<int>(edges.size());
-        edges.emplace_back(p, rr * C + cc);
-      }
-    }
-    for (int p = 0; p < nodes; ++p) {
-      src_edge[p] = static_cast<int>(edges.size());
-      edges.emplace_back(nodes, p);
-    }
-    for (int p = 0; p < nodes; ++p) {
-      from_t[p] = static_cast<int>(edges.size());
-      edges.emplace_back(nodes + 1, p);
-    }
-    g = Graph(boost::edges_are_sorted, edges.begin(), edges.end(), Vertex(nodes + 2));
-    // CSR keeps the given order, so edge id = position in `edges`; pair each edge with its reverse.
-    rev_id.assign(edges.size(), -1);
-    for (int p = 0; p < nodes; ++p) {
-      for (int d = 0; d < 8; ++d) {
-        const int e = dir_edge[std::size_t(p) * 8 + d];
-        if (e >= 0) rev_id[e] = dir_edge[std::size_t(edges[e].second) * 8 + kOpposite[d]];
-      }
-      rev_id[sink_edge[p]] = from_t[p];
-      rev_id[from_t[p]] = sink_edge[p];
-      rev_id[src_edge[p]] = to_s[p];
-      rev_id[to_s[p]] = src_edge[p];
-    }
-    rev.resize(edges.size());
-    target.resize(edges.size());
-    for (std::size_t e = 0; e < edges.size(); ++e) {
-      rev[e] = Edge(Vertex(edges[rev_id[e]].first), uint32_t(rev_id[e]));
-      target[e] = static_cast<int>(edges[e].second);
-    }
-  }
-};
-
-/// The part of the network a frame uses: its non-fixed cells and the pairs between them.
+/// The non-fixed cells (graph nodes) and their unordered 8-neighbour pairs (graph edges).
 struct FrameGraph {
-  std::vector<int> cells;                ///< non-fixed cells (= node ids)
-  std::vector<int> pair_p, pair_q;       ///< unordered neighbour pairs, p before q in raster order
-  std::vector<float> pair_w;             ///< their Potts weight w
-  std::vector<int64_t> pair_v;           ///< V = 2w in capacity units (set once the scale is known)
-  std::vector<int> pair_edge, pair_rev;  ///< edge ids p→q and q→p
+  std::vector<int> cells;    ///< non-fixed cells; node id n = position here
+  std::vector<int> node_of;  ///< per cell: node id, −1 if fixed
+  std::vector<int> pair_p,
+      pair_q;                   ///< unordered neighbour pairs (cells), p before q in raster order
+  std::vector<float> pair_w;    ///< their Potts weight w
+  std::vector<int64_t> pair_v;  ///< V = 2w in capacity units (set once the scale is known)
+  std::vector<int> pairs_off, pairs_of;  ///< per node n: its pairs pairs_of[pairs_off[n] …)
 
-  void build(const EnergyModel& em, const FlowNetwork& net) {
+  void build(const EnergyModel& em) {
     const int R = em.rows, C = em.cols;
     cells.clear();
     pair_p.clear();
     pair_q.clear();
     pair_w.clear();
-    pair_edge.clear();
-    pair_rev.clear();
-    for (int p = 0; p < R * C; ++p) {
-      if (em.fixed[p]) continue;
-      cells.push_back(p);
-      for (int d = 4; d < 8; ++d) {  // forward directions: each unordered pair once
-        const int e = net.dir_edge[std::size_t(p) * 8 + d];
-        if (e < 0 || em.fixed[net.target[e]]) continue;
-        pair_p.push_back(p);
-        pair_q.push_back(net.target[e]);
-        pair_w.push_back(isDiagonal(d) ? em.beta_diagonal : em.beta);
-        pair_edge.push_back(e);
-        pair_rev.push_back(net.rev_id[e]);
+    node_of.assign(std::size_t(R) * C, -1);
+    for (int p = 0; p < R * C; ++p)
+      if (!em.fixed[p]) {
+        node_of[p] = static_cast<int>(cells.size());
+        cells.push_back(p);
       }
+    for (int p : cells) {
+      const int r = p / C, c = p % C;
+      for (int d = 4; d < 8; ++d) {  // forward directions: each unordered pair once
+        const int rr = r + kDr[d], cc = c + kDc[d];
+        if (rr < 0 || rr >= R || cc < 0 || cc >= C || em.fixed[rr * C + cc]) continue;
+        pair_p.push_back(p);
+        pair_q.push_back(rr * C + cc);
+        pair_w.push_back(isDiagonal(d) ? em.beta_diagonal : em.beta);
+      }
+    }
+    pairs_off.assign(cells.size() + 1, 0);
+    for (std::size_t k = 0; k < pair_p.size(); ++k) {
+      ++pairs_off[node_of[pair_p[k]] + 1];
+      ++pairs_off[node_of[pair_q[k]] + 1];
+    }
+    for (std::size_t n = 0; n < cells.size(); ++n) pairs_off[n + 1] += pairs_off[n];
+    pairs_of.resize(2 * pair_p.size());
+    std::vector<int> fill(pairs_off.begin(), pairs_off.end() - 1);
+    for (std::size_t k = 0; k < pair_p.size(); ++k) {
+      pairs_of[fill[node_of[pair_p[k]]]++] = static_cast<int>(k);
+      pairs_of[fill[node_of[pair_q[k]]]++] = static_cast<int>(k);
     }
   }
 };
@@ -200,11 +145,7 @@ class AlphaExpansion final : public Stage {
       pad_.extract(em, lab);
     }
 
-    net_.build(em.rows, em.cols);
-    fg_.build(em, net_);
-    const std::size_t n_edges = net_.rev.size();
-    cap_.assign(n_edges, 0);
-    res_.assign(n_edges, 0);
+    fg_.build(em);
     // Integer capacities: saturated edges become exactly 0 (no floating-point residues sending the
     // max-flow after useless paths) and warm starts are exact. 2^36 units for the largest possible
     // capacity leave room for 2^26 nodes in int64; rounding is ~1e-11 of an energy unit.
@@ -220,20 +161,11 @@ class AlphaExpansion final : public Stage {
     fg_.pair_v.resize(fg_.pair_w.size());
     for (std::size_t k = 0; k < fg_.pair_w.size(); ++k)
       fg_.pair_v[k] = toUnits(2.0 * fg_.pair_w[k]);
-    const std::size_t n_vert = std::size_t(net_.nodes) + 2;
-    pred_.resize(n_vert);
-    color_.resize(n_vert);
-    dist_.resize(n_vert);
     in_move_.assign(em.cells(), 0);
+    node_seen_.assign(fg_.cells.size(), 0);
+    pair_seen_.assign(fg_.pair_p.size(), 0);
     warm_.resize(K);
-    for (WarmStart& w : warm_) {
-      // Contents are written by the first (cold) expansion of each label before they are read.
-      w.cold = true;
-      w.model_t.resize(fg_.cells.size());
-      w.res_t.resize(fg_.cells.size());
-      w.model_n.resize(2 * fg_.pair_p.size());
-      w.res_n.resize(2 * fg_.pair_p.size());
-    }
+    for (WarmStart& w : warm_) w.cold = true;  // graphs are built by each label's first cut
 
     double e = em.energy(lab);
     block_dirty_.assign(em.cells(), 1);
@@ -304,10 +236,15 @@ class AlphaExpansion final : public Stage {
 
  private:
   /// Per label α: the capacities of its last move problem and the residuals its max-flow left.
+  /// One label's cut graph for the frame: its residual network and search trees after its last
+  /// cut, and the move energy that cut was for (to write only what changed since).
   struct WarmStart {
-    bool cold = true;                     ///< no cut yet in this frame: model and residual are 0
-    std::vector<int64_t> model_t, res_t;  ///< per node: cost(x=1) − cost(x=0)
-    std::vector<int64_t> model_n, res_n;  ///< per pair: p→q, q→p
+    bool cold = true;                 ///< no cut yet in this frame
+    std::unique_ptr<CutGraph> g;      ///< kept across frames for its memory (reset per frame)
+    CutGraph::arc_id arcs = nullptr;  ///< pair k: arcs[2k] = p→q, arcs[2k + 1] = q→p
+    std::vector<int64_t> model_t;     ///< per node: cost(x=1) − cost(x=0)
+    std::vector<int64_t> model_n;     ///< per pair: c01 (p→q), c10 (q→p)
+    std::vector<uint8_t> lab_at;      ///< per node: its label at that cut
   };
 
   /// Labels up to which 2×2 block moves are searched.
@@ -367,7 +304,8 @@ class AlphaExpansion final : public Stage {
     // Inner neighbours of block cell j (cells 0 1 / 2 3) and the pair weights.
     static constexpr int kInner[4][3] = {{1, 2, 3}, {0, 3, 2}, {3, 0, 1}, {2, 1, 0}};
     const double w_inner[3] = {wb, wb, wd};
-    const double inner_all = 2 * wb + wd;  // Σ w_inner: every cell has two inner edges, one diagonal
+    const double inner_all =
+        2 * wb + wd;  // Σ w_inner: every cell has two inner edges, one diagonal
     // Cells 0 1 / 2 3; inner pairs 0–1, 2–3, 0–2, 1–3 (edges) and 0–3, 1–2 (diagonals).
     const double inner_min = -4 * std::max(0.0, wb) - 2 * std::max(0.0, wd);
     auto dl = [](int a, int b) { return a == b ? -1.0 : 1.0; };
@@ -484,133 +422,193 @@ class AlphaExpansion final : public Stage {
     return de;
   }
 
+  /// Potts pair term of an expansion, with A = V(a,b), B = V(a,α), C = V(α,b), D = V(α,α) = 0
+  /// (Kolmogorov & Zabih 2004), written as A + s·x_p + t·x_q + c01·(1−x_p)·x_q + c10·x_p·(1−x_q)
+  /// with s + t = D − A, c10 = C − A − s ≥ 0, c01 = B − A − t ≥ 0 (possible as V is a metric:
+  /// B + C ≥ A + D), and s as near −A/2 as allowed, which splits the term symmetrically: two
+  /// equal labels give two n-links of V and no t-link, instead of opposing t-links whose flow the
+  /// max-flow would have to push through every such pair. For Potts only five cases exist:
+  ///   a = b ≠ α:      s = t = 0,            c01 = c10 = V
+  ///   a ≠ b, both ≠ α: s = −⌊V/2⌋, t = −⌈V/2⌉, c01 = ⌈V/2⌉, c10 = ⌊V/2⌋
+  ///   a = α ≠ b:      s = 0, t = −V          (p is α either way: q pays V unless it joins)
+  ///   b = α ≠ a:      s = −V, t = 0
+  ///   a = b = α:      nothing.
+  struct PairTerm {
+    int64_t s = 0, t = 0, c01 = 0, c10 = 0;
+  };
+  static PairTerm pairTerm(int a, int b, int alpha, int64_t V) {
+    PairTerm m;
+    const int64_t H = V / 2;
+    if (a == b) {
+      if (a != alpha) m.c01 = m.c10 = V;
+    } else if (a == alpha) {
+      m.t = -V;
+    } else if (b == alpha) {
+      m.s = -V;
+    } else {
+      m.s = -H;
+      m.t = H - V;
+      m.c01 = V - H;
+      m.c10 = H;
+    }
+    return m;
+  }
+
+  /// Writes pair k's new n-link capacities into α's residual network (the previous residual plus
+  /// the change of the model) and marks its nodes; a deficit goes to the t-links via shift_t_.
+  void updatePair(WarmStart& w, std::size_t k, const PairTerm& m, bool mark) {
+    const int64_t d01 = m.c01 - w.model_n[2 * k], d10 = m.c10 - w.model_n[2 * k + 1];
+    if (d01 == 0 && d10 == 0) return;
+    w.model_n[2 * k] = m.c01;
+    w.model_n[2 * k + 1] = m.c10;
+    CutGraph& g = *w.g;
+    const int np = fg_.node_of[fg_.pair_p[k]], nq = fg_.node_of[fg_.pair_q[k]];
+    const CutGraph::arc_id pq = w.arcs + 2 * k;  // cut when p keeps its label and q takes α
+    const CutGraph::arc_id qp = pq + 1;          // cut when p takes α and q keeps its label
+    int64_t r01 = g.get_rcap(pq) + d01, r10 = g.get_rcap(qp) + d10;
+    // r01 + r10 = c01 + c10 ≥ 0, so at most one is negative; move its deficit to the t-links:
+    // (1−x_p)·x_q = x_p·(1−x_q) + x_q − x_p.
+    if (r01 < 0) {
+      r10 += r01;
+      shift_t_[np] -= r01;
+      shift_t_[nq] += r01;
+      r01 = 0;
+    } else if (r10 < 0) {
+      r01 += r10;
+      shift_t_[np] += r10;
+      shift_t_[nq] -= r10;
+      r10 = 0;
+    }
+    g.set_rcap(pq, r01);
+    g.set_rcap(qp, r10);
+    if (mark) {
+      g.mark_node(np);
+      g.mark_node(nq);
+    }
+  }
+
+  /// Writes node n's new t-link (signed: > 0 from the source, cut when the cell takes α; < 0 to
+  /// the sink) into α's residual network.
+  void updateNode(WarmStart& w, int n, int64_t model, bool mark) {
+    const int64_t d = model - w.model_t[n] + shift_t_[n];
+    shift_t_[n] = 0;
+    w.model_t[n] = model;
+    if (d == 0) return;
+    w.g->set_trcap(n, w.g->get_trcap(n) + d);
+    if (mark) w.g->mark_node(n);
+  }
+
+  /// Node n's model t-link: its unary difference plus its share of its pairs' terms.
+  int64_t nodeModel(const EnergyModel& em, const std::vector<uint8_t>& lab, int alpha, int n) {
+    const int p = fg_.cells[n];
+    const float* u = &em.unary[std::size_t(p) * em.numLabels()];
+    int64_t t = toUnits(double(u[alpha]) - u[lab[p]]);
+    for (int j = fg_.pairs_off[n]; j < fg_.pairs_off[n + 1]; ++j) {
+      const int k = fg_.pairs_of[j];
+      const PairTerm m = pairTerm(lab[fg_.pair_p[k]], lab[fg_.pair_q[k]], alpha, fg_.pair_v[k]);
+      t += fg_.pair_p[k] == p ? m.s : m.t;
+    }
+    return t;
+  }
+
   /// Best α-expansion of `lab` by one min-cut: the cells that would take α go to move_. Returns
   /// false if there are none.
   ///
-  /// Warm start (Kohli & Torr 2007): the residual network of α's previous cut represents that
-  /// move energy up to a constant, so the new move energy is that residual plus the change of the
-  /// capacities. Max-flow on it only pushes the flow the change made possible; an expansion that
-  /// repeats an almost unchanged problem costs one tree growth instead of a full max-flow.
+  /// Each label keeps its graph for the frame (Kohli & Torr 2007): the residual network of α's
+  /// previous cut represents that move energy up to a constant, so the new move energy is that
+  /// residual plus the change of the capacities, which only the cells whose label changed since
+  /// (their pairs, and their and their neighbours' t-links) have. Those are written and their
+  /// nodes marked, and the max-flow reuses its search trees: an expansion after a few changed
+  /// cells costs about as much as those cells.
   bool expand(const EnergyModel& em, const std::vector<uint8_t>& lab, int alpha) {
-    const int K = em.numLabels();
     const int N = static_cast<int>(fg_.cells.size());
+    const std::size_t P = fg_.pair_p.size();
     WarmStart& w = warm_[alpha];
-    const bool cold = w.cold;
-    w.cold = false;
-    // Per cell, in capacity units of cost(x_p = 1) − cost(x_p = 0): acc_ = the warm offset
-    // (residual − old model) plus deficits moved from n-links; model_acc_ = the pair part of the
-    // new model, whose unary part goes straight to w.model_t. Fixed cells are never read.
-    acc_.resize(net_.nodes);
-    model_acc_.resize(net_.nodes);
-    for (int n = 0; n < N; ++n) {
-      const int p = fg_.cells[n];
-      const float* u = &em.unary[std::size_t(p) * K];
-      acc_[p] = cold ? 0 : w.res_t[n] - w.model_t[n];
-      model_acc_[p] = 0;
-      w.model_t[n] = toUnits(double(u[alpha]) - u[lab[p]]);
-    }
-    // Pair term with A = V(a,b), B = V(a,α), C = V(α,b), D = V(α,α) = 0 (Kolmogorov & Zabih 2004)
-    // written as A + s·x_p + t·x_q + c01·(1−x_p)·x_q + c10·x_p·(1−x_q) with s + t = D − A,
-    // c10 = C − A − s ≥ 0, c01 = B − A − t ≥ 0 (possible as V is a metric: B + C ≥ A + D), and s
-    // as near −A/2 as allowed, which splits the term symmetrically: two equal labels give two
-    // n-links of V and no t-link, instead of opposing t-links whose flow the max-flow would have
-    // to push through every such pair. For Potts only five cases exist (V in capacity units):
-    //   a = b ≠ α:      s = t = 0,            c01 = c10 = V
-    //   a ≠ b, both ≠ α: s = −⌊V/2⌋, t = −⌈V/2⌉, c01 = ⌈V/2⌉, c10 = ⌊V/2⌋
-    //   a = α ≠ b:      s = 0, t = −V          (p is α either way: q pays V unless it joins)
-    //   b = α ≠ a:      s = −V, t = 0
-    //   a = b = α:      nothing.
-    for (std::size_t k = 0; k < fg_.pair_p.size(); ++k) {
-      const int p = fg_.pair_p[k], q = fg_.pair_q[k];
-      const int a = lab[p], b = lab[q];
-      const int64_t V = fg_.pair_v[k], H = V / 2;
-      int64_t tp = 0, tq = 0, c01 = 0, c10 = 0;
-      if (a == b) {
-        if (a != alpha) c01 = c10 = V;
-      } else if (a == alpha) {
-        tq = -V;
-      } else if (b == alpha) {
-        tp = -V;
-      } else {
-        tp = -H;
-        tq = H - V;
-        c01 = V - H;
-        c10 = H;
+    shift_t_.resize(N);
+    if (w.cold) {
+      w.cold = false;
+      if (!w.g)
+        w.g = std::make_unique<CutGraph>(N, static_cast<int>(P), &maxflowError);
+      else
+        w.g->reset();
+      w.g->add_node(N);
+      for (std::size_t k = 0; k < P; ++k)
+        w.g->add_edge(fg_.node_of[fg_.pair_p[k]], fg_.node_of[fg_.pair_q[k]], 0, 0);
+      w.arcs = w.g->get_first_arc();  // add_edge appends each pair's two arcs in that order
+      w.model_t.assign(N, 0);
+      w.model_n.assign(2 * P, 0);
+      w.lab_at.resize(N);
+      std::fill(shift_t_.begin(), shift_t_.end(), 0);
+      for (std::size_t k = 0; k < P; ++k)
+        updatePair(w, k, pairTerm(lab[fg_.pair_p[k]], lab[fg_.pair_q[k]], alpha, fg_.pair_v[k]),
+                   false);
+      for (int n = 0; n < N; ++n) {
+        w.lab_at[n] = lab[fg_.cells[n]];
+        updateNode(w, n, nodeModel(em, lab, alpha, n), false);
       }
-      model_acc_[p] += tp;
-      model_acc_[q] += tq;
-      int64_t r01 = c01, r10 = c10;
-      if (!cold) {
-        r01 += w.res_n[2 * k] - w.model_n[2 * k];
-        r10 += w.res_n[2 * k + 1] - w.model_n[2 * k + 1];
+      greedyPush(w);
+      w.g->maxflow(false);
+    } else {
+      // The cells whose label changed since α's last cut. shift_t_ is 0 outside touched_ nodes
+      // (updateNode clears what it writes).
+      touched_.clear();
+      for (int n = 0; n < N; ++n) {
+        const uint8_t l = lab[fg_.cells[n]];
+        if (l == w.lab_at[n]) continue;
+        w.lab_at[n] = l;
+        for (int j = fg_.pairs_off[n]; j < fg_.pairs_off[n + 1]; ++j) {
+          const int k = fg_.pairs_of[j];
+          if (pair_seen_[k]) continue;
+          pair_seen_[k] = 1;
+          updatePair(w, k, pairTerm(lab[fg_.pair_p[k]], lab[fg_.pair_q[k]], alpha, fg_.pair_v[k]),
+                     true);
+          for (const int c : {fg_.pair_p[k], fg_.pair_q[k]}) {
+            const int m = fg_.node_of[c];
+            if (!node_seen_[m]) node_seen_[m] = 1, touched_.push_back(m);
+          }
+        }
+        if (!node_seen_[n]) node_seen_[n] = 1, touched_.push_back(n);
       }
-      w.model_n[2 * k] = c01;
-      w.model_n[2 * k + 1] = c10;
-      // r01 + r10 = c01 + c10 ≥ 0, so at most one is negative; move its deficit to the t-links:
-      // (1−x_p)·x_q = x_p·(1−x_q) + x_q − x_p.
-      if (r01 < 0) {
-        r10 += r01;
-        acc_[p] -= r01;
-        acc_[q] += r01;
-        r01 = 0;
-      } else if (r10 < 0) {
-        r01 += r10;
-        acc_[p] += r10;
-        acc_[q] -= r10;
-        r10 = 0;
+      if (touched_.empty()) return false;  // the problem of α's last cut, which did not improve
+      for (const int n : touched_) {
+        updateNode(w, n, nodeModel(em, lab, alpha, n), true);
+        node_seen_[n] = 0;
+        for (int j = fg_.pairs_off[n]; j < fg_.pairs_off[n + 1]; ++j)
+          pair_seen_[fg_.pairs_of[j]] = 0;
       }
-      cap_[fg_.pair_edge[k]] = r01;  // cut when p keeps, q takes α
-      cap_[fg_.pair_rev[k]] = r10;   // cut when p takes α, q keeps
+      w.g->maxflow(true);
     }
-    for (int n = 0; n < N; ++n) {
-      const int p = fg_.cells[n];
-      w.model_t[n] += model_acc_[p];
-      const int64_t t = acc_[p] + w.model_t[n];
-      cap_[net_.src_edge[p]] = t > 0 ? t : 0;    // cut when p takes α (sink side)
-      cap_[net_.sink_edge[p]] = t < 0 ? -t : 0;  // cut when p keeps its label (source side)
-    }
-    // Most of the flow runs s → q → p → t between neighbours. Pushing it greedily here, in one
-    // pass without search trees, leaves the max-flow a residual network with less to do; the
-    // cuts of the residual network are those of the original one less the pushed flow. Edges of
-    // fixed cells have no capacity, so they carry nothing.
-    for (int p : fg_.cells) {
-      int64_t& to_sink = cap_[net_.sink_edge[p]];
-      for (int d = 0; d < 8 && to_sink > 0; ++d) {
-        const int e_pq = net_.dir_edge[std::size_t(p) * 8 + d];
-        if (e_pq < 0) continue;
-        const int e_qp = net_.rev_id[e_pq];
-        int64_t& from_src = cap_[net_.src_edge[net_.target[e_pq]]];
-        const int64_t f = std::min({from_src, cap_[e_qp], to_sink});
-        if (f <= 0) continue;
-        from_src -= f;
-        cap_[e_qp] -= f;
-        cap_[e_pq] += f;
-        to_sink -= f;
-      }
-    }
-    auto eidx = get(boost::edge_index, net_.g);
-    auto vidx = get(boost::vertex_index, net_.g);
-    boost::boykov_kolmogorov_max_flow(net_.g, boost::make_iterator_property_map(cap_.begin(), eidx),
-                                      boost::make_iterator_property_map(res_.begin(), eidx),
-                                      boost::make_iterator_property_map(net_.rev.begin(), eidx),
-                                      boost::make_iterator_property_map(pred_.begin(), vidx),
-                                      boost::make_iterator_property_map(color_.begin(), vidx),
-                                      boost::make_iterator_property_map(dist_.begin(), vidx), vidx,
-                                      net_.source(), net_.sink());
-    for (int n = 0; n < N; ++n) {
-      const int p = fg_.cells[n];
-      w.res_t[n] = res_[net_.src_edge[p]] - res_[net_.sink_edge[p]];
-    }
-    for (std::size_t k = 0; k < fg_.pair_p.size(); ++k) {
-      w.res_n[2 * k] = res_[fg_.pair_edge[k]];
-      w.res_n[2 * k + 1] = res_[fg_.pair_rev[k]];
-    }
-    // Nodes left in the source tree are exactly those reachable from s in the residual network:
-    // the source side of a minimum cut keeps its label, the rest takes α.
+    // The source side of the minimum cut (the source search tree: what is reachable from s in the
+    // residual network) keeps its label, the rest takes α.
     move_.clear();
-    for (int p : fg_.cells)
-      if (color_[p] != boost::black_color && lab[p] != alpha) move_.push_back(p);
+    for (int n = 0; n < N; ++n) {
+      const int p = fg_.cells[n];
+      if (lab[p] != alpha && w.g->what_segment(n, CutGraph::SINK) == CutGraph::SINK)
+        move_.push_back(p);
+    }
     return !move_.empty();
+  }
+
+  /// Before a cold cut: most of the flow runs s → q → p → t between neighbours. Pushing it
+  /// greedily, in one pass over the pairs without search trees, leaves the max-flow a residual
+  /// network with much less to do (its cuts are those of the original network).
+  void greedyPush(WarmStart& w) {
+    CutGraph& g = *w.g;
+    for (std::size_t k = 0; k < fg_.pair_p.size(); ++k) {
+      const int np = fg_.node_of[fg_.pair_p[k]], nq = fg_.node_of[fg_.pair_q[k]];
+      const int64_t tp = g.get_trcap(np), tq = g.get_trcap(nq);
+      if (tp == 0 || tq == 0 || (tp > 0) == (tq > 0)) continue;
+      // From the node with source capacity over its arc to the node with sink capacity.
+      const bool q_to_p = tq > 0;
+      const int from = q_to_p ? nq : np, to = q_to_p ? np : nq;
+      const CutGraph::arc_id a = w.arcs + 2 * k + (q_to_p ? 1 : 0), back = q_to_p ? a - 1 : a + 1;
+      const int64_t f = std::min({g.get_trcap(from), -g.get_trcap(to), g.get_rcap(a)});
+      if (f <= 0) continue;
+      g.set_trcap(from, g.get_trcap(from) - f);
+      g.set_trcap(to, g.get_trcap(to) + f);
+      g.set_rcap(a, g.get_rcap(a) - f);
+      g.set_rcap(back, g.get_rcap(back) + f);
+    }
   }
 
   /// Grid labels (fixed → unknown) and score layers: the local energy margin
@@ -638,14 +636,12 @@ class AlphaExpansion final : public Stage {
   bool block_moves_ = true;
   int block_moves_taken_ = 0;
 
-  FlowNetwork net_;
   FrameGraph fg_;
   double scale_ = 1;  ///< capacity units per energy unit
   std::vector<WarmStart> warm_;
-  std::vector<int64_t> cap_, res_, acc_, model_acc_;
-  std::vector<Edge> pred_;
-  std::vector<boost::default_color_type> color_;
-  std::vector<std::size_t> dist_;
+  std::vector<int64_t> shift_t_;  ///< per node: deficits moved off n-links, not yet written
+  std::vector<int> touched_;      ///< nodes whose t-link is rewritten in this cut
+  std::vector<uint8_t> node_seen_, pair_seen_;
   std::vector<uint8_t> lab_, dirty_, in_move_;
   std::vector<uint8_t> block_dirty_;  ///< per block (top-left cell): its best move may have changed
   std::vector<double> nsum_;          ///< per cell and label: eq. 12 given the current neighbours
@@ -655,5 +651,7 @@ class AlphaExpansion final : public Stage {
 
 }  // namespace terramrf
 
-TERRAMRF_PLUGIN(terramrf::AlphaExpansion, terramrf::PluginKind::kOptimiser, "alpha_expansion",
-                "α-expansion graph cuts (Boykov–Kolmogorov max-flow); scores = local energy margin")
+TERRAMRF_PLUGIN(
+    terramrf::AlphaExpansion, terramrf::PluginKind::kOptimiser, "alpha_expansion",
+    "α-expansion graph cuts (Boykov–Kolmogorov max-flow, reused search trees); scores = "
+    "local energy margin")
