@@ -523,6 +523,7 @@ class AlphaExpansion final : public Stage {
   bool expand(const EnergyModel& em, const std::vector<uint8_t>& lab, int alpha) {
     const int N = static_cast<int>(fg_.cells.size());
     const std::size_t P = fg_.pair_p.size();
+    if (N == 0) return false;  // every cell fixed: nothing to cut
     WarmStart& w = warm_[alpha];
     shift_t_.resize(N);
     if (w.cold) {

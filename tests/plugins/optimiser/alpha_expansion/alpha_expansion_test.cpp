@@ -133,7 +133,8 @@ TEST(AlphaExpansion, EveryCutIsTheBestExpansionMoveAlongTheWholeRun) {
     int ref_cycles = 0, repeats = 0;
     const auto ref = test::referenceExpansion(em, &ref_cycles, &repeats);
     repeats_total += repeats;
-    const auto r = h.run("alpha_expansion", "{pre_icm: false, max_cycles: 50, block_moves: false}", em);
+    const auto r =
+        h.run("alpha_expansion", "{pre_icm: false, max_cycles: 50, block_moves: false}", em);
     EXPECT_EQ(OptimiserHarness::labelling(r, em), ref) << "grid " << n;
     EXPECT_EQ(r.report.iterations, ref_cycles) << "grid " << n;
   }
@@ -250,7 +251,8 @@ TEST(AlphaExpansion, MatchesATextbookImplementationOnLargerGrids) {
     const EnergyModel em = blockyModel(300 + n, 40, 3 + n % 2, 10, 0.6, n % 3 ? 0.1 : 0.0);
     int ref_cycles = 0;
     const auto ref = textbookExpansion(em, &ref_cycles);
-    const auto r = h.run("alpha_expansion", "{pre_icm: false, max_cycles: 50, block_moves: false}", em);
+    const auto r =
+        h.run("alpha_expansion", "{pre_icm: false, max_cycles: 50, block_moves: false}", em);
     EXPECT_EQ(OptimiserHarness::labelling(r, em), ref) << "grid " << n;
     EXPECT_EQ(r.report.iterations, ref_cycles) << "grid " << n;
     EXPECT_NEAR(r.report.final_energy, em.energy(ref), 1e-6) << "grid " << n;
@@ -424,6 +426,16 @@ TEST(AlphaExpansion, FixedCellsTakeNoPartInTheEnergy) {
   const auto ra = h.run("alpha_expansion", "{}", a), rb = h.run("alpha_expansion", "{}", b);
   EXPECT_EQ(ra.grid_labels, rb.grid_labels);
   EXPECT_DOUBLE_EQ(ra.report.final_energy, rb.report.final_energy);
+  // A frame with every cell fixed (no points anywhere): nothing to cut, every cell unknown, and
+  // the instance still serves the next frame.
+  EnergyModel all = a;
+  std::fill(all.fixed.begin(), all.fixed.end(), 1);
+  auto stage = h.make("alpha_expansion", "{}", a);
+  ASSERT_TRUE(stage);
+  EXPECT_EQ(h.run(*stage, a).grid_labels, ra.grid_labels);
+  const auto rn = h.run(*stage, all);
+  for (LabelId l : rn.grid_labels) EXPECT_EQ(l, labels::kUnknown);
+  EXPECT_EQ(h.run(*stage, a).grid_labels, ra.grid_labels);
 }
 
 TEST(AlphaExpansion, InitChoicesAndReuseOfOneInstanceAcrossFrames) {
