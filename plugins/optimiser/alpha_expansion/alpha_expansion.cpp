@@ -235,7 +235,6 @@ class AlphaExpansion final : public Stage {
   }
 
  private:
-  /// Per label α: the capacities of its last move problem and the residuals its max-flow left.
   /// One label's cut graph for the frame: its residual network and search trees after its last
   /// cut, and the move energy that cut was for (to write only what changed since).
   struct WarmStart {
@@ -498,11 +497,17 @@ class AlphaExpansion final : public Stage {
     if (mark) w.g->mark_node(n);
   }
 
+  /// Node n's unary difference cost(α) − cost(its label), in capacity units.
+  int64_t unaryModel(const EnergyModel& em, const std::vector<uint8_t>& lab, int alpha, int n) {
+    const int p = fg_.cells[n];
+    const float* u = &em.unary[std::size_t(p) * em.numLabels()];
+    return toUnits(double(u[alpha]) - u[lab[p]]);
+  }
+
   /// Node n's model t-link: its unary difference plus its share of its pairs' terms.
   int64_t nodeModel(const EnergyModel& em, const std::vector<uint8_t>& lab, int alpha, int n) {
     const int p = fg_.cells[n];
-    const float* u = &em.unary[std::size_t(p) * em.numLabels()];
-    int64_t t = toUnits(double(u[alpha]) - u[lab[p]]);
+    int64_t t = unaryModel(em, lab, alpha, n);
     for (int j = fg_.pairs_off[n]; j < fg_.pairs_off[n + 1]; ++j) {
       const int k = fg_.pairs_of[j];
       const PairTerm m = pairTerm(lab[fg_.pair_p[k]], lab[fg_.pair_q[k]], alpha, fg_.pair_v[k]);
@@ -540,12 +545,18 @@ class AlphaExpansion final : public Stage {
       w.model_n.assign(2 * P, 0);
       w.lab_at.resize(N);
       std::fill(shift_t_.begin(), shift_t_.end(), 0);
-      for (std::size_t k = 0; k < P; ++k)
-        updatePair(w, k, pairTerm(lab[fg_.pair_p[k]], lab[fg_.pair_q[k]], alpha, fg_.pair_v[k]),
-                   false);
+      // Every t-link is written, so each pair's share is added here instead of by nodeModel.
+      cold_t_.resize(N);
+      for (int n = 0; n < N; ++n) cold_t_[n] = unaryModel(em, lab, alpha, n);
+      for (std::size_t k = 0; k < P; ++k) {
+        const PairTerm m = pairTerm(lab[fg_.pair_p[k]], lab[fg_.pair_q[k]], alpha, fg_.pair_v[k]);
+        updatePair(w, k, m, false);
+        cold_t_[fg_.node_of[fg_.pair_p[k]]] += m.s;
+        cold_t_[fg_.node_of[fg_.pair_q[k]]] += m.t;
+      }
       for (int n = 0; n < N; ++n) {
         w.lab_at[n] = lab[fg_.cells[n]];
-        updateNode(w, n, nodeModel(em, lab, alpha, n), false);
+        updateNode(w, n, cold_t_[n], false);
       }
       greedyPush(w);
       w.g->maxflow(false);
@@ -641,6 +652,7 @@ class AlphaExpansion final : public Stage {
   double scale_ = 1;  ///< capacity units per energy unit
   std::vector<WarmStart> warm_;
   std::vector<int64_t> shift_t_;  ///< per node: deficits moved off n-links, not yet written
+  std::vector<int64_t> cold_t_;   ///< per node: the model t-link of a cold cut
   std::vector<int> touched_;      ///< nodes whose t-link is rewritten in this cut
   std::vector<uint8_t> node_seen_, pair_seen_;
   std::vector<uint8_t> lab_, dirty_, in_move_;
