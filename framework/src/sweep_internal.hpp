@@ -274,14 +274,28 @@ struct Candidate {
   YAML::Node stages = YAML::Node(YAML::NodeType::Map);
   /// "components=2", "beta=0.8", "rough.residual=vertical"; "" = none
   std::string training_text, energy_text, stages_text;
-  std::string text() const {
-    std::string t;
-    for (const std::string* part : {&training_text, &stages_text, &energy_text})
-      if (!part->empty()) t += (t.empty() ? "" : ", ") + *part;
-    return t;
+  /// What a trained model depends on: training and stage parameters, not the energy's
+  /// ("components=2, rough.residual=vertical"; stage keys have a dot, training keys none).
+  std::string modelText() const { return join(training_text, stages_text); }
+  std::string text() const { return join(modelText(), energy_text); }
+  Candidate() = default;
+  Candidate(const Candidate&) = default;
+  /// Rebinds the YAML nodes: a YAML::Node's own '=' writes into the node it shares with another
+  /// candidate (copies share nodes), which would change that one too.
+  Candidate& operator=(const Candidate& o) {
+    training.reset(o.training);
+    energy.reset(o.energy);
+    stages.reset(o.stages);
+    training_text = o.training_text;
+    energy_text = o.energy_text;
+    stages_text = o.stages_text;
+    return *this;
   }
-  /// What a trained model depends on: training and stage parameters, not the energy's.
-  std::string modelKey() const { return training_text + "|" + stages_text; }
+
+ private:
+  static std::string join(const std::string& a, const std::string& b) {
+    return a.empty() ? b : b.empty() ? a : a + ", " + b;
+  }
 };
 
 /// `select:`: the candidates (the product of the listed values, first listed first) and how they

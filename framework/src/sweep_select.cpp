@@ -130,7 +130,7 @@ std::vector<const Candidate*> distinctTraining(const std::vector<Candidate>& can
   of.assign(cands.size(), 0);
   for (std::size_t c = 0; c < cands.size(); ++c) {
     std::size_t k = 0;
-    while (k < distinct.size() && distinct[k]->modelKey() != cands[c].modelKey()) ++k;
+    while (k < distinct.size() && distinct[k]->modelText() != cands[c].modelText()) ++k;
     if (k == distinct.size()) distinct.push_back(&cands[c]);
     of[c] = k;
   }
@@ -152,10 +152,6 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
   const std::vector<Candidate> cands = candidatesFor(sel, f);
   std::vector<std::size_t> training_of;
   const std::vector<const Candidate*> trainings = distinctTraining(cands, training_of);
-  auto label = [](const Candidate& c) {
-    return c.training_text + (c.training_text.empty() || c.stages_text.empty() ? "" : ", ") +
-           c.stages_text;
-  };
   // One validation set (split.validation), or one per fold, each scored with models trained on
   // the other folds.
   const bool folds = !s.folds.empty();
@@ -171,15 +167,15 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
   if (f.model.empty()) {
     for (std::size_t k = 0; k < trainings.size(); ++k)
       for (std::size_t p = 0; p < parts.size() && train_error[k].empty(); ++p) {
-        const std::string tag = std::to_string(k + 1) + (folds ? "_fold" + std::to_string(p + 1) : "");
-        const std::string what = "train " + f.name + " [" + label(*trainings[k]) + "]" +
+        const std::string tag =
+            std::to_string(k + 1) + (folds ? "_fold" + std::to_string(p + 1) : "");
+        const std::string what = "train " + f.name + " [" + trainings[k]->modelText() + "]" +
                                  (folds ? " without fold " + std::to_string(p + 1) : "") + ": ";
         try {
-          trained[k][p] = trainFeatureSet(run, withStageParams(f, trainings[k]->stages),
-                                          trainings[k]->training,
-                                          dir + "/model_" + tag + ".yaml",
-                                          dir + "/model_" + tag + ".train", what, false,
-                                          folds ? static_cast<int>(p) : -1);
+          trained[k][p] =
+              trainFeatureSet(run, withStageParams(f, trainings[k]->stages), trainings[k]->training,
+                              dir + "/model_" + tag + ".yaml", dir + "/model_" + tag + ".train",
+                              what, false, folds ? static_cast<int>(p) : -1);
         } catch (const ConfigError&) {
           throw;
         } catch (const std::exception& e) {
@@ -187,7 +183,7 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
                            (folds ? " without fold " + std::to_string(p + 1) : "") +
                            " failed: " + e.what();
           run.progress.breakLine();
-          run.log << "feature set " << f.name << " [" << label(*trainings[k])
+          run.log << "feature set " << f.name << " [" << trainings[k]->modelText()
                   << "]: " << train_error[k] << "\n";
         }
       }
@@ -204,10 +200,10 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
       const std::string model = f.model.empty() ? trained[k][p].model_path : f.model;
       if (p == 0 || f.model.empty()) models += (p ? "; " : "") + model;
       if (note.empty()) {
-        note = validate(run, fc, cand, model,
-                        dir + "/runs/" + std::to_string(c + 1) +
-                            (folds ? "_fold" + std::to_string(p + 1) : ""),
-                        *parts[p], sum);
+        note = validate(
+            run, fc, cand, model,
+            dir + "/runs/" + std::to_string(c + 1) + (folds ? "_fold" + std::to_string(p + 1) : ""),
+            *parts[p], sum);
         if (!note.empty() && folds) note = "fold " + std::to_string(p + 1) + ": " + note;
       } else {
         for (const auto& v : *parts[p]) run.done += v->count;  // not run: counted as done
@@ -226,7 +222,8 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
   for (double v : sr.scores)
     if (!std::isnan(v)) best = std::max(best, v);
   for (std::size_t c = 0; c < sr.scores.size() && sr.chosen < 0; ++c)
-    if (!std::isnan(sr.scores[c]) && sr.scores[c] >= best - sel.tie) sr.chosen = static_cast<int>(c);
+    if (!std::isnan(sr.scores[c]) && sr.scores[c] >= best - sel.tie)
+      sr.chosen = static_cast<int>(c);
   if (sr.chosen < 0) {
     out.error = "select: no candidate could be scored on the validation split";
     for (const auto& n : sr.notes)
@@ -236,12 +233,7 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
       }
     return out;
   }
-  out.candidate.training.reset(cands[sr.chosen].training);
-  out.candidate.energy.reset(cands[sr.chosen].energy);
-  out.candidate.stages.reset(cands[sr.chosen].stages);
-  out.candidate.training_text = cands[sr.chosen].training_text;
-  out.candidate.energy_text = cands[sr.chosen].energy_text;
-  out.candidate.stages_text = cands[sr.chosen].stages_text;
+  out.candidate = cands[sr.chosen];
   out.energy = cands[sr.chosen].energy;
   if (f.model.empty() && !folds) out.model = trained[training_of[sr.chosen]][0];
   return out;
