@@ -1,5 +1,6 @@
 // Per-scan classification through the real plugins as the pipeline runs them, grid binning
-// included, reading excluded:
+// included, reading excluded (except in BM_ReadScan and BM_FileToLabels_LG_Icm):
+//   BM_Grid:                   grid binning alone (cell of every point, per-cell point lists)
 //   BM_GridPreclassHeightDiff: binning + eq. 1 pre-classification + height difference
 //   BM_Slice:                  the above + Potts/Gaussian energy + ICM (the foundation slice)
 //   BM_L_Icm / BM_L_AlphaExpansion:
@@ -7,9 +8,16 @@
 //   BM_LG_Icm / BM_LG_AlphaExpansion:
 //       configs/semantickitti.yaml: L + relative height + height above ground, roughness on a log
 //       scale, + energy + optimiser; BM_LG_AlphaExpansionNoBlockMoves without the 2×2 block moves
+//   BM_ReadScan: the semantickitti reader alone (.bin read + ring recovery), as the CLI runs it
+//   BM_FileToLabels_LG_Icm: BM_ReadScan + BM_LG_Icm, file to labelled grid (what a ground
+//       segmenter that reads the same file is held against, docs/benchmarks.md)
 // Data: SemanticKITTI sequence 00 frame 000000 (HDL-64E, 124668 points; rings recovered by the
 // reader), 40 m grid, 0.5 m cells (80 × 80), one thread.
 #include <benchmark/benchmark.h>
+
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <cstdlib>
 #include <map>
@@ -33,6 +41,7 @@ struct SliceFixture {
   PluginRegistry reg{PluginRegistry::defaultSearchDirs()};
   PluginContext ctx;
   std::map<std::string, Chain> chains;
+  std::unique_ptr<Plugin> source;
 
   SliceFixture() {
     const char* env = std::getenv("TERRAMRF_DATA_DIR");
@@ -40,8 +49,8 @@ struct SliceFixture {
     ctx.config_dir = std::string(TERRAMRF_SOURCE_DIR) + "/configs";
     ctx.grid = geom;
     ctx.labels = &labels;
-    auto source = make("semantickitti", "{path: " + data +
-                                            "/semantickitti_seq00_000000-000005, use_labels: false}");
+    source = make("semantickitti",
+                  "{path: " + data + "/semantickitti_seq00_000000-000005, use_labels: false}");
     frame = static_cast<Source&>(*source).read(0);
     const std::string l_energy =
         "{model: models/laser_semantickitti.yaml, features: [height_diff, roughness], "
@@ -100,7 +109,8 @@ SliceFixture& fixture() {
   return f;
 }
 
-void runChain(benchmark::State& state, const std::string& name, std::size_t n_stages = 100) {
+void runChain(benchmark::State& state, const std::string& name, std::size_t n_stages = 100,
+              bool read = false) {
   SliceFixture& f = fixture();
   const Chain& c = f.chains.at(name);
   FrameContext fc;
@@ -108,6 +118,7 @@ void runChain(benchmark::State& state, const std::string& name, std::size_t n_st
   fc.grid = &f.grid;
   fc.labels = &f.labels;
   for (auto _ : state) {
+    if (read) f.frame = static_cast<Source&>(*f.source).read(0);
     f.run(fc, c, n_stages);
     benchmark::DoNotOptimize(f.grid.labels().data());
   }
@@ -117,10 +128,20 @@ void runChain(benchmark::State& state, const std::string& name, std::size_t n_st
 
 void BM_GridPreclassHeightDiff(benchmark::State& s) { runChain(s, "slice", 2); }
 void BM_Slice(benchmark::State& s) { runChain(s, "slice"); }
+void BM_Grid(benchmark::State& s) { runChain(s, "slice", 0); }
 void BM_L_Icm(benchmark::State& s) { runChain(s, "L_icm"); }
 void BM_L_AlphaExpansion(benchmark::State& s) { runChain(s, "L_alpha_expansion"); }
 void BM_LG_Icm(benchmark::State& s) { runChain(s, "LG_icm"); }
 void BM_LG_AlphaExpansion(benchmark::State& s) { runChain(s, "LG_alpha_expansion"); }
+void BM_FileToLabels_LG_Icm(benchmark::State& s) { runChain(s, "LG_icm", 100, true); }
+void BM_ReadScan(benchmark::State& state) {
+  SliceFixture& f = fixture();
+  for (auto _ : state) {
+    f.frame = static_cast<Source&>(*f.source).read(0);
+    benchmark::DoNotOptimize(f.frame.points.size());
+  }
+  state.counters["points"] = static_cast<double>(f.frame.points.size());
+}
 void BM_LG_AlphaExpansionNoBlockMoves(benchmark::State& s) {
   runChain(s, "LG_alpha_expansion_no_block_moves");
 }
@@ -129,13 +150,28 @@ void BM_LG_AlphaExpansionNoBlockMoves(benchmark::State& s) {
   BENCHMARK(fn)->Unit(benchmark::kMillisecond)->Repetitions(10)->ReportAggregatesOnly(true)
 TERRAMRF_BENCH(BM_GridPreclassHeightDiff);
 TERRAMRF_BENCH(BM_Slice);
+TERRAMRF_BENCH(BM_Grid);
 TERRAMRF_BENCH(BM_L_Icm);
 TERRAMRF_BENCH(BM_L_AlphaExpansion);
 TERRAMRF_BENCH(BM_LG_Icm);
 TERRAMRF_BENCH(BM_LG_AlphaExpansion);
 TERRAMRF_BENCH(BM_LG_AlphaExpansionNoBlockMoves);
+TERRAMRF_BENCH(BM_ReadScan);
+TERRAMRF_BENCH(BM_FileToLabels_LG_Icm);
 
 }  // namespace
 }  // namespace terramrf
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+#if defined(__GLIBC__)
+  // As the terramrf CLI does (apps/terramrf/main.cpp): a scan's arrays stay in the heap between
+  // reads instead of page-faulting in afresh from mmap.
+  mallopt(M_MMAP_THRESHOLD, 64 << 20);
+  mallopt(M_TRIM_THRESHOLD, 256 << 20);
+#endif
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
