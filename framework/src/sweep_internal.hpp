@@ -255,6 +255,9 @@ struct FeatureSet {
   std::string model;        ///< given model (absolute), or "" = train
   std::string unavailable;  ///< a stage type is not installed
   int train_group = -1;     ///< index into Sweep::train_groups, -1 = split.train
+  /// Energy parameters of this set's runs over the sweep's `energy.params` (`energy:` of the
+  /// set, after those of the set it extends); the file's nodes, for positions in messages.
+  YAML::Node energy = YAML::Node(YAML::NodeType::Map);
 };
 
 /// A YAML value on one line ("[0.02, 0.05]"), as candidates are named.

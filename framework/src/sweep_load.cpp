@@ -112,6 +112,11 @@ void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d)
         d.add(it->first.Mark(), what + "." + key + ": also set in '" +
                                     (energy ? "energy.params" : "training") +
                                     "'; give it in one place (select's values replace it)");
+      if (energy)
+        for (const auto& f : s.feature_sets)
+          if (f.energy[key])
+            d.add(it->first.Mark(), what + "." + key + ": also set in feature set '" + f.name +
+                                        "' energy; give it in one place");
       if (!it->second.IsSequence() || it->second.size() == 0) {
         d.add(it->second.Mark(),
               what + "." + key + ": expected a non-empty list of candidate values, e.g. [1, 2]");
@@ -426,7 +431,8 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
         d.add(v.Mark(), what + ": expected {stages: [...], features: [...]}");
         continue;
       }
-      detail::checkKeys(d, v, {"extends", "stages", "features", "min_sigma", "model", "train"}, what, kKeyHint);
+      detail::checkKeys(d, v, {"extends", "stages", "features", "min_sigma", "model", "train", "energy"},
+                        what, kKeyHint);
       // extends: an earlier feature set's stages, features and σ floors come first.
       if (const YAML::Node ex = v["extends"]) {
         const FeatureSet* base = nullptr;
@@ -447,7 +453,16 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
           f.unavailable = base->unavailable;
           f.train_group = base->train_group;
           f.min_sigma.reset(base->min_sigma);
+          f.energy.reset(YAML::Clone(base->energy));
         }
+      }
+      // energy: this set's energy parameters (checked against the energy plugin further down).
+      if (const YAML::Node en = v["energy"]) {
+        if (!en.IsMap())
+          d.add(en.Mark(), what + ": 'energy' must be a map of energy parameters, e.g. "
+                                  "{preclass_layer: \"\"}");
+        else
+          for (auto e = en.begin(); e != en.end(); ++e) f.energy[e->first.Scalar()] = e->second;
       }
       stageList(v["stages"], what + " stages", f.stages, f.unavailable);
       if (v["features"]) {
@@ -609,6 +624,23 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
     // The file's own node (s->energy is a clone, without positions).
     if (const YAML::Node en = root["energy"]; en && en["type"])
       checkDeclaredValues(reg, en["type"].Scalar(), en["params"], "energy.params", d);
+    // Feature sets' own energy parameters: what the energy declares, except what compare sets.
+    const std::string type = s->energy["type"] ? s->energy["type"].Scalar() : "";
+    const std::vector<std::string> allowed = settableKeys(reg, type);
+    const YAML::Node fsets = root["feature_sets"];
+    if (fsets && fsets.IsMap())
+      for (auto it = fsets.begin(); it != fsets.end(); ++it) {
+        const YAML::Node en = it->second.IsMap() ? it->second["energy"] : YAML::Node();
+        if (!en || !en.IsMap()) continue;
+        const std::string what = "feature set '" + it->first.Scalar() + "' energy";
+        for (const char* k : {"model", "features"})
+          if (en[k])
+            d.add(en[k].Mark(), what + ": '" + k + "' is set per feature set by compare; remove it");
+        std::vector<std::string> keys = allowed;  // model and features: reported just above
+        keys.insert(keys.end(), {"model", "features"});
+        if (!allowed.empty()) detail::checkKeys(d, en, keys, what, kKeyHint);
+        checkDeclaredValues(reg, type, en, what, d);
+      }
   }
   // training, outputs, roc
   if (const YAML::Node tr = root["training"]) {

@@ -244,9 +244,11 @@ void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec) {
     YAML::Node energy = YAML::Clone(s.energy);
     if (!energy["params"] || energy["params"].IsNull())
       energy["params"] = YAML::Node(YAML::NodeType::Map);
-    if (spec.energy_params)
-      for (auto it = spec.energy_params.begin(); it != spec.energy_params.end(); ++it)
-        energy["params"][it->first.Scalar()] = YAML::Clone(it->second);
+    // The set's own energy parameters, then the candidate's of `select:` (never the same key).
+    for (const YAML::Node& over : {f.energy, spec.energy_params})
+      if (over && over.IsMap())
+        for (auto it = over.begin(); it != over.end(); ++it)
+          energy["params"][it->first.Scalar()] = YAML::Clone(it->second);
     energy["params"]["model"] = spec.model;
     for (const auto& feat : f.features) energy["params"]["features"].push_back(feat);
     stages.push_back(energy);

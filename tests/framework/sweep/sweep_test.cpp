@@ -455,6 +455,74 @@ TEST(SweepRun, TinySimulatorSweepWritesTheTables) {
       std::string::npos);
 }
 
+TEST(SweepRun, AFeatureSetsEnergyParametersApplyToItsRunsAndToTheSetsThatExtendIt) {
+  test::TempDir dir;
+  // L0's energy pays every cell to be an obstacle; L extends L0 and sets the cost back; L2
+  // extends L0 and keeps it.
+  std::string text = tinySweep("  icm: {type: icm}");
+  text.replace(text.find("    min_sigma: [0.02, 0.0001]\n"),
+               std::string("    min_sigma: [0.02, 0.0001]\n").size(),
+               "    min_sigma: [0.02, 0.0001]\n    energy: {class_cost: [0, 0, -1000]}\n");
+  text.replace(text.find("    min_sigma: [0.005]\n"), std::string("    min_sigma: [0.005]\n").size(),
+               "    min_sigma: [0.005]\n    energy: {class_cost: [0, 0, 0]}\n"
+               "  L2:\n    extends: L0\n");
+  const std::string sweep = put(dir, "per_set_energy.yaml", text);
+  std::ostringstream log;
+  const std::string out = dir.str() + "/out";
+  const SweepResult r = runQuiet(sweep, out, log);
+  ASSERT_EQ(r.exitCode(), 0) << log.str();
+  ASSERT_EQ(r.runs.size(), 3u);
+  for (const auto& x : r.runs) {
+    SCOPED_TRACE(x.feature_set);
+    ASSERT_EQ(x.status, RunRecord::Status::kOk) << x.reason;
+    const double road = x.counts.cell_wise.scores(labels::kRoad).tpr();
+    const std::string resolved =
+        readFile(out + "/runs/sim_test__" + x.feature_set + "__icm/resolved_config.yaml");
+    if (x.feature_set == "L") {
+      EXPECT_GT(road, 0.5);
+      EXPECT_EQ(resolved.find("-1000"), std::string::npos) << resolved;
+    } else {
+      EXPECT_EQ(road, 0.0);  // every cell an obstacle
+      EXPECT_NE(resolved.find("-1000"), std::string::npos) << resolved;
+    }
+    // The sweep's own energy parameters still hold.
+    EXPECT_NE(resolved.find("preclass_layer: preclass"), std::string::npos) << resolved;
+  }
+}
+
+TEST(SweepDiagnostics, AFeatureSetsEnergyParametersAreCheckedAtTheirPlace) {
+  test::TempDir dir;
+  std::string text = tinySweep("  icm: {type: icm}");
+  const std::string l0 = "    min_sigma: [0.02, 0.0001]\n";
+  text.replace(text.find(l0), l0.size(),
+               l0 + "    energy: {betta: 1, model: m.yaml, alpha: -2, class_cost: [0, 0, 0]}\n");
+  const std::string l = "    min_sigma: [0.005]\n";
+  text.replace(text.find(l), l.size(), l + "    energy: 3\n");
+  text += "select: {energy: {class_cost: [[0, 0, 0], [0, 0, -1]]}}\n";
+  const std::string sweep = put(dir, "bad_set_energy.yaml", text);
+  const ConfigError e = expectConfigError(sweep);
+  const std::string all = e.what();
+  const std::size_t at = text.find("    energy: {betta");
+  const std::string line = std::to_string(std::count(text.begin(), text.begin() + at, '\n') + 1);
+  EXPECT_NE(all.find(sweep + ":" + line +
+                     ":14: unknown key 'betta' in feature set 'L0' energy (did you mean 'beta'?)"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(all.find("feature set 'L0' energy: 'model' is set per feature set by compare; remove it"),
+            std::string::npos)
+      << all;
+  EXPECT_EQ(all.find("unknown key 'model'"), std::string::npos) << all;  // said once
+  EXPECT_NE(all.find("feature set 'L0' energy.alpha"), std::string::npos) << all;
+  EXPECT_NE(all.find("out of range"), std::string::npos) << all;
+  EXPECT_NE(all.find("feature set 'L': 'energy' must be a map of energy parameters"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(all.find("select.energy.class_cost: also set in feature set 'L0' energy; give it in "
+                     "one place"),
+            std::string::npos)
+      << all;
+}
+
 // ---- select: parameters chosen on a validation split -------------------------------------------
 
 /// tinySweep with a validation world (seed 3) and `select_yaml` appended.
