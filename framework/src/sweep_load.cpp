@@ -431,7 +431,8 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
         d.add(v.Mark(), what + ": expected {stages: [...], features: [...]}");
         continue;
       }
-      detail::checkKeys(d, v, {"extends", "stages", "features", "min_sigma", "model", "train", "energy"},
+      detail::checkKeys(d, v,
+                        {"extends", "stages", "features", "min_sigma", "model", "train", "energy"},
                         what, kKeyHint);
       // extends: an earlier feature set's stages, features and σ floors come first.
       if (const YAML::Node ex = v["extends"]) {
@@ -459,8 +460,9 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
       // energy: this set's energy parameters (checked against the energy plugin further down).
       if (const YAML::Node en = v["energy"]) {
         if (!en.IsMap())
-          d.add(en.Mark(), what + ": 'energy' must be a map of energy parameters, e.g. "
-                                  "{preclass_layer: \"\"}");
+          d.add(en.Mark(), what +
+                               ": 'energy' must be a map of energy parameters, e.g. "
+                               "{preclass_layer: \"\"}");
         else
           for (auto e = en.begin(); e != en.end(); ++e) f.energy[e->first.Scalar()] = e->second;
       }
@@ -635,7 +637,8 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
         const std::string what = "feature set '" + it->first.Scalar() + "' energy";
         for (const char* k : {"model", "features"})
           if (en[k])
-            d.add(en[k].Mark(), what + ": '" + k + "' is set per feature set by compare; remove it");
+            d.add(en[k].Mark(),
+                  what + ": '" + k + "' is set per feature set by compare; remove it");
         std::vector<std::string> keys = allowed;  // model and features: reported just above
         keys.insert(keys.end(), {"model", "features"});
         if (!allowed.empty()) detail::checkKeys(d, en, keys, what, kKeyHint);

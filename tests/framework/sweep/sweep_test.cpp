@@ -463,7 +463,8 @@ TEST(SweepRun, AFeatureSetsEnergyParametersApplyToItsRunsAndToTheSetsThatExtendI
   text.replace(text.find("    min_sigma: [0.02, 0.0001]\n"),
                std::string("    min_sigma: [0.02, 0.0001]\n").size(),
                "    min_sigma: [0.02, 0.0001]\n    energy: {class_cost: [0, 0, -1000]}\n");
-  text.replace(text.find("    min_sigma: [0.005]\n"), std::string("    min_sigma: [0.005]\n").size(),
+  text.replace(text.find("    min_sigma: [0.005]\n"),
+               std::string("    min_sigma: [0.005]\n").size(),
                "    min_sigma: [0.005]\n    energy: {class_cost: [0, 0, 0]}\n"
                "  L2:\n    extends: L0\n");
   const std::string sweep = put(dir, "per_set_energy.yaml", text);
@@ -508,8 +509,9 @@ TEST(SweepDiagnostics, AFeatureSetsEnergyParametersAreCheckedAtTheirPlace) {
                      ":14: unknown key 'betta' in feature set 'L0' energy (did you mean 'beta'?)"),
             std::string::npos)
       << all;
-  EXPECT_NE(all.find("feature set 'L0' energy: 'model' is set per feature set by compare; remove it"),
-            std::string::npos)
+  EXPECT_NE(
+      all.find("feature set 'L0' energy: 'model' is set per feature set by compare; remove it"),
+      std::string::npos)
       << all;
   EXPECT_EQ(all.find("unknown key 'model'"), std::string::npos) << all;  // said once
   EXPECT_NE(all.find("feature set 'L0' energy.alpha"), std::string::npos) << all;
