@@ -8,6 +8,9 @@
 //   BM_HeightAboveGround, BM_RelativeHeight, BM_EigenPreclass, BM_HeightDifference, BM_Roughness
 //                     one stage alone on an already binned grid
 //   BM_Img_*          the image part alone (camera_fusion + the feature) on an already binned grid
+//   BM_RoughnessColumnOrder  roughness alone on a simulator scan (seed 1, HDL-64E-like, ~226k
+//                     points) stored in firing order, column after column, as drivers deliver
+//                     them: each ring's points lie 64 apart in the cloud
 // Run: build/bin/terramrf_bench_features
 #include <benchmark/benchmark.h>
 
@@ -99,6 +102,30 @@ void bench(benchmark::State& state, bool with_laser, Plugin* feature, bool with_
     state.counters["cell_pixels"] = double(f.grid.cellPixels()[0].pixels.size());
 }
 
+void BM_RoughnessColumnOrder(benchmark::State& state) {
+  struct Sim {
+    FeatureFixture& f = fixture();
+    Frame frame;
+    TerrainGrid grid;
+    std::unique_ptr<Plugin> rough = f.make("roughness", "{}");
+    Sim() {
+      auto source = f.make("simulator", "{seed: 1, frames: 1, point_order: column}");
+      frame = static_cast<Source&>(*source).read(0);
+      grid.reset(f.geom);
+      grid.binPoints(frame.points);
+    }
+  };
+  static Sim sim;
+  FrameContext ctx;
+  ctx.frame = &sim.frame;
+  ctx.grid = &sim.grid;
+  ctx.labels = &sim.f.labels;
+  for (auto _ : state) {
+    run(*sim.rough, ctx);
+    benchmark::ClobberMemory();
+  }
+  state.counters["points"] = double(sim.frame.points.size());
+}
 void BM_L(benchmark::State& s) { bench(s, true, nullptr, false); }
 void BM_L_G(benchmark::State& s) { bench(s, true, nullptr, false, true); }
 void BM_HeightAboveGround(benchmark::State& s) { bench(s, false, fixture().ground[1].get(), false); }
@@ -125,6 +152,7 @@ TERRAMRF_BENCH(BM_RelativeHeight);
 TERRAMRF_BENCH(BM_EigenPreclass);
 TERRAMRF_BENCH(BM_HeightDifference);
 TERRAMRF_BENCH(BM_Roughness);
+TERRAMRF_BENCH(BM_RoughnessColumnOrder);
 TERRAMRF_BENCH(BM_L_H);
 TERRAMRF_BENCH(BM_L_FH);
 TERRAMRF_BENCH(BM_L_C);

@@ -70,28 +70,53 @@ class Roughness final : public Stage {
                        "source that reads or recovers rings)");
     // Stable counting sort by ring keeps each ring in scan order, whatever the file's layout.
     // The counts grow with the largest ring seen, so one pass over the rings counts and sizes.
-    // Both passes go run by run of equal rings (KITTI stores ring after ring): a counter
-    // incremented per point in memory was a store-to-load chain.
+    // Clouds stored ring after ring (KITTI) are walked run by run of equal rings: a counter
+    // incremented per point in memory was a store-to-load chain. Clouds in firing order (column
+    // after column, as drivers deliver them) change ring at nearly every point; there the runs
+    // cost more than they save, and a counter per point has no chain (the next point's ring is
+    // another one), so those are walked point by point.
     const uint16_t* ring = pc.ring.data();
+    const std::size_t probe = std::min<std::size_t>(n, 256);
+    std::size_t changes = 0;
+    for (std::size_t i = 1; i < probe; ++i) changes += ring[i] != ring[i - 1];
+    const bool by_point = changes * 2 > probe;
     offsets_.assign(1, 0);
-    for (std::size_t i = 0, j; i < n; i = j) {
-      const uint16_t r = ring[i];
-      j = runEnd(ring, i, n);
-      if (r == kUnknownRing) continue;
-      if (r + 2u > offsets_.size()) offsets_.resize(r + 2u, 0);
-      offsets_[r + 1] += static_cast<uint32_t>(j - i);
+    if (by_point) {
+      for (std::size_t i = 0; i < n; ++i) {
+        const uint16_t r = ring[i];
+        if (r == kUnknownRing) continue;
+        if (r + 2u > offsets_.size()) offsets_.resize(r + 2u, 0);
+        ++offsets_[r + 1];
+      }
+    } else {
+      for (std::size_t i = 0, j; i < n; i = j) {
+        const uint16_t r = ring[i];
+        j = runEnd(ring, i, n);
+        if (r == kUnknownRing) continue;
+        if (r + 2u > offsets_.size()) offsets_.resize(r + 2u, 0);
+        offsets_[r + 1] += static_cast<uint32_t>(j - i);
+      }
     }
     const int rings = static_cast<int>(offsets_.size()) - 1;
     for (int r = 0; r < rings; ++r) offsets_[r + 1] += offsets_[r];
     order_.resize(offsets_[rings]);
     cursor_.assign(offsets_.begin(), offsets_.end() - 1);
-    for (std::size_t i = 0, j; i < n; i = j) {
-      const uint16_t r = ring[i];
-      j = runEnd(ring, i, n);
-      if (r == kUnknownRing) continue;
-      uint32_t* dst = order_.data() + cursor_[r];
-      for (std::size_t t = i; t < j; ++t) *dst++ = static_cast<uint32_t>(t);
-      cursor_[r] += static_cast<uint32_t>(j - i);
+    if (by_point) {
+      uint32_t* order = order_.data();
+      uint32_t* cursor = cursor_.data();
+      for (std::size_t i = 0; i < n; ++i) {
+        const uint16_t r = ring[i];
+        if (r != kUnknownRing) order[cursor[r]++] = static_cast<uint32_t>(i);
+      }
+    } else {
+      for (std::size_t i = 0, j; i < n; i = j) {
+        const uint16_t r = ring[i];
+        j = runEnd(ring, i, n);
+        if (r == kUnknownRing) continue;
+        uint32_t* dst = order_.data() + cursor_[r];
+        for (std::size_t t = i; t < j; ++t) *dst++ = static_cast<uint32_t>(t);
+        cursor_[r] += static_cast<uint32_t>(j - i);
+      }
     }
     sorted_rings_ = 0;
     if (azimuth_order_ != "scan") sortRings(pc, rings);

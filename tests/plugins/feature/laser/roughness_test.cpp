@@ -46,7 +46,8 @@ TEST(Roughness, ShuffledRingsAreSortedByAzimuth) {
   std::vector<double> dr(2000);
   std::mt19937 rng(5);
   std::normal_distribution<double> noise(0.0, 0.01);
-  for (std::size_t i = 0; i < dr.size(); ++i) dr[i] = 2.0 * std::sin(2 * M_PI * i / dr.size()) + noise(rng);
+  for (std::size_t i = 0; i < dr.size(); ++i)
+    dr[i] = 2.0 * std::sin(2 * M_PI * i / dr.size()) + noise(rng);
   test::StageHarness ordered;
   addRing(ordered.frame.points, 20, 8.0, 2000, dr);
   addRing(ordered.frame.points, 30, 12.0, 3000, {0.0, 0.3});
@@ -58,7 +59,8 @@ TEST(Roughness, ShuffledRingsAreSortedByAzimuth) {
   std::vector<std::size_t> perm(src.size());
   for (std::size_t i = 0; i < perm.size(); ++i) perm[i] = i;
   std::shuffle(perm.begin(), perm.end(), rng);
-  for (std::size_t i : perm) shuffled.frame.points.push_back(src.x[i], src.y[i], src.z[i], 0, src.ring[i]);
+  for (std::size_t i : perm)
+    shuffled.frame.points.push_back(src.x[i], src.y[i], src.z[i], 0, src.ring[i]);
   shuffled.bin();
   shuffled.make("roughness")->process(shuffled.ctx);
   // Cells away from azimuth 0 and ±180°, where the ordered and the sorted ring start (a ring's
@@ -270,53 +272,58 @@ TEST(Roughness, FourPointGroupsEqualTheDefinitionBitForBit) {
     }
     rings.push_back(pts);
   }
-  test::StageHarness h;
-  // Interleaved in storage, each ring in its own order; a few points without a ring.
-  std::vector<std::size_t> next(rings.size(), 0);
-  for (std::size_t left = 1; left;) {
-    left = 0;
-    for (std::size_t r = 0; r < rings.size(); ++r) {
-      const int take = int(u(rng) * 6);
-      for (int t = 0; t < take && next[r] < rings[r].size(); ++t, ++next[r]) {
-        const auto& p = rings[r][next[r]];
-        h.frame.points.push_back(p[0], p[1], p[2], 0, uint16_t(r));
+  // Interleaved in storage, each ring in its own order, a few points without a ring: runs of
+  // 0-5 points of a ring (the counting sort walks runs), or one point per ring in turn as drivers
+  // deliver firing order (it walks points).
+  for (const bool firing_order : {false, true}) {
+    SCOPED_TRACE(firing_order ? "firing order" : "runs of points");
+    test::StageHarness h;
+    std::vector<std::size_t> next(rings.size(), 0);
+    for (std::size_t left = 1; left;) {
+      left = 0;
+      for (std::size_t r = 0; r < rings.size(); ++r) {
+        const int take = firing_order ? 1 : int(u(rng) * 6);
+        for (int t = 0; t < take && next[r] < rings[r].size(); ++t, ++next[r]) {
+          const auto& p = rings[r][next[r]];
+          h.frame.points.push_back(p[0], p[1], p[2], 0, uint16_t(r));
+        }
+        left += rings[r].size() - next[r];
       }
-      left += rings[r].size() - next[r];
+      if (u(rng) < 0.3) h.frame.points.push_back(1.f, 1.f, -1.f, 0, kUnknownRing);
     }
-    if (u(rng) < 0.3) h.frame.points.push_back(1.f, 1.f, -1.f, 0, kUnknownRing);
-  }
-  h.bin();
-  struct Case {
-    std::string params;
-    int window;
-    double jump, elev;
-    bool vertical;
-    int min_points;
-  };
-  for (const Case& c : std::vector<Case>{
-           {"{}", 2, 0.5, 0.15, false, 1},
-           {"{window: 1}", 1, 0.5, 0.15, false, 1},
-           {"{window: 3, max_elevation_step_deg: 0}", 3, 0.5, 0, false, 1},
-           {"{window: 5, residual: vertical, max_jump_m: 0.3}", 5, 0.3, 0.15, true, 1},
-           {"{window: 7, max_elevation_step_deg: 0.3, min_points: 2}", 7, 0.5, 0.3, false, 2},
-           {"{window: 2, residual: vertical, max_elevation_step_deg: 0}", 2, 0.5, 0, true, 1}}) {
-    SCOPED_TRACE(c.params);
     h.bin();
-    auto p = h.make("roughness", c.params.substr(0, c.params.size() - 1) +
-                                     (c.params == "{}" ? "" : ", ") + "azimuth_order: scan}");
-    p->process(h.ctx);
-    const ReferenceRoughness ref = referenceRoughness(h.frame.points, h.grid, c.window, c.jump,
-                                                      c.elev, c.vertical, c.min_points);
-    const auto& got = h.grid.layer("roughness");
-    int valid = 0, differ = 0;
-    for (std::size_t i = 0; i < got.size(); ++i) {
-      valid += !std::isnan(ref.layer[i]);
-      const bool both_nan = std::isnan(got[i]) && std::isnan(ref.layer[i]);
-      differ += !both_nan && std::memcmp(&got[i], &ref.layer[i], sizeof(float)) != 0;
+    struct Case {
+      std::string params;
+      int window;
+      double jump, elev;
+      bool vertical;
+      int min_points;
+    };
+    for (const Case& c : std::vector<Case>{
+             {"{}", 2, 0.5, 0.15, false, 1},
+             {"{window: 1}", 1, 0.5, 0.15, false, 1},
+             {"{window: 3, max_elevation_step_deg: 0}", 3, 0.5, 0, false, 1},
+             {"{window: 5, residual: vertical, max_jump_m: 0.3}", 5, 0.3, 0.15, true, 1},
+             {"{window: 7, max_elevation_step_deg: 0.3, min_points: 2}", 7, 0.5, 0.3, false, 2},
+             {"{window: 2, residual: vertical, max_elevation_step_deg: 0}", 2, 0.5, 0, true, 1}}) {
+      SCOPED_TRACE(c.params);
+      h.bin();
+      auto p = h.make("roughness", c.params.substr(0, c.params.size() - 1) +
+                                       (c.params == "{}" ? "" : ", ") + "azimuth_order: scan}");
+      p->process(h.ctx);
+      const ReferenceRoughness ref = referenceRoughness(h.frame.points, h.grid, c.window, c.jump,
+                                                        c.elev, c.vertical, c.min_points);
+      const auto& got = h.grid.layer("roughness");
+      int valid = 0, differ = 0;
+      for (std::size_t i = 0; i < got.size(); ++i) {
+        valid += !std::isnan(ref.layer[i]);
+        const bool both_nan = std::isnan(got[i]) && std::isnan(ref.layer[i]);
+        differ += !both_nan && std::memcmp(&got[i], &ref.layer[i], sizeof(float)) != 0;
+      }
+      EXPECT_EQ(differ, 0) << "of " << valid << " valid cells";
+      EXPECT_GT(valid, 30);
+      EXPECT_EQ(h.ctx.metrics.at("roughness.passed_over_per_point"), ref.passed_over_per_point);
     }
-    EXPECT_EQ(differ, 0) << "of " << valid << " valid cells";
-    EXPECT_GT(valid, 30);
-    EXPECT_EQ(h.ctx.metrics.at("roughness.passed_over_per_point"), ref.passed_over_per_point);
   }
 }
 
