@@ -10,6 +10,10 @@
 #include <memory>
 #include <sstream>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "fs_checks.hpp"
 #include "terramrf/errors.hpp"
 
@@ -95,8 +99,9 @@ ScanReadInfo readKittiScan(const std::string& bin_path, PointCloud& cloud, bool 
   for (std::size_t start = 0; start < n; start += kChunk) {
     const std::size_t m = std::min(kChunk, n - start);
     readExactly(f.get(), buf.data(), m * 16, bin_path);
-    const float* b = buf.data();
-    for (std::size_t j = 0; j < m; ++j, b += 4) {
+    const float* const chunk = buf.data();
+    auto keepOrDrop = [&](std::size_t j) {
+      const float* b = chunk + 4 * j;
       const float x = b[0], y = b[1], z = b[2], in = b[3];
       const bool finite =
           std::isfinite(x) && std::isfinite(y) && std::isfinite(z) && std::isfinite(in);
@@ -107,14 +112,43 @@ ScanReadInfo readKittiScan(const std::string& bin_path, PointCloud& cloud, bool 
           ++info.dropped_nonfinite;
         else
           ++info.dropped_no_return;
-        continue;
+        return;
       }
       X[kept] = x;
       Y[kept] = y;
       Z[kept] = z;
       I[kept] = in;
       ++kept;
+    };
+    std::size_t j = 0;
+#if defined(__SSE2__)
+    // Four points (a 4 × 4 block of floats) at a time: when all are finite and none is at the
+    // origin, one transpose turns them into four x, four y, four z and four intensities. Other
+    // blocks go point by point, so what is kept and dropped is unchanged.
+    const __m128 zero = _mm_setzero_ps();
+    for (; j + 4 <= m; j += 4) {
+      const float* b = chunk + 4 * j;
+      __m128 p0 = _mm_loadu_ps(b), p1 = _mm_loadu_ps(b + 4);
+      __m128 p2 = _mm_loadu_ps(b + 8), p3 = _mm_loadu_ps(b + 12);
+      // v - v is 0 for finite v and NaN for ±inf or NaN; summing the four keeps any NaN.
+      const __m128 nan_test = _mm_add_ps(_mm_add_ps(_mm_sub_ps(p0, p0), _mm_sub_ps(p1, p1)),
+                                         _mm_add_ps(_mm_sub_ps(p2, p2), _mm_sub_ps(p3, p3)));
+      const bool all_finite = _mm_movemask_ps(_mm_cmpeq_ps(nan_test, zero)) == 0xF;
+      _MM_TRANSPOSE4_PS(p0, p1, p2, p3);  // now x, y, z, intensity of the four points
+      const int at_origin = _mm_movemask_ps(_mm_and_ps(
+          _mm_and_ps(_mm_cmpeq_ps(p0, zero), _mm_cmpeq_ps(p1, zero)), _mm_cmpeq_ps(p2, zero)));
+      if (!all_finite || (drop_no_return && at_origin)) [[unlikely]] {
+        for (std::size_t k = j; k < j + 4; ++k) keepOrDrop(k);
+        continue;
+      }
+      _mm_storeu_ps(X + kept, p0);
+      _mm_storeu_ps(Y + kept, p1);
+      _mm_storeu_ps(Z + kept, p2);
+      _mm_storeu_ps(I + kept, p3);
+      kept += 4;
     }
+#endif
+    for (; j < m; ++j) keepOrDrop(j);
   }
   cloud.x.resize(kept);
   cloud.y.resize(kept);

@@ -47,6 +47,15 @@ inline __m128 selectPs(__m128 mask, __m128 if_true, __m128 if_false) {
   return _mm_or_ps(_mm_and_ps(mask, if_true), _mm_andnot_ps(mask, if_false));
 }
 
+inline __m128d selectPd(__m128d mask, __m128d if_true, __m128d if_false) {
+  return _mm_or_pd(_mm_and_pd(mask, if_true), _mm_andnot_pd(mask, if_false));
+}
+
+/// p[0], p[1] widened to double.
+inline __m128d loadTwoAsDouble(const float* p) {
+  return _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p))));
+}
+
 /// fastAtan2 on four lanes.
 inline __m128 fastAtan2x4(__m128 y, __m128 x) {
   const __m128 sign = _mm_set1_ps(-0.f), zero = _mm_setzero_ps();
@@ -75,7 +84,9 @@ float medianOf(std::vector<float>& v, std::size_t begin, std::size_t end) {
 }
 
 // Scratch arrays are thread_local and keep their capacity: fresh multi-megabyte allocations per
-// scan cost more in page faults than the whole computation.
+// scan cost more in page faults than the whole computation. Loops reach them through pointers
+// taken once: in a shared library every thread_local access calls __tls_get_addr, which GCC does
+// not hoist out of a loop that calls a function (a fifth of scanOrderRings was that call).
 
 /// Elevation [deg] of every point, seen from (0, 0, z_offset).
 const std::vector<float>& elevationsDeg(const PointCloud& c, double z_offset_m) {
@@ -150,12 +161,13 @@ std::vector<float> ringMedians(const std::vector<Id>& ring, const std::vector<fl
   }
   thread_local std::vector<float> sorted;
   sorted.resize(offs.back());
+  float* const out = sorted.data();  // see 'Scratch arrays' above
   // Every stride-th point of a ring, in index order; skip = its points to pass before the next.
   std::vector<std::size_t> pos(offs.begin(), offs.end() - 1), skip(nrings, 0);
   for (const Run& run : runs) {
     const uint16_t r = run.id;
     std::size_t i = run.begin + skip[r];
-    for (; i < run.end; i += stride[r]) sorted[pos[r]++] = el[i];
+    for (; i < run.end; i += stride[r]) out[pos[r]++] = el[i];
     skip[r] = i - run.end;
   }
   std::vector<float> med(nrings);
@@ -272,14 +284,16 @@ bool refineCut(const std::vector<float>& a, const std::vector<float>& el, std::v
   thread_local std::vector<std::size_t> count;
   gain.assign(kBins, 0.0);
   count.assign(kBins, 0);
+  double* const gain_of = gain.data();  // see 'Scratch arrays' above
+  std::size_t* const count_of = count.data();
   // Runs whose points may move on: there is a next run and both medians are known.
   std::vector<char> movable(nseg, 0);
   for (int k = 0; k + 1 < nseg; ++k)
     movable[k] = std::isfinite(med[k]) && std::isfinite(med[k + 1]);
   auto add = [&](std::size_t i, float delta) {
     const int b = std::min(kBins - 1, bin(a[i]));
-    gain[b] += delta;
-    ++count[b];
+    gain_of[b] += delta;
+    ++count_of[b];
   };
   const std::size_t n = a.size();
   // Run by run (each run is one stretch of the file here), the misfit deltas four at a time.
@@ -338,11 +352,30 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
   thread_local std::vector<int> seg;
   ring_med.clear();
   azimuths(c, az);
+  const float* const az_of = az.data();  // see 'Scratch arrays' above
   // Sweep direction and evidence of ring-major order: most steps are small and one-signed.
   std::size_t fwd = 0, bwd = 0;
   const double small = 5 * kDeg;
-  for (std::size_t i = 1; i < n; ++i) {
-    const double d = wrapPi(double(az[i]) - az[i - 1]);
+  std::size_t i = 1;
+#if defined(__SSE2__)
+  {
+    // Two steps at a time in double, as the scalar code computes them: a step lies within
+    // [-2π, 2π] (plus an ulp of fastAtan2's π), so wrapPi's loops run at most once each.
+    const __m128d pi = _mm_set1_pd(kPi), two_pi = _mm_set1_pd(kTwoPi), zero = _mm_setzero_pd();
+    const __m128d small2 = _mm_set1_pd(small), neg_small2 = _mm_set1_pd(-small);
+    for (; i + 2 <= n; i += 2) {
+      __m128d d = _mm_sub_pd(loadTwoAsDouble(az_of + i), loadTwoAsDouble(az_of + i - 1));
+      d = selectPd(_mm_cmpgt_pd(d, pi), _mm_sub_pd(d, two_pi), d);
+      d = selectPd(_mm_cmple_pd(d, _mm_sub_pd(zero, pi)), _mm_add_pd(d, two_pi), d);
+      const int f = _mm_movemask_pd(_mm_and_pd(_mm_cmpgt_pd(d, zero), _mm_cmplt_pd(d, small2)));
+      const int b = _mm_movemask_pd(_mm_and_pd(_mm_cmplt_pd(d, zero), _mm_cmpgt_pd(d, neg_small2)));
+      fwd += (f & 1) + (f >> 1);
+      bwd += (b & 1) + (b >> 1);
+    }
+  }
+#endif
+  for (; i < n; ++i) {
+    const double d = wrapPi(double(az_of[i]) - az_of[i - 1]);
     if (d > 0 && d < small)
       ++fwd;
     else if (d < 0 && d > -small)
@@ -358,36 +391,68 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
   }
   // Azimuth in the sweep direction from the first point: every ring sweeps one turn from the
   // same cut (KITTI cuts facing forward); refineCut() corrects the guess.
-  const double start = az[0] - dir * 0.01 * kDeg;
+  const double start = az_of[0] - dir * 0.01 * kDeg;
   a.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    double v = dir * (double(az[i]) - start);  // within (-3π, 3π)
+  seg.resize(n);
+  float* const a_of = a.data();
+  int* const seg_of = seg.data();
+  i = 0;
+#if defined(__SSE2__)
+  {
+    // v lies within (-3π, 3π), so each of the scalar loops below runs at most twice.
+    const __m128d two_pi = _mm_set1_pd(kTwoPi), zero = _mm_setzero_pd();
+    const __m128d start2 = _mm_set1_pd(start), dir2 = _mm_set1_pd(dir);
+    for (; i + 2 <= n; i += 2) {
+      __m128d v = _mm_mul_pd(dir2, _mm_sub_pd(loadTwoAsDouble(az_of + i), start2));
+      for (int k = 0; k < 2; ++k) v = selectPd(_mm_cmplt_pd(v, zero), _mm_add_pd(v, two_pi), v);
+      for (int k = 0; k < 2; ++k) v = selectPd(_mm_cmpge_pd(v, two_pi), _mm_sub_pd(v, two_pi), v);
+      _mm_storel_pi(reinterpret_cast<__m64*>(a_of + i), _mm_cvtpd_ps(v));
+    }
+  }
+#endif
+  for (; i < n; ++i) {
+    double v = dir * (double(az_of[i]) - start);  // within (-3π, 3π)
     while (v < 0) v += kTwoPi;
     while (v >= kTwoPi) v -= kTwoPi;
-    a[i] = static_cast<float>(v);
+    a_of[i] = static_cast<float>(v);
   }
   // A ring starts where the azimuth steps back by more than kBack below the recent level of the
   // current run and stays there: a lone point across the cut, or jitter of near points, does not.
   constexpr float kBack = float(10 * kDeg);
   constexpr std::size_t kWindow = 9, kPersist = 2;
-  seg.assign(n, 0);
   int s = 0;
   std::size_t run_start = 0;
   float window[kWindow];
-  for (std::size_t i = 1; i < n; ++i) {
-    if (a[i] < a[i - 1] - kBack) {
+  auto segmentPoint = [&](std::size_t i) {
+    if (a_of[i] < a_of[i - 1] - kBack) {
       const std::size_t from = std::max(run_start, i > kWindow ? i - kWindow : 0);
       const std::size_t m = i - from;
-      std::copy(a.begin() + from, a.begin() + i, window);
+      std::copy(a_of + from, a_of + i, window);
       std::nth_element(window, window + m / 2, window + m);
       const float level = window[m / 2] - kBack;
-      bool persists = a[i] < level;
+      bool persists = a_of[i] < level;
       for (std::size_t j = 1; j < kPersist && i + j < n && persists; ++j)
-        persists = a[i + j] < level;
+        persists = a_of[i + j] < level;
       if (persists) ++s, run_start = i;
     }
-    seg[i] = s;
+    seg_of[i] = s;
+  };
+  seg_of[0] = 0;
+  i = 1;
+#if defined(__SSE2__)
+  // Steps back are rare (one per ring and a few of jitter): four points at a time are tested
+  // for one and, without, all get the current run.
+  const __m128 back4 = _mm_set1_ps(kBack);
+  for (; i + 4 <= n; i += 4) {
+    const __m128 now = _mm_loadu_ps(a_of + i), before = _mm_loadu_ps(a_of + i - 1);
+    if (_mm_movemask_ps(_mm_cmplt_ps(now, _mm_sub_ps(before, back4))) == 0) {
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(seg_of + i), _mm_set1_epi32(s));
+      continue;
+    }
+    for (std::size_t k = i; k < i + 4; ++k) segmentPoint(k);
   }
+#endif
+  for (; i < n; ++i) segmentPoint(i);
   const int nseg = s + 1;
   st.segments = nseg;
   if (nseg > 2 * nrings + 16) {
@@ -582,7 +647,9 @@ RingRecoveryStats recoverRings(PointCloud& cloud, const RingRecoveryOptions& o) 
   st.monotonic_violations = countViolations(st.ring_median_elevation_deg);
   st.rings_found = 0;
   for (float m : st.ring_median_elevation_deg) st.rings_found += std::isfinite(m);
-  st.elevation_consistency = elevationConsistency(ring, el, st.ring_median_elevation_deg);
+  st.elevation_consistency = o.measure_consistency
+                                 ? elevationConsistency(ring, el, st.ring_median_elevation_deg)
+                                 : std::numeric_limits<double>::quiet_NaN();
   cloud.ring = std::move(ring);
   return st;
 }

@@ -115,6 +115,7 @@ class PointCloudFileSource : public Source {
     ring_options_.rings = rings_;
     ring_options_.use_scan_order = ring_method_ == "auto";
     ring_options_.z_offset_m = ring_z_offset_m_;
+    ring_options_.measure_consistency = false;  // the rings are all a reader needs
   }
 
   std::size_t size() const override { return files_.size(); }

@@ -125,6 +125,7 @@ class SemanticKittiSource : public Source {
     ring_options_.rings = rings_;
     ring_options_.use_scan_order = ring_method_ != "elevation";
     ring_options_.z_offset_m = ring_z_offset_m_;
+    ring_options_.measure_consistency = false;  // the rings are all a reader needs
     warned_ring_fallback_ = false;
   }
 

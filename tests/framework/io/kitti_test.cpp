@@ -166,6 +166,56 @@ TEST(KittiScan, NonFiniteAndNoReturnPointsAreDroppedWithTheirLabels) {
   EXPECT_EQ(keep.dropped_no_return, 0u);
 }
 
+// The reader takes four points at a time where all four are valid: bad points anywhere (inside
+// a block of four, at its edges, across the 32768-point read chunks, in any coordinate) must
+// still be dropped exactly as one point at a time would, and the kept ones keep their order.
+TEST(KittiScan, BadPointsAnywhereAreDroppedAsOnePointAtATimeWould) {
+  test::TempDir dir;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  constexpr std::size_t kPoints = 70003;  // two full read chunks and a ragged third
+  std::vector<float> pts(4 * kPoints);
+  uint32_t state = 12345;
+  auto next = [&] { return state = state * 1664525u + 1013904223u; };
+  for (std::size_t i = 0; i < pts.size(); ++i) pts[i] = float(int(next() >> 16) - 32768) / 100.f;
+  const std::vector<std::size_t> bad_at{0,     1,     5,     6,     7,     32767, 32768, 32771,
+                                        40000, 40001, 40002, 40003, 65535, 65536, 70000, 70002};
+  for (std::size_t k = 0; k < bad_at.size(); ++k) {
+    float* p = &pts[4 * bad_at[k]];
+    const std::size_t kind = k % 5;
+    if (kind == 0) p[0] = p[1] = p[2] = 0.f;              // no return
+    if (kind == 1) p[3] = nan;                            // intensity only
+    if (kind == 2) p[1] = -inf;                           // non-finite y
+    if (kind == 3) p[2] = nan;                            // non-finite z
+    if (kind == 4) p[0] = -0.f, p[1] = 0.f, p[2] = -0.f;  // no return, signed zeros
+  }
+  const std::string bin = dir.str() + "/s.bin";
+  test::writeScan(bin, pts);
+  for (const bool drop_no_return : {true, false}) {
+    std::vector<float> x, y, z, in;
+    std::vector<uint32_t> dropped;
+    for (std::size_t i = 0; i < kPoints; ++i) {
+      const float* p = &pts[4 * i];
+      const bool finite =
+          std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]) && std::isfinite(p[3]);
+      const bool origin = p[0] == 0.f && p[1] == 0.f && p[2] == 0.f;
+      if (!finite || (drop_no_return && origin))
+        dropped.push_back(uint32_t(i));
+      else
+        x.push_back(p[0]), y.push_back(p[1]), z.push_back(p[2]), in.push_back(p[3]);
+    }
+    PointCloud c;
+    const ScanReadInfo info = readKittiScan(bin, c, drop_no_return);
+    EXPECT_EQ(info.dropped, dropped) << "drop_no_return " << drop_no_return;
+    EXPECT_EQ(info.dropped_nonfinite, 9u);
+    EXPECT_EQ(info.dropped_no_return, drop_no_return ? 7u : 0u);
+    EXPECT_EQ(c.x, x);
+    EXPECT_EQ(c.y, y);
+    EXPECT_EQ(c.z, z);
+    EXPECT_EQ(c.intensity, in);
+  }
+}
+
 TEST(KittiScan, LabelCountMismatchNamesBothFilesAndCounts) {
   test::TempDir dir;
   const std::string bin = dir.str() + "/s.bin", lab = dir.str() + "/s.label";

@@ -120,6 +120,19 @@ TEST(RingRecovery, ElevationConsistencyMatchesNearestMedian) {
   ASSERT_EQ(ss.method, RingMethod::kElevation);
   EXPECT_NEAR(ss.elevation_consistency, reference(sh, ss), 0.002);
   EXPECT_GT(ss.elevation_consistency, 0.9);  // binning puts every point at its nearest centre
+
+  // Readers skip the measurement; the rings and the other statistics stay as they are.
+  RingRecoveryOptions quick;
+  quick.measure_consistency = false;
+  for (const auto& [cloud, with] : {std::pair(c, st), std::pair(sh, ss)}) {
+    PointCloud again = cloud;
+    const RingRecoveryStats without = recoverRings(again, quick);
+    EXPECT_TRUE(std::isnan(without.elevation_consistency));
+    EXPECT_EQ(again.ring, cloud.ring);
+    EXPECT_EQ(without.method, with.method);
+    EXPECT_EQ(without.segments, with.segments);
+    EXPECT_EQ(without.monotonic_violations, with.monotonic_violations);
+  }
 }
 
 TEST(RingRecovery, EveryKittiScanOfTheDataIsRingOrdered) {

@@ -33,6 +33,9 @@ struct RingRecoveryOptions {
   std::vector<double> elevations_deg;
   /// Clouds with fewer points per ring than this get no rings (method kNone).
   int min_points_per_ring = 8;
+  /// Compute RingRecoveryStats::elevation_consistency, a diagnostic pass over every point (about
+  /// a tenth of the recovery on an HDL-64E scan); readers, which only need the rings, skip it.
+  bool measure_consistency = true;
 };
 
 struct RingRecoveryStats {
@@ -45,7 +48,8 @@ struct RingRecoveryStats {
   int rings_found = 0;           ///< distinct ring ids assigned
   int missing_rings = 0;         ///< rings without any point, inferred from elevation gaps
   int monotonic_violations = 0;  ///< adjacent rings whose median elevation does not fall
-  /// Points whose elevation is closer to their own ring's median than to any other ring's.
+  /// Points whose elevation is closer to their own ring's median than to any other ring's; NaN
+  /// unless RingRecoveryOptions::measure_consistency.
   double elevation_consistency = 0;
   std::vector<float> ring_median_elevation_deg;  ///< per ring id; NaN if the ring has no point
   std::string fallback_reason;                   ///< why scan order was not used ("" if it was)
