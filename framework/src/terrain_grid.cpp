@@ -44,35 +44,75 @@ std::vector<std::string> TerrainGrid::layerNames() const {
 void TerrainGrid::binPoints(const PointCloud& cloud) {
   // Counting sort into CSR: one pass for cell ids and counts, one prefix sum, one scatter. No
   // per-cell allocations, so the cost is linear in points plus cells.
+  //
+  // Consecutive points often share a cell, so a single counter (or cursor) per cell makes every
+  // point wait for the previous one's increment to come back from memory. The cloud is therefore
+  // cut into kBlocks consecutive blocks walked side by side, each with its own counters and
+  // cursors: four independent chains. Block b's points of a cell are placed after those of
+  // blocks < b, so every cell still lists its points in increasing index order.
+  constexpr std::size_t kBlocks = 4;
   const std::size_t n = cloud.size();
   const int cols = cols_, rows = rows_;
+  const std::size_t ncells = cells();
   const Eigen::Vector2d o = geom_.origin();
   const float ox = static_cast<float>(o.x()), oy = static_cast<float>(o.y());
   const float inv = static_cast<float>(1.0 / geom_.cell_m);
   cell_of_point_.resize(n);
-  offsets_.assign(cells() + 1, 0);
   const float* px = cloud.x.data();
   const float* py = cloud.y.data();
   int32_t* cop = cell_of_point_.data();
-  uint32_t* cnt = offsets_.data() + 1;
-  for (std::size_t i = 0; i < n; ++i) {
+  auto cellOf = [&](std::size_t i) {
     const float fr = (px[i] - ox) * inv, fc = (py[i] - oy) * inv;
     int32_t cell = -1;
     if (fr >= 0.f && fc >= 0.f) {
       const int r = static_cast<int>(fr), c = static_cast<int>(fc);
       if (r < rows && c < cols) cell = r * cols + c;
     }
-    cop[i] = cell;
-    if (cell >= 0) ++cnt[cell];
+    return cell;
+  };
+  // Block b holds points [b·len, (b+1)·len); the last block also takes the n mod kBlocks rest.
+  const std::size_t len = n / kBlocks;
+  thread_local std::vector<uint32_t> block_counts;  // [block][cell], later the blocks' cursors
+  block_counts.assign(kBlocks * ncells, 0);
+  uint32_t* cnt[kBlocks];
+  for (std::size_t b = 0; b < kBlocks; ++b) cnt[b] = block_counts.data() + b * ncells;
+  for (std::size_t t = 0; t < len; ++t) {
+    for (std::size_t b = 0; b < kBlocks; ++b) {
+      const std::size_t i = b * len + t;
+      const int32_t cell = cellOf(i);
+      cop[i] = cell;
+      if (cell >= 0) ++cnt[b][cell];
+    }
   }
-  for (std::size_t c = 1; c <= cells(); ++c) offsets_[c] += offsets_[c - 1];
-  indices_.resize(offsets_[cells()]);
-  // Scatter with a moving cursor per cell; reuse a scratch copy of the offsets.
-  thread_local std::vector<uint32_t> cursor;
-  cursor.assign(offsets_.begin(), offsets_.end() - 1);
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = kBlocks * len; i < n; ++i) {
+    const int32_t cell = cellOf(i);
+    cop[i] = cell;
+    if (cell >= 0) ++cnt[kBlocks - 1][cell];
+  }
+  // Offsets, and each block's cursor: the cell's offset plus the earlier blocks' counts.
+  offsets_.resize(ncells + 1);
+  uint32_t at = 0;
+  for (std::size_t c = 0; c < ncells; ++c) {
+    offsets_[c] = at;
+    for (std::size_t b = 0; b < kBlocks; ++b) {
+      const uint32_t k = cnt[b][c];
+      cnt[b][c] = at;
+      at += k;
+    }
+  }
+  offsets_[ncells] = at;
+  indices_.resize(at);
+  uint32_t* out = indices_.data();
+  for (std::size_t t = 0; t < len; ++t) {
+    for (std::size_t b = 0; b < kBlocks; ++b) {
+      const std::size_t i = b * len + t;
+      const int32_t c = cop[i];
+      if (c >= 0) out[cnt[b][c]++] = static_cast<uint32_t>(i);
+    }
+  }
+  for (std::size_t i = kBlocks * len; i < n; ++i) {
     const int32_t c = cop[i];
-    if (c >= 0) indices_[cursor[c]++] = static_cast<uint32_t>(i);
+    if (c >= 0) out[cnt[kBlocks - 1][c]++] = static_cast<uint32_t>(i);
   }
 }
 

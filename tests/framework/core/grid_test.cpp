@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
+#include <vector>
 
 #include "terramrf/terrain_grid.hpp"
 
@@ -48,6 +50,38 @@ TEST(TerrainGrid, BinPointsBuildsCsr) {
   EXPECT_EQ(grid.cellOfPoint()[1], -1);
   EXPECT_EQ(grid.cellOfPoint()[4], -1);
   EXPECT_EQ(grid.cellOfPoint()[2], 820);
+}
+
+// binPoints walks the cloud in four blocks side by side; whatever the cloud's size (not a
+// multiple of four, fewer than four points) every cell must list its points in increasing index
+// order, as one pass in index order would. Clustered points make long runs in one cell, as a
+// LiDAR scan does.
+TEST(TerrainGrid, EveryCellListsItsPointsInIndexOrder) {
+  GridGeometry g;
+  g.size_m = 10;
+  g.cell_m = 1;
+  std::mt19937 rng(7);
+  std::normal_distribution<float> near(0.f, 2.f), far(0.f, 9.f);
+  for (const std::size_t n : {0u, 1u, 3u, 4u, 5u, 1001u, 40003u}) {
+    PointCloud pc;
+    for (std::size_t i = 0; i < n; ++i) {
+      const bool wide = (i / 50) % 3 == 0;
+      pc.push_back(wide ? far(rng) : near(rng), wide ? far(rng) : near(rng), 0, 0);
+    }
+    TerrainGrid grid(g);
+    grid.binPoints(pc);
+    std::vector<std::vector<uint32_t>> expected(g.cells());
+    std::size_t inside = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const int c = g.cellOf(pc.x[i], pc.y[i]);
+      ASSERT_EQ(grid.cellOfPoint()[i], c) << "n " << n << " point " << i;
+      if (c >= 0) expected[c].push_back(static_cast<uint32_t>(i)), ++inside;
+    }
+    EXPECT_EQ(grid.pointsInside(), inside);
+    for (int c = 0; c < static_cast<int>(g.cells()); ++c)
+      ASSERT_EQ(std::vector<uint32_t>(grid.pointsBegin(c), grid.pointsEnd(c)), expected[c])
+          << "n " << n << " cell " << c;
+  }
 }
 
 TEST(TerrainGrid, LayersAreNaNByDefaultAndNamed) {
