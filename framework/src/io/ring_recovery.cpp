@@ -341,6 +341,99 @@ bool refineCut(const std::vector<float>& a, const std::vector<float>& el, std::v
   return true;
 }
 
+/// Consecutive azimuth steps (wrapped to (-π, π]) that are small forward (fwd) or small
+/// backward (bwd): below 5°.
+void countSmallSteps(const float* az, std::size_t n, std::size_t& fwd, std::size_t& bwd) {
+  const double small = 5 * kDeg;
+  std::size_t i = 1;
+#if defined(__SSE2__)
+  // Two steps at a time in double, as the scalar code computes them: a step lies within
+  // [-2π, 2π] (plus an ulp of fastAtan2's π), so wrapPi's loops run at most once each.
+  const __m128d pi = _mm_set1_pd(kPi), two_pi = _mm_set1_pd(kTwoPi), zero = _mm_setzero_pd();
+  const __m128d small2 = _mm_set1_pd(small), neg_small2 = _mm_set1_pd(-small);
+  for (; i + 2 <= n; i += 2) {
+    __m128d d = _mm_sub_pd(loadTwoAsDouble(az + i), loadTwoAsDouble(az + i - 1));
+    d = selectPd(_mm_cmpgt_pd(d, pi), _mm_sub_pd(d, two_pi), d);
+    d = selectPd(_mm_cmple_pd(d, _mm_sub_pd(zero, pi)), _mm_add_pd(d, two_pi), d);
+    const int f = _mm_movemask_pd(_mm_and_pd(_mm_cmpgt_pd(d, zero), _mm_cmplt_pd(d, small2)));
+    const int b = _mm_movemask_pd(_mm_and_pd(_mm_cmplt_pd(d, zero), _mm_cmpgt_pd(d, neg_small2)));
+    fwd += (f & 1) + (f >> 1);
+    bwd += (b & 1) + (b >> 1);
+  }
+#endif
+  for (; i < n; ++i) {
+    const double d = wrapPi(double(az[i]) - az[i - 1]);
+    if (d > 0 && d < small)
+      ++fwd;
+    else if (d < 0 && d > -small)
+      ++bwd;
+  }
+}
+
+/// a[i] = azimuth [rad] in the sweep direction `dir` (±1) from `start`, in [0, 2π).
+void unwrapAzimuths(const float* az, std::size_t n, double start, int dir, float* a) {
+  std::size_t i = 0;
+#if defined(__SSE2__)
+  // v lies within (-3π, 3π), so each of the scalar loops below runs at most twice.
+  const __m128d two_pi = _mm_set1_pd(kTwoPi), zero = _mm_setzero_pd();
+  const __m128d start2 = _mm_set1_pd(start), dir2 = _mm_set1_pd(dir);
+  for (; i + 2 <= n; i += 2) {
+    __m128d v = _mm_mul_pd(dir2, _mm_sub_pd(loadTwoAsDouble(az + i), start2));
+    for (int k = 0; k < 2; ++k) v = selectPd(_mm_cmplt_pd(v, zero), _mm_add_pd(v, two_pi), v);
+    for (int k = 0; k < 2; ++k) v = selectPd(_mm_cmpge_pd(v, two_pi), _mm_sub_pd(v, two_pi), v);
+    _mm_storel_pi(reinterpret_cast<__m64*>(a + i), _mm_cvtpd_ps(v));
+  }
+#endif
+  for (; i < n; ++i) {
+    double v = dir * (double(az[i]) - start);  // within (-3π, 3π)
+    while (v < 0) v += kTwoPi;
+    while (v >= kTwoPi) v -= kTwoPi;
+    a[i] = static_cast<float>(v);
+  }
+}
+
+/// Cuts the unwrapped azimuths a[0, n) into runs (seg[i] = run of point i) and returns how many.
+/// A ring starts where the azimuth steps back by more than kBack below the recent level of the
+/// current run and stays there: a lone point across the cut, or jitter of near points, does not.
+int findRuns(const float* a, std::size_t n, int* seg) {
+  constexpr float kBack = float(10 * kDeg);
+  constexpr std::size_t kWindow = 9, kPersist = 2;
+  int s = 0;
+  std::size_t run_start = 0;
+  float window[kWindow];
+  auto segmentPoint = [&](std::size_t i) {
+    if (a[i] < a[i - 1] - kBack) {
+      const std::size_t from = std::max(run_start, i > kWindow ? i - kWindow : 0);
+      const std::size_t m = i - from;
+      std::copy(a + from, a + i, window);
+      std::nth_element(window, window + m / 2, window + m);
+      const float level = window[m / 2] - kBack;
+      bool persists = a[i] < level;
+      for (std::size_t j = 1; j < kPersist && i + j < n && persists; ++j)
+        persists = a[i + j] < level;
+      if (persists) ++s, run_start = i;
+    }
+    seg[i] = s;
+  };
+  if (n > 0) seg[0] = 0;
+  std::size_t i = 1;
+#if defined(__SSE2__)
+  // Steps back are rare (one per ring and a few of jitter): four points at a time are tested
+  // for one and, without, all get the current run.
+  const __m128 back4 = _mm_set1_ps(kBack);
+  for (; i + 4 <= n; i += 4) {
+    const __m128 now = _mm_loadu_ps(a + i), before = _mm_loadu_ps(a + i - 1);
+    if (_mm_movemask_ps(_mm_cmplt_ps(now, _mm_sub_ps(before, back4))) == 0) {
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(seg + i), _mm_set1_epi32(s));
+      continue;
+    }
+    for (std::size_t k = i; k < i + 4; ++k) segmentPoint(k);
+  }
+#endif
+  for (; i < n; ++i) segmentPoint(i);
+  return s + 1;
+}
+
 /// Scan-order segmentation. Returns false (with a reason) when the order carries no rings.
 /// ring_med gets each ring's median elevation (as ringMedians(ring, el, nrings) would) when every
 /// ring is one run, whose median is already known; otherwise it is left empty.
@@ -355,32 +448,7 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
   const float* const az_of = az.data();  // see 'Scratch arrays' above
   // Sweep direction and evidence of ring-major order: most steps are small and one-signed.
   std::size_t fwd = 0, bwd = 0;
-  const double small = 5 * kDeg;
-  std::size_t i = 1;
-#if defined(__SSE2__)
-  {
-    // Two steps at a time in double, as the scalar code computes them: a step lies within
-    // [-2π, 2π] (plus an ulp of fastAtan2's π), so wrapPi's loops run at most once each.
-    const __m128d pi = _mm_set1_pd(kPi), two_pi = _mm_set1_pd(kTwoPi), zero = _mm_setzero_pd();
-    const __m128d small2 = _mm_set1_pd(small), neg_small2 = _mm_set1_pd(-small);
-    for (; i + 2 <= n; i += 2) {
-      __m128d d = _mm_sub_pd(loadTwoAsDouble(az_of + i), loadTwoAsDouble(az_of + i - 1));
-      d = selectPd(_mm_cmpgt_pd(d, pi), _mm_sub_pd(d, two_pi), d);
-      d = selectPd(_mm_cmple_pd(d, _mm_sub_pd(zero, pi)), _mm_add_pd(d, two_pi), d);
-      const int f = _mm_movemask_pd(_mm_and_pd(_mm_cmpgt_pd(d, zero), _mm_cmplt_pd(d, small2)));
-      const int b = _mm_movemask_pd(_mm_and_pd(_mm_cmplt_pd(d, zero), _mm_cmpgt_pd(d, neg_small2)));
-      fwd += (f & 1) + (f >> 1);
-      bwd += (b & 1) + (b >> 1);
-    }
-  }
-#endif
-  for (; i < n; ++i) {
-    const double d = wrapPi(double(az_of[i]) - az_of[i - 1]);
-    if (d > 0 && d < small)
-      ++fwd;
-    else if (d < 0 && d > -small)
-      ++bwd;
-  }
+  countSmallSteps(az_of, n, fwd, bwd);
   const int dir = fwd >= bwd ? 1 : -1;
   st.ordered_fraction = double(std::max(fwd, bwd)) / double(n - 1);
   if (st.ordered_fraction < 0.5) {
@@ -394,66 +462,8 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
   const double start = az_of[0] - dir * 0.01 * kDeg;
   a.resize(n);
   seg.resize(n);
-  float* const a_of = a.data();
-  int* const seg_of = seg.data();
-  i = 0;
-#if defined(__SSE2__)
-  {
-    // v lies within (-3π, 3π), so each of the scalar loops below runs at most twice.
-    const __m128d two_pi = _mm_set1_pd(kTwoPi), zero = _mm_setzero_pd();
-    const __m128d start2 = _mm_set1_pd(start), dir2 = _mm_set1_pd(dir);
-    for (; i + 2 <= n; i += 2) {
-      __m128d v = _mm_mul_pd(dir2, _mm_sub_pd(loadTwoAsDouble(az_of + i), start2));
-      for (int k = 0; k < 2; ++k) v = selectPd(_mm_cmplt_pd(v, zero), _mm_add_pd(v, two_pi), v);
-      for (int k = 0; k < 2; ++k) v = selectPd(_mm_cmpge_pd(v, two_pi), _mm_sub_pd(v, two_pi), v);
-      _mm_storel_pi(reinterpret_cast<__m64*>(a_of + i), _mm_cvtpd_ps(v));
-    }
-  }
-#endif
-  for (; i < n; ++i) {
-    double v = dir * (double(az_of[i]) - start);  // within (-3π, 3π)
-    while (v < 0) v += kTwoPi;
-    while (v >= kTwoPi) v -= kTwoPi;
-    a_of[i] = static_cast<float>(v);
-  }
-  // A ring starts where the azimuth steps back by more than kBack below the recent level of the
-  // current run and stays there: a lone point across the cut, or jitter of near points, does not.
-  constexpr float kBack = float(10 * kDeg);
-  constexpr std::size_t kWindow = 9, kPersist = 2;
-  int s = 0;
-  std::size_t run_start = 0;
-  float window[kWindow];
-  auto segmentPoint = [&](std::size_t i) {
-    if (a_of[i] < a_of[i - 1] - kBack) {
-      const std::size_t from = std::max(run_start, i > kWindow ? i - kWindow : 0);
-      const std::size_t m = i - from;
-      std::copy(a_of + from, a_of + i, window);
-      std::nth_element(window, window + m / 2, window + m);
-      const float level = window[m / 2] - kBack;
-      bool persists = a_of[i] < level;
-      for (std::size_t j = 1; j < kPersist && i + j < n && persists; ++j)
-        persists = a_of[i + j] < level;
-      if (persists) ++s, run_start = i;
-    }
-    seg_of[i] = s;
-  };
-  seg_of[0] = 0;
-  i = 1;
-#if defined(__SSE2__)
-  // Steps back are rare (one per ring and a few of jitter): four points at a time are tested
-  // for one and, without, all get the current run.
-  const __m128 back4 = _mm_set1_ps(kBack);
-  for (; i + 4 <= n; i += 4) {
-    const __m128 now = _mm_loadu_ps(a_of + i), before = _mm_loadu_ps(a_of + i - 1);
-    if (_mm_movemask_ps(_mm_cmplt_ps(now, _mm_sub_ps(before, back4))) == 0) {
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(seg_of + i), _mm_set1_epi32(s));
-      continue;
-    }
-    for (std::size_t k = i; k < i + 4; ++k) segmentPoint(k);
-  }
-#endif
-  for (; i < n; ++i) segmentPoint(i);
-  const int nseg = s + 1;
+  unwrapAzimuths(az_of, n, start, dir, a.data());
+  const int nseg = findRuns(a.data(), n, seg.data());
   st.segments = nseg;
   if (nseg > 2 * nrings + 16) {
     st.fallback_reason = "scan order gives " + std::to_string(nseg) + " azimuth runs for " +
