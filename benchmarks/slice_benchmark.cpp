@@ -12,6 +12,9 @@
 //   BM_ReadScan: the semantickitti reader alone (.bin read + ring recovery), as the CLI runs it
 //   BM_FileToLabels_LG_Icm: BM_ReadScan + BM_LG_Icm, file to labelled grid (what a ground
 //       segmenter that reads the same file is held against, docs/benchmarks.md)
+//   BM_FileToLabels_LG_Icm_RingsGiven: the same from a copy of the scan whose rings come with it
+//       (rings/000000.bin, as the simulator writes them and a driver's ring field delivers them):
+//       the reader skips ring recovery
 // Data: SemanticKITTI sequence 00 frame 000000 (HDL-64E, 124668 points; rings recovered by the
 // reader), 40 m grid, 0.5 m cells (80 × 80), one thread.
 #include <benchmark/benchmark.h>
@@ -21,8 +24,12 @@
 #endif
 
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <memory>
+#include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -43,6 +50,8 @@ struct SliceFixture {
   PluginContext ctx;
   std::map<std::string, Chain> chains;
   std::unique_ptr<Plugin> source;
+  std::unique_ptr<Plugin> source_with_rings;  // a copy of the scan with its rings (see above)
+  std::filesystem::path rings_dir;
 
   SliceFixture() {
     const char* env = std::getenv("TERRAMRF_DATA_DIR");
@@ -53,6 +62,7 @@ struct SliceFixture {
     source = make("semantickitti",
                   "{path: " + data + "/semantickitti_seq00_000000-000005, use_labels: false}");
     frame = static_cast<Source&>(*source).read(0);
+    makeSourceWithRings();
     const std::string l_energy =
         "{model: models/laser_semantickitti.yaml, features: [height_diff, roughness], "
         "preclass_layer: preclass}";
@@ -87,6 +97,29 @@ struct SliceFixture {
     // The block moves' share of α-expansion on a real scan.
     chains["LG_alpha_expansion_no_block_moves"] = lg("alpha_expansion", "{block_moves: false}");
   }
+  ~SliceFixture() {
+    std::error_code ec;
+    if (!rings_dir.empty()) std::filesystem::remove_all(rings_dir, ec);
+  }
+  /// A sequence folder in the temp directory holding a copy of frame 0 and the rings the reader
+  /// recovered for it. The scan has no invalid points, so the rings are one per raw point.
+  void makeSourceWithRings() {
+    namespace fs = std::filesystem;
+    if (frame.dropped_invalid_points != 0 || !frame.points.hasRing())
+      throw std::runtime_error("slice benchmark: frame 0 has dropped points or no rings");
+    rings_dir = fs::temp_directory_path() /
+                ("terramrf_bench_rings_" + std::to_string(std::random_device{}()));
+    fs::create_directories(rings_dir / "velodyne");
+    fs::create_directories(rings_dir / "rings");
+    fs::copy_file(frame.source_path, rings_dir / "velodyne" / "000000.bin");
+    std::ofstream out(rings_dir / "rings" / "000000.bin", std::ios::binary);
+    out.write(reinterpret_cast<const char*>(frame.points.ring.data()),
+              static_cast<std::streamsize>(frame.points.ring.size() * sizeof(uint16_t)));
+    if (!out) throw std::runtime_error("slice benchmark: cannot write " + rings_dir.string());
+    out.close();
+    source_with_rings =
+        make("semantickitti", "{path: " + rings_dir.string() + ", use_labels: false}");
+  }
   std::unique_ptr<Plugin> make(const std::string& type, const std::string& params) {
     auto p = reg.create(type);
     setParams(*p, params, ctx);
@@ -109,8 +142,10 @@ SliceFixture& fixture() {
   return f;
 }
 
+/// Runs the first n_stages of chain `name` on frame 0; with `from` set, each run reads the frame
+/// from that source first.
 void runChain(benchmark::State& state, const std::string& name, std::size_t n_stages = 100,
-              bool read = false) {
+              Plugin* from = nullptr) {
   SliceFixture& f = fixture();
   const Chain& c = f.chains.at(name);
   FrameContext fc;
@@ -118,7 +153,7 @@ void runChain(benchmark::State& state, const std::string& name, std::size_t n_st
   fc.grid = &f.grid;
   fc.labels = &f.labels;
   for (auto _ : state) {
-    if (read) f.frame = static_cast<Source&>(*f.source).read(0);
+    if (from) f.frame = static_cast<Source&>(*from).read(0);
     f.run(fc, c, n_stages);
     benchmark::DoNotOptimize(f.grid.labels().data());
   }
@@ -133,7 +168,15 @@ void BM_L_Icm(benchmark::State& s) { runChain(s, "L_icm"); }
 void BM_L_AlphaExpansion(benchmark::State& s) { runChain(s, "L_alpha_expansion"); }
 void BM_LG_Icm(benchmark::State& s) { runChain(s, "LG_icm"); }
 void BM_LG_AlphaExpansion(benchmark::State& s) { runChain(s, "LG_alpha_expansion"); }
-void BM_FileToLabels_LG_Icm(benchmark::State& s) { runChain(s, "LG_icm", 100, true); }
+void BM_FileToLabels_LG_Icm(benchmark::State& s) {
+  runChain(s, "LG_icm", 100, fixture().source.get());
+}
+void BM_FileToLabels_LG_Icm_RingsGiven(benchmark::State& s) {
+  SliceFixture& f = fixture();
+  runChain(s, "LG_icm", 100, f.source_with_rings.get());
+  // Restore frame 0 as read with recovered rings, for the benchmarks that run after this one.
+  f.frame = static_cast<Source&>(*f.source).read(0);
+}
 void BM_ReadScan(benchmark::State& state) {
   SliceFixture& f = fixture();
   for (auto _ : state) {
@@ -158,6 +201,7 @@ TERRAMRF_BENCH(BM_LG_AlphaExpansion);
 TERRAMRF_BENCH(BM_LG_AlphaExpansionNoBlockMoves);
 TERRAMRF_BENCH(BM_ReadScan);
 TERRAMRF_BENCH(BM_FileToLabels_LG_Icm);
+TERRAMRF_BENCH(BM_FileToLabels_LG_Icm_RingsGiven);
 
 }  // namespace
 }  // namespace terramrf
