@@ -310,13 +310,35 @@ bool refineCut(const std::vector<float>& a, const std::vector<float>& el, std::v
     // minps(x, cap) and std::min(cap, x) both give cap unless x < cap (NaN included).
     const __m128 now4 = _mm_set1_ps(m_now), moved4 = _mm_set1_ps(m_moved);
     const __m128 cap = _mm_set1_ps(kCap), abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+    // bin() two lanes at a time in double, with the same products and tests; a lane whose
+    // fraction is within 1e-6 of an integer takes bin() itself.
+    const __m128d bins_per_rad = _mm_set1_pd(kBins / kTwoPi);
+    const __m128d frac_lo = _mm_set1_pd(1e-6), frac_hi = _mm_set1_pd(1 - 1e-6);
+    auto binsOf = [&](__m128d q, int* out) {
+      const __m128i b = _mm_cvttpd_epi32(q);
+      const __m128d frac = _mm_sub_pd(q, _mm_cvtepi32_pd(b));
+      const int exact =
+          _mm_movemask_pd(_mm_and_pd(_mm_cmpgt_pd(frac, frac_lo), _mm_cmplt_pd(frac, frac_hi)));
+      out[0] = _mm_cvtsi128_si32(b);
+      out[1] = _mm_cvtsi128_si32(_mm_shuffle_epi32(b, 1));
+      return exact;
+    };
     for (; i + 4 <= end; i += 4) {
       const __m128 e = _mm_loadu_ps(&el[i]);
       const __m128 now = _mm_min_ps(_mm_and_ps(_mm_sub_ps(e, now4), abs_mask), cap);
       const __m128 moved = _mm_min_ps(_mm_and_ps(_mm_sub_ps(e, moved4), abs_mask), cap);
       float delta[4];
       _mm_storeu_ps(delta, _mm_sub_ps(moved, now));
-      for (int k = 0; k < 4; ++k) add(i + k, delta[k]);
+      const __m128 av = _mm_loadu_ps(&a[i]);
+      int b[4];
+      const int exact = binsOf(_mm_mul_pd(_mm_cvtps_pd(av), bins_per_rad), b) |
+                        binsOf(_mm_mul_pd(_mm_cvtps_pd(_mm_movehl_ps(av, av)), bins_per_rad), b + 2)
+                            << 2;
+      for (int k = 0; k < 4; ++k) {
+        const int bk = std::min(kBins - 1, exact >> k & 1 ? b[k] : bin(a[i + k]));
+        gain_of[bk] += delta[k];
+        ++count_of[bk];
+      }
     }
 #endif
     for (; i < end; ++i) {
