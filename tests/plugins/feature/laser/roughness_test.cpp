@@ -274,12 +274,17 @@ TEST(Roughness, FourPointGroupsEqualTheDefinitionBitForBit) {
   }
   // Interleaved in storage, each ring in its own order, a few points without a ring: runs of
   // 0-5 points of a ring (the counting sort walks runs), or one point per ring in turn as drivers
-  // deliver firing order (it walks points).
-  for (const bool firing_order : {false, true}) {
-    SCOPED_TRACE(firing_order ? "firing order" : "runs of points");
+  // deliver firing order (it walks points). Or ring after ring with every point on a ring, as
+  // KITTI stores them (the points are read where they lie).
+  for (const char* layout : {"runs of points", "firing order", "ring after ring"}) {
+    SCOPED_TRACE(layout);
+    const bool firing_order = std::string(layout) == "firing order";
     test::StageHarness h;
     std::vector<std::size_t> next(rings.size(), 0);
-    for (std::size_t left = 1; left;) {
+    if (std::string(layout) == "ring after ring")
+      for (std::size_t r = 0; r < rings.size(); ++r)
+        for (const auto& p : rings[r]) h.frame.points.push_back(p[0], p[1], p[2], 0, uint16_t(r));
+    for (std::size_t left = h.frame.points.empty(); left;) {
       left = 0;
       for (std::size_t r = 0; r < rings.size(); ++r) {
         const int take = firing_order ? 1 : int(u(rng) * 6);
