@@ -1,6 +1,8 @@
 #include "terramrf/terrain_grid.hpp"
 
+#include <cstdint>
 #include <stdexcept>
+#include <vector>
 
 namespace terramrf {
 
@@ -41,35 +43,17 @@ std::vector<std::string> TerrainGrid::layerNames() const {
   return n;
 }
 
-void TerrainGrid::binPoints(const PointCloud& cloud) {
-  // Counting sort into CSR: one pass for cell ids and counts, one prefix sum, one scatter. No
-  // per-cell allocations, so the cost is linear in points plus cells.
-  //
-  // Consecutive points often share a cell, so a single counter (or cursor) per cell makes every
-  // point wait for the previous one's increment to come back from memory. The cloud is therefore
-  // cut into kBlocks consecutive blocks walked side by side, each with its own counters and
-  // cursors: four independent chains. Block b's points of a cell are placed after those of
-  // blocks < b, so every cell still lists its points in increasing index order.
-  constexpr std::size_t kBlocks = 4;
-  const std::size_t n = cloud.size();
-  const int cols = cols_, rows = rows_;
-  const std::size_t ncells = cells();
-  const Eigen::Vector2d o = geom_.origin();
-  const float ox = static_cast<float>(o.x()), oy = static_cast<float>(o.y());
-  const float inv = static_cast<float>(1.0 / geom_.cell_m);
-  cell_of_point_.resize(n);
-  const float* px = cloud.x.data();
-  const float* py = cloud.y.data();
-  int32_t* cop = cell_of_point_.data();
-  auto cellOf = [&](std::size_t i) {
-    const float fr = (px[i] - ox) * inv, fc = (py[i] - oy) * inv;
-    int32_t cell = -1;
-    if (fr >= 0.f && fc >= 0.f) {
-      const int r = static_cast<int>(fr), c = static_cast<int>(fc);
-      if (r < rows && c < cols) cell = r * cols + c;
-    }
-    return cell;
-  };
+namespace {
+
+/// The counting sort of TerrainGrid::binPoints with the cloud cut into kBlocks consecutive blocks
+/// walked side by side, each with its own counters and cursors. Consecutive points often share a
+/// cell, so a single counter (or cursor) per cell makes every point wait for the previous one's
+/// increment to come back from memory; kBlocks blocks make kBlocks independent chains. Block b's
+/// points of a cell are placed after those of blocks < b, so every cell still lists its points in
+/// increasing index order. cell_of(i) gives point i's cell or −1.
+template <std::size_t kBlocks, class CellOf>
+void countingSort(std::size_t n, std::size_t ncells, CellOf cell_of, int32_t* cop,
+                  std::vector<uint32_t>& offsets, std::vector<uint32_t>& indices) {
   // Block b holds points [b·len, (b+1)·len); the last block also takes the n mod kBlocks rest.
   const std::size_t len = n / kBlocks;
   thread_local std::vector<uint32_t> block_counts;  // [block][cell], later the blocks' cursors
@@ -79,30 +63,30 @@ void TerrainGrid::binPoints(const PointCloud& cloud) {
   for (std::size_t t = 0; t < len; ++t) {
     for (std::size_t b = 0; b < kBlocks; ++b) {
       const std::size_t i = b * len + t;
-      const int32_t cell = cellOf(i);
+      const int32_t cell = cell_of(i);
       cop[i] = cell;
       if (cell >= 0) ++cnt[b][cell];
     }
   }
   for (std::size_t i = kBlocks * len; i < n; ++i) {
-    const int32_t cell = cellOf(i);
+    const int32_t cell = cell_of(i);
     cop[i] = cell;
     if (cell >= 0) ++cnt[kBlocks - 1][cell];
   }
   // Offsets, and each block's cursor: the cell's offset plus the earlier blocks' counts.
-  offsets_.resize(ncells + 1);
+  offsets.resize(ncells + 1);
   uint32_t at = 0;
   for (std::size_t c = 0; c < ncells; ++c) {
-    offsets_[c] = at;
+    offsets[c] = at;
     for (std::size_t b = 0; b < kBlocks; ++b) {
       const uint32_t k = cnt[b][c];
       cnt[b][c] = at;
       at += k;
     }
   }
-  offsets_[ncells] = at;
-  indices_.resize(at);
-  uint32_t* out = indices_.data();
+  offsets[ncells] = at;
+  indices.resize(at);
+  uint32_t* out = indices.data();
   for (std::size_t t = 0; t < len; ++t) {
     for (std::size_t b = 0; b < kBlocks; ++b) {
       const std::size_t i = b * len + t;
@@ -114,6 +98,37 @@ void TerrainGrid::binPoints(const PointCloud& cloud) {
     const int32_t c = cop[i];
     if (c >= 0) out[cnt[kBlocks - 1][c]++] = static_cast<uint32_t>(i);
   }
+}
+
+}  // namespace
+
+void TerrainGrid::binPoints(const PointCloud& cloud) {
+  // Counting sort into CSR: one pass for cell ids and counts, one prefix sum, one scatter. No
+  // per-cell allocations, so the cost is linear in points plus cells.
+  const std::size_t n = cloud.size();
+  const int cols = cols_, rows = rows_;
+  const Eigen::Vector2d o = geom_.origin();
+  const float ox = static_cast<float>(o.x()), oy = static_cast<float>(o.y());
+  const float inv = static_cast<float>(1.0 / geom_.cell_m);
+  cell_of_point_.resize(n);
+  const float* px = cloud.x.data();
+  const float* py = cloud.y.data();
+  auto cellOf = [=](std::size_t i) {
+    const float fr = (px[i] - ox) * inv, fc = (py[i] - oy) * inv;
+    int32_t cell = -1;
+    if (fr >= 0.f && fc >= 0.f) {
+      const int r = static_cast<int>(fr), c = static_cast<int>(fc);
+      if (r < rows && c < cols) cell = r * cols + c;
+    }
+    return cell;
+  };
+  // Four blocks pay where cells hold many points (a scan on a 0.5 m grid: ~20 per cell, binning
+  // 0.37–0.54 → 0.32–0.37 ms on seq 00 frame 0); on a large sparse grid (a map with fine cells)
+  // their four counter arrays would cost more to clear than the chains they break.
+  if (n >= 8 * cells())
+    countingSort<4>(n, cells(), cellOf, cell_of_point_.data(), offsets_, indices_);
+  else
+    countingSort<1>(n, cells(), cellOf, cell_of_point_.data(), offsets_, indices_);
 }
 
 }  // namespace terramrf
