@@ -14,6 +14,7 @@
 #include "terramrf/io/kitti.hpp"
 #include "terramrf/io/label_map.hpp"
 #include "terramrf/io/ring_recovery.hpp"
+#include "terramrf/io/sensor_origin.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {

@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "terramrf/frame.hpp"
+#include "terramrf/io/kitti.hpp"
+#include "test_support.hpp"
 
 namespace terramrf::test {
 
@@ -33,6 +35,19 @@ inline std::map<int, std::size_t> histogram(const std::vector<uint8_t>& v) {
   std::map<int, std::size_t> h;
   for (uint8_t x : v) ++h[x];
   return h;
+}
+
+/// A KITTI .bin of the shared data folder (path relative to it), read as the reader reads it.
+inline PointCloud readDataScan(const std::string& rel) {
+  PointCloud c;
+  readKittiScan(dataPath(rel), c);
+  return c;
+}
+
+/// SemanticKITTI sequence 00 frame i (0–5) of the shared data folder, relative to it.
+inline std::string seq00Scan(int i) {
+  return "semantickitti_seq00_000000-000005/sequences/00/velodyne/00000" + std::to_string(i) +
+         ".bin";
 }
 
 }  // namespace terramrf::test

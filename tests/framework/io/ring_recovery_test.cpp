@@ -9,7 +9,9 @@
 #include <numeric>
 #include <random>
 
+#include "io_test_util.hpp"
 #include "terramrf/io/kitti.hpp"
+#include "terramrf/io/sensor_origin.hpp"
 #include "terramrf/param_values.hpp"
 #include "terramrf/registry.hpp"
 #include "test_support.hpp"
@@ -17,16 +19,8 @@
 namespace terramrf {
 namespace {
 
-PointCloud readScan(const std::string& rel) {
-  PointCloud c;
-  readKittiScan(test::dataPath(rel), c);
-  return c;
-}
-
-std::string seqScan(int i) {
-  return "semantickitti_seq00_000000-000005/sequences/00/velodyne/00000" + std::to_string(i) +
-         ".bin";
-}
+using test::readDataScan;
+using test::seq00Scan;
 
 /// Mean elevation [deg] per ring (NaN for empty rings).
 std::vector<double> meanElevation(const PointCloud& c, int rings) {
@@ -55,7 +49,7 @@ double agreement(const std::vector<uint16_t>& a, const std::vector<uint16_t>& b,
 }
 
 TEST(RingRecovery, KittiSeq00Frame0Has64RingsFromScanOrder) {
-  PointCloud c = readScan(seqScan(0));
+  PointCloud c = readDataScan(seq00Scan(0));
   RingRecoveryStats st;
   double best_ms = 1e9;
   auto cpu_ms = [] {  // thread CPU time: other jobs on the machine do not count
@@ -107,7 +101,7 @@ TEST(RingRecovery, ElevationConsistencyMatchesNearestMedian) {
     }
     return double(good) / c.size();
   };
-  PointCloud c = readScan(seqScan(0));
+  PointCloud c = readDataScan(seq00Scan(0));
   const RingRecoveryStats st = recoverRings(c);
   ASSERT_EQ(st.method, RingMethod::kScanOrder);
   // The library's polynomial atan2 and tie rule differ from the reference by ~1e-5 rad.
@@ -137,11 +131,11 @@ TEST(RingRecovery, ElevationConsistencyMatchesNearestMedian) {
 
 TEST(RingRecovery, EveryKittiScanOfTheDataIsRingOrdered) {
   std::vector<std::string> scans;
-  for (int i = 0; i < 6; ++i) scans.push_back(seqScan(i));
+  for (int i = 0; i < 6; ++i) scans.push_back(seq00Scan(i));
   scans.push_back("kitti_object_fusion/training/velodyne/000000.bin");
   scans.push_back("kitti_object_fusion/training/velodyne/000001.bin");
   for (const auto& s : scans) {
-    PointCloud c = readScan(s);
+    PointCloud c = readDataScan(s);
     const RingRecoveryStats st = recoverRings(c);
     EXPECT_EQ(st.method, RingMethod::kScanOrder) << s << ": " << st.fallback_reason;
     EXPECT_EQ(st.rings_found, 64) << s;
@@ -156,7 +150,7 @@ TEST(RingRecovery, ShuffledKittiFallsBackToElevationBinning) {
                          "kitti_object_fusion/training/velodyne/000000.bin",
                          "kitti_object_fusion/training/velodyne/000001.bin"};
   for (const char* s : scans) {
-    PointCloud c = readScan(s);
+    PointCloud c = readDataScan(s);
     recoverRings(c);
     std::vector<std::size_t> order(c.size());
     std::iota(order.begin(), order.end(), 0);
@@ -181,7 +175,7 @@ TEST(RingRecovery, ShuffledKittiFallsBackToElevationBinning) {
 }
 
 TEST(RingRecovery, ReversedOrderStillGivesTopRingZero) {
-  PointCloud c = readScan(seqScan(1));
+  PointCloud c = readDataScan(seq00Scan(1));
   recoverRings(c);
   std::vector<std::size_t> order(c.size());
   std::iota(order.rbegin(), order.rend(), 0);
@@ -193,7 +187,7 @@ TEST(RingRecovery, ReversedOrderStillGivesTopRingZero) {
 }
 
 TEST(RingRecovery, RingsWithoutReturnsKeepTheirIds) {
-  PointCloud c = readScan(seqScan(2));
+  PointCloud c = readDataScan(seq00Scan(2));
   recoverRings(c);
   // The top beam (open sky) and a hole of two neighbouring rings are placed by elevation.
   for (const std::vector<int>& gone : {std::vector<int>{0}, std::vector<int>{20, 21},
@@ -213,7 +207,7 @@ TEST(RingRecovery, RingsWithoutReturnsKeepTheirIds) {
 }
 
 TEST(RingRecovery, LonePointAcrossTheCutDoesNotSplitARing) {
-  PointCloud c = readScan(seqScan(0));
+  PointCloud c = readDataScan(seq00Scan(0));
   recoverRings(c);
   // Put a point at azimuth -10° (just before the sweep start) among the first points of ring 10.
   const std::size_t at = std::find(c.ring.begin(), c.ring.end(), 10) - c.ring.begin() + 3;
@@ -233,7 +227,7 @@ TEST(RingRecovery, LonePointAcrossTheCutDoesNotSplitARing) {
 }
 
 TEST(RingRecovery, TinyCloudGetsNoRings) {
-  PointCloud c = readScan("semantickitti_mmdet3d_fixture/sequences/00/velodyne/000000.bin");
+  PointCloud c = readDataScan("semantickitti_mmdet3d_fixture/sequences/00/velodyne/000000.bin");
   const RingRecoveryStats st = recoverRings(c);
   EXPECT_EQ(st.method, RingMethod::kNone);
   EXPECT_FALSE(c.hasRing());
@@ -243,7 +237,7 @@ TEST(RingRecovery, TinyCloudGetsNoRings) {
 
 TEST(RingRecovery, Open3dMlScansAreNotInScanOrder) {
   for (const char* id : {"000700", "000750"}) {
-    PointCloud c = readScan(
+    PointCloud c = readDataScan(
         std::string("semantickitti_o3dml_demo/converted_semantickitti/velodyne/") + id + ".bin");
     const SensorOriginEstimate o = estimateSensorOrigin(c);
     ASSERT_TRUE(o.ok) << o.note;
@@ -263,34 +257,6 @@ TEST(RingRecovery, Open3dMlScansAreNotInScanOrder) {
       inversions += std::isfinite(mean[k + 1]) && mean[k + 1] >= mean[k];
     EXPECT_EQ(inversions, 0) << id;
   }
-}
-
-TEST(SensorOrigin, FindsTheShiftedOpen3dMlScan) {
-  const std::string base = "semantickitti_o3dml_demo/converted_semantickitti/velodyne/";
-  const SensorOriginEstimate a = estimateSensorOrigin(readScan(base + "000700.bin"));
-  ASSERT_TRUE(a.ok) << a.note;
-  std::printf("000700 origin (%.2f, %.2f), ring radius %.2f m, %d points\n", a.origin_m.x(),
-              a.origin_m.y(), a.ring_radius_m, a.inliers);
-  // PROVENANCE.md: origin near (0.0, -100.1).
-  EXPECT_LT((a.origin_m - Eigen::Vector2d(0.0, -100.1)).norm(), 0.5);
-  const SensorOriginEstimate b = estimateSensorOrigin(readScan(base + "000750.bin"));
-  ASSERT_TRUE(b.ok) << b.note;
-  std::printf("000750 origin (%.2f, %.2f)\n", b.origin_m.x(), b.origin_m.y());
-  EXPECT_LT(b.origin_m.norm(), 0.5);
-  for (int i = 0; i < 6; ++i) {
-    const SensorOriginEstimate k = estimateSensorOrigin(readScan(seqScan(i)));
-    ASSERT_TRUE(k.ok);
-    EXPECT_LT(k.origin_m.norm(), 0.5) << "seq 00 frame " << i;
-  }
-  for (int i = 0; i < 2; ++i) {
-    const SensorOriginEstimate k = estimateSensorOrigin(
-        readScan("kitti_object_fusion/training/velodyne/00000" + std::to_string(i) + ".bin"));
-    ASSERT_TRUE(k.ok);
-    EXPECT_LT(k.origin_m.norm(), 0.5) << "object frame " << i;
-  }
-  PointCloud few;
-  few.push_back(1, 1, 1, 0);
-  EXPECT_FALSE(estimateSensorOrigin(few).ok);
 }
 
 TEST(RingRecovery, SimulatorScansWithKnownRings) {

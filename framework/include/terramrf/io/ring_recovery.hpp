@@ -1,6 +1,5 @@
 #pragma once
-// Recovers the laser ring of each point of a cloud stored without it (KITTI .bin), and the
-// sensor origin of a cloud stored shifted (Open3D-ML's SemanticKITTI scan 000700).
+// Recovers the laser ring of each point of a cloud stored without it (KITTI .bin).
 //
 // Primary method, scan order: KITTI HDL-64E files store the points ring by ring (top laser
 // first); within a ring the azimuth sweeps monotonically through one turn, so the start of the
@@ -11,7 +10,6 @@
 // Fallback, elevation binning: when the order carries no ring structure (shuffled or subsampled
 // clouds such as Open3D-ML's .npy scans), each point goes to the nearest peak of the elevation
 // histogram (or of a given per-ring table).
-#include <Eigen/Core>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -57,20 +55,5 @@ struct RingRecoveryStats {
 
 /// Fills cloud.ring (0 = top beam). With method kNone the ring array is left empty.
 RingRecoveryStats recoverRings(PointCloud& cloud, const RingRecoveryOptions& options = {});
-
-/// Where a rotating LiDAR's cloud puts the sensor, from the innermost ground ring: the nearest
-/// points around the sensor form a circle (bent to an off-centre ellipse by ground slope, which
-/// is corrected from the ring's plane). Accuracy ~0.3 m on KITTI.
-struct SensorOriginEstimate {
-  bool ok = false;
-  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();  ///< sensor x, y in the cloud frame [m]
-  double ring_radius_m = 0;                            ///< radius of the innermost ground ring [m]
-  int inliers = 0;                                     ///< points on that ring
-  std::string note;                                    ///< why it failed
-};
-SensorOriginEstimate estimateSensorOrigin(const PointCloud& cloud);
-
-/// Adds (dx, dy) [m] to every point.
-void translateXY(PointCloud& cloud, double dx_m, double dy_m);
 
 }  // namespace terramrf
