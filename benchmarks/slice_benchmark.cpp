@@ -25,14 +25,13 @@
 
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <memory>
 #include <random>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "terramrf/io/kitti_writer.hpp"
 #include "terramrf/param_values.hpp"
 #include "terramrf/registry.hpp"
 
@@ -101,22 +100,15 @@ struct SliceFixture {
     std::error_code ec;
     if (!rings_dir.empty()) std::filesystem::remove_all(rings_dir, ec);
   }
-  /// A sequence folder in the temp directory holding a copy of frame 0 and the rings the reader
-  /// recovered for it. The scan has no invalid points, so the rings are one per raw point.
+  /// Frame 0 with the rings the reader recovered for it, written as a sequence in the temp
+  /// directory (velodyne/ and rings/, as simulated sequences are written).
   void makeSourceWithRings() {
     namespace fs = std::filesystem;
-    if (frame.dropped_invalid_points != 0 || !frame.points.hasRing())
-      throw std::runtime_error("slice benchmark: frame 0 has dropped points or no rings");
     rings_dir = fs::temp_directory_path() /
                 ("terramrf_bench_rings_" + std::to_string(std::random_device{}()));
-    fs::create_directories(rings_dir / "velodyne");
-    fs::create_directories(rings_dir / "rings");
-    fs::copy_file(frame.source_path, rings_dir / "velodyne" / "000000.bin");
-    std::ofstream out(rings_dir / "rings" / "000000.bin", std::ios::binary);
-    out.write(reinterpret_cast<const char*>(frame.points.ring.data()),
-              static_cast<std::streamsize>(frame.points.ring.size() * sizeof(uint16_t)));
-    if (!out) throw std::runtime_error("slice benchmark: cannot write " + rings_dir.string());
-    out.close();
+    KittiSequenceWriter writer(rings_dir.string());
+    writer.write(frame);
+    writer.finish();
     source_with_rings =
         make("semantickitti", "{path: " + rings_dir.string() + ", use_labels: false}");
   }
