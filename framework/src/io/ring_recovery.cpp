@@ -455,6 +455,91 @@ int findRuns(const float* a, std::size_t n, int* seg) {
   return s + 1;
 }
 
+/// Median elevation of the first and of the last few points of each run, in file order (NaN for
+/// runs too short to tell). seg is findRuns() output: non-decreasing, runs contiguous.
+void runEndElevations(const std::vector<float>& el, const std::vector<int>& seg, int nseg,
+                      std::vector<float>& first, std::vector<float>& last) {
+  constexpr std::size_t kEnd = 16;  // points: a few degrees of a ring
+  std::vector<std::size_t> begin(nseg + 1);
+  for (int s = 0; s <= nseg; ++s)
+    begin[s] = std::lower_bound(seg.begin(), seg.end(), s) - seg.begin();
+  first.assign(nseg, std::numeric_limits<float>::quiet_NaN());
+  last = first;
+  std::vector<float> tmp;
+  for (int s = 0; s < nseg; ++s) {
+    const std::size_t lo = begin[s], hi = begin[s + 1];
+    if (hi <= lo || hi - lo < 4 * kEnd) continue;
+    tmp.assign(el.begin() + lo, el.begin() + lo + kEnd);
+    first[s] = medianOf(tmp, 0, kEnd);
+    tmp.assign(el.begin() + hi - kEnd, el.begin() + hi);
+    last[s] = medianOf(tmp, 0, kEnd);
+  }
+}
+
+/// Median of the finite values of v (NaN if none).
+float finiteMedian(std::vector<float> v) {
+  v.erase(std::remove_if(v.begin(), v.end(), [](float x) { return !std::isfinite(x); }), v.end());
+  return medianOf(v, 0, v.size());
+}
+
+/// Where the rings really start when the file does not begin at a ring start (a cloud rotated
+/// in memory, a recording cut mid-sweep): runs are cut at the first point's azimuth, so each run
+/// holds the end of one ring and the start of the next, and the elevation steps by one ring
+/// spacing at the same azimuth inside every run. refineCut() only mends a run whose end holds a
+/// few degrees of the next ring (its medians then still belong to the run's own ring); with the
+/// start mid-ring the medians are mixtures and it cannot. Returns the azimuth [rad, from the
+/// first point, in the sweep direction] at which to cut instead, or a negative value when the
+/// runs begin at ring starts (the usual case, told cheaply from the runs' ends).
+double ringStartAzimuth(const std::vector<float>& a, const std::vector<float>& el,
+                        const std::vector<int>& seg, int nseg) {
+  // Runs that begin where their ring begins end on the same ring: first and last points agree
+  // in elevation. Otherwise they differ by about one ring spacing, run after run.
+  std::vector<float> first, last;
+  runEndElevations(el, seg, nseg, first, last);
+  std::vector<float> step(nseg, std::numeric_limits<float>::quiet_NaN()), gap(nseg, step[0]);
+  for (int s = 0; s < nseg; ++s) {
+    step[s] = first[s] - last[s];
+    if (s + 1 < nseg) gap[s] = std::fabs(first[s] - first[s + 1]);
+  }
+  const float spacing = finiteMedian(gap), end_step = finiteMedian(step);
+  if (!(spacing > 0) || !(std::fabs(end_step) > 0.5f * spacing)) return -1;
+  // Elevation per run and azimuth sector (median of every 4th point), then the sector k in which
+  // continuing each run with the previous run's points (rings starting in k) fits best: per run,
+  // how much the elevation step across k shrinks. Sector k itself, which may hold both rings
+  // (the lasers' starts spread over a few degrees), is left out.
+  constexpr int kSectors = 36;  // 10°
+  constexpr std::size_t kEvery = 4;
+  const std::size_t cells = std::size_t(nseg) * kSectors;
+  std::vector<std::vector<float>> sample(cells);
+  for (std::size_t i = 0; i < a.size(); i += kEvery) {
+    const int j = std::min(kSectors - 1, int(a[i] * float(kSectors / kTwoPi)));
+    sample[std::size_t(seg[i]) * kSectors + j].push_back(el[i]);
+  }
+  std::vector<float> level(cells, std::numeric_limits<float>::quiet_NaN());
+  for (std::size_t c = 0; c < cells; ++c)
+    if (sample[c].size() >= 3) level[c] = medianOf(sample[c], 0, sample[c].size());
+  auto L = [&](int s, int j) { return level[std::size_t(s) * kSectors + j]; };
+  int best_k = -1;
+  float best = 0;
+  for (int k = 1; k + 1 < kSectors; ++k) {
+    std::vector<float> change;
+    for (int s = 1; s < nseg; ++s) {
+      const float before = L(s, k - 1), cut = L(s - 1, k + 1), kept = L(s, k + 1);
+      if (std::isfinite(before) && std::isfinite(cut) && std::isfinite(kept))
+        change.push_back(std::fabs(cut - before) - std::fabs(kept - before));
+    }
+    if (change.size() < std::size_t(nseg) / 2) continue;
+    const float m = medianOf(change, 0, change.size());
+    if (m < best) best = m, best_k = k;
+  }
+  // A clear ring start: the step vanishes in most runs. A start in the last two sectors is
+  // left to refineCut().
+  if (best_k < 0 || !(best < -0.5f * spacing) || best_k + 2 >= kSectors) return -1;
+  // Cut at the end of the next sector, so the rings start within the last 20° of each run,
+  // which refineCut() moves.
+  return (best_k + 2) * (kTwoPi / kSectors);
+}
+
 /// Scan-order segmentation. Returns false (with a reason) when the order carries no rings.
 /// ring_med gets each ring's median elevation (as ringMedians(ring, el, nrings) would) when every
 /// ring is one run, whose median is already known; otherwise it is left empty.
@@ -479,12 +564,21 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
     return false;
   }
   // Azimuth in the sweep direction from the first point: every ring sweeps one turn from the
-  // same cut (KITTI cuts facing forward); refineCut() corrects the guess.
-  const double start = az_of[0] - dir * 0.01 * kDeg;
+  // same cut (KITTI cuts facing forward); refineCut() corrects the guess, ringStartAzimuth()
+  // a file that begins mid-ring.
+  double start = az_of[0] - dir * 0.01 * kDeg;
   a.resize(n);
   seg.resize(n);
   unwrapAzimuths(az_of, n, start, dir, a.data());
-  const int nseg = findRuns(a.data(), n, seg.data());
+  int nseg = findRuns(a.data(), n, seg.data());
+  if (nseg >= (nrings + 1) / 2 && nseg <= 2 * nrings + 16) {
+    const double cut = ringStartAzimuth(a, el, seg, nseg);
+    if (cut > 0) {
+      start = wrapPi(start + dir * cut);
+      unwrapAzimuths(az_of, n, start, dir, a.data());
+      nseg = findRuns(a.data(), n, seg.data());
+    }
+  }
   st.segments = nseg;
   if (nseg > 2 * nrings + 16) {
     st.fallback_reason = "scan order gives " + std::to_string(nseg) + " azimuth runs for " +
@@ -502,10 +596,59 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
   // Runs listed bottom ring first are reversed so that ring 0 is the top beam.
   const bool reversed = countViolations(med) > nseg / 2;
   if (reversed) std::reverse(med.begin(), med.end());
-  // Too many runs: merge neighbours with (nearly) the same elevation, i.e. one ring cut twice.
-  std::vector<int> id(nseg);
-  std::iota(id.begin(), id.end(), 0);
+  // A file that begins mid-sweep lists its rings from some ring down to the bottom one, then
+  // from the top one on: the elevation climbs back by most of the field of view once. The run
+  // after that climb is the top ring (and a ring split by the file's start and end becomes two
+  // neighbouring runs, merged below).
+  int rotation = 0;
+  {
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo, climb = 0;
+    for (int k = 0; k < nseg; ++k) {
+      if (!std::isfinite(med[k])) continue;
+      lo = std::min(lo, med[k]), hi = std::max(hi, med[k]);
+    }
+    float prev = std::numeric_limits<float>::quiet_NaN();
+    for (int k = 0; k < nseg; ++k) {
+      if (!std::isfinite(med[k])) continue;
+      if (std::isfinite(prev) && med[k] - prev > climb) climb = med[k] - prev, rotation = k;
+      prev = med[k];
+    }
+    if (!(climb > 0.5f * (hi - lo))) rotation = 0;
+    std::rotate(med.begin(), med.begin() + rotation, med.end());
+  }
+  // Top-first position of run s.
+  auto position = [&](int s) {
+    const int t = reversed ? nseg - 1 - s : s;
+    return (t - rotation + nseg) % nseg;
+  };
+  // Runs to merge with the next one (top-first positions).
+  std::vector<char> merge(std::max(0, nseg - 1), 0);
   int groups = nseg;
+  // A file that begins mid-ring ends with the rest of that ring: its first and last runs, now
+  // neighbours, are one ring, and between them they cover one turn, each its own part of it
+  // (two different rings would each cover the whole turn). Their medians may differ by more
+  // than the threshold below, being different stretches of the scene.
+  if (rotation != 0) {
+    const int p = std::min(position(0), position(nseg - 1));
+    if (std::max(position(0), position(nseg - 1)) == p + 1) {
+      constexpr int kSectors = 36;
+      int count[2][kSectors] = {};
+      const float* const a_of = a.data();
+      for (std::size_t i = 0; i < n; ++i) {
+        if (seg[i] != 0 && seg[i] != nseg - 1) continue;
+        const int j = std::min(kSectors - 1, int(a_of[i] * float(kSectors / kTwoPi)));
+        ++count[seg[i] == 0 ? 0 : 1][j];
+      }
+      int both = 0, either = 0;
+      for (int j = 0; j < kSectors; ++j) {
+        both += count[0][j] >= 2 && count[1][j] >= 2;
+        either += count[0][j] >= 2 || count[1][j] >= 2;
+      }
+      // The parts meet in one sector, and refineCut() moved up to two sectors of ring start.
+      if (either > kSectors / 2 && both <= 4) merge[p] = 1, --groups;
+    }
+  }
+  // Too many runs: merge neighbours with (nearly) the same elevation, i.e. one ring cut twice.
   if (groups > nrings) {
     std::vector<float> gaps;
     for (int k = 0; k + 1 < nseg; ++k) gaps.push_back(med[k] - med[k + 1]);
@@ -515,9 +658,9 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
     std::iota(order.begin(), order.end(), 0);
     std::sort(order.begin(), order.end(),
               [&](int l, int r) { return std::fabs(gaps[l]) < std::fabs(gaps[r]); });
-    std::vector<char> merge(gaps.size(), 0);
     for (int k : order) {
       if (groups <= nrings) break;
+      if (merge[k]) continue;
       if (std::fabs(gaps[k]) > 0.3f * typical) break;
       merge[k] = 1;
       --groups;
@@ -527,11 +670,11 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
                            std::to_string(nrings) + " rings";
       return false;
     }
-    int cur = 0;
-    for (int k = 0; k < nseg; ++k) {
-      if (k > 0 && !merge[k - 1]) ++cur;
-      id[k] = cur;
-    }
+  }
+  std::vector<int> id(nseg);
+  for (int k = 0, cur = 0; k < nseg; ++k) {
+    if (k > 0 && !merge[k - 1]) ++cur;
+    id[k] = cur;
   }
   // Too few runs: rings with no return at all. Usually the top beams (open sky), so that is
   // where they go unless an elevation gap is clearly a hole: >= 2.5 times its neighbours' (a
@@ -568,11 +711,11 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
     for (int k = 0; k < nseg; ++k) id[k] += shift[id[k]];
     st.missing_rings = nrings - groups;
   }
+  std::vector<uint16_t> ring_of_run(nseg);
+  for (int s = 0; s < nseg; ++s) ring_of_run[s] = static_cast<uint16_t>(id[position(s)]);
   ring.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const int k = reversed ? nseg - 1 - seg[i] : seg[i];  // top-first index
-    ring[i] = static_cast<uint16_t>(id[k]);
-  }
+  const int* const seg_of = seg.data();  // see 'Scratch arrays' above
+  for (std::size_t i = 0; i < n; ++i) ring[i] = ring_of_run[seg_of[i]];
   // Without merges each ring holds exactly one run's points, in the same order, so ringMedians
   // would sample and select the same values: reuse the run's median.
   if (groups == nseg) {

@@ -186,6 +186,54 @@ TEST(RingRecovery, ReversedOrderStillGivesTopRingZero) {
   EXPECT_GT(agreement(rev.ring, truth), 0.9999);
 }
 
+// A cloud whose file begins mid-ring (rotated in memory, a recording cut mid-sweep): every
+// azimuth run then holds the end of one ring and the start of the next, and the top ring is not
+// the first. Before ringStartAzimuth() and the cyclic ordering, rotations past a few degrees gave
+// agreement 0.49 (a quarter turn in) down to 0 (every id shifted).
+TEST(RingRecovery, FileBeginningMidRingOrMidSweepGetsTheSameRings) {
+  PointCloud c = readDataScan(seq00Scan(0));
+  recoverRings(c);
+  const std::size_t n = c.size();
+  for (const bool reversed : {false, true}) {
+    for (const double fraction : {0.008, 0.1, 0.3, 0.5, 0.75, 0.97}) {
+      std::vector<std::size_t> order(n);
+      std::iota(order.begin(), order.end(), 0);
+      if (reversed) std::reverse(order.begin(), order.end());
+      std::rotate(order.begin(), order.begin() + std::size_t(fraction * n), order.end());
+      PointCloud r = permuted(c, order);
+      const std::vector<uint16_t> truth = r.ring;
+      const RingRecoveryStats st = recoverRings(r);
+      EXPECT_EQ(st.method, RingMethod::kScanOrder) << st.fallback_reason;
+      EXPECT_EQ(st.rings_found, 64);
+      EXPECT_GT(agreement(r.ring, truth), 0.9999)
+          << (reversed ? "reversed, " : "") << "file begins " << fraction << " of the way in";
+    }
+  }
+  // Beginning exactly where a ring begins, mid-sweep: no ring is split, none is merged.
+  {
+    const std::size_t at = std::find(c.ring.begin(), c.ring.end(), 20) - c.ring.begin();
+    std::vector<std::size_t> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    std::rotate(order.begin(), order.begin() + at, order.end());
+    PointCloud r = permuted(c, order);
+    const std::vector<uint16_t> truth = r.ring;
+    recoverRings(r);
+    EXPECT_GT(agreement(r.ring, truth), 0.9999) << "file begins at the start of ring 20";
+  }
+  // Mid-ring, with the top ring missing (open sky): 64 runs, one of them the split ring's end.
+  {
+    std::vector<std::size_t> order;
+    for (std::size_t i = 0; i < n; ++i)
+      if (c.ring[i] != 0) order.push_back(i);
+    std::rotate(order.begin(), order.begin() + order.size() / 3, order.end());
+    PointCloud r = permuted(c, order);
+    const std::vector<uint16_t> truth = r.ring;
+    const RingRecoveryStats st = recoverRings(r);
+    EXPECT_EQ(st.missing_rings, 1);
+    EXPECT_GT(agreement(r.ring, truth), 0.9999) << "top ring missing, file begins a third in";
+  }
+}
+
 TEST(RingRecovery, RingsWithoutReturnsKeepTheirIds) {
   PointCloud c = readDataScan(seq00Scan(2));
   recoverRings(c);

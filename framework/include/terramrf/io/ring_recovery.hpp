@@ -7,6 +7,12 @@
 // ring without knowing the sensor's per-laser angles (they differ from the nominal ones by up to
 // ~0.3° and each laser sits ~0.2 m off the origin, which smears elevation angles at short range).
 // The result is checked against elevation: the median elevation must fall ring by ring.
+// A file need not begin where a ring begins (a cloud rotated in memory, a recording cut
+// mid-sweep): the azimuth at which the rings really start is found from the elevation step it
+// leaves inside every run, and the rings are numbered from the top beam whichever comes first in
+// the file. What cannot be told apart: a file that begins within a few degrees of a seam where
+// every ring's elevation steps by about a ring spacing (KITTI's HDL-64E scans have one behind the
+// car) looks like one that begins at a ring start.
 // Fallback, elevation binning: when the order carries no ring structure (shuffled or subsampled
 // clouds such as Open3D-ML's .npy scans), each point goes to the nearest peak of the elevation
 // histogram (or of a given per-ring table).
