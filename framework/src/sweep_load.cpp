@@ -123,7 +123,10 @@ void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d)
         continue;
       }
       Axis a{energy, key, {}};
-      for (const auto& v : it->second) a.values.push_back(v);
+      // Through a copy: it->second lives in a proxy that dies with the expression naming it,
+      // and a range-for over it would walk a destroyed object.
+      const YAML::Node values = it->second;
+      for (const auto& v : values) a.values.push_back(v);
       axes.push_back(std::move(a));
     }
   };
@@ -204,7 +207,8 @@ void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d)
             continue;
           }
           Axis a{false, key, {}, stage, type};
-          for (const auto& v : p->second) a.values.push_back(v);
+          const YAML::Node values = p->second;  // a copy, as in section() above
+          for (const auto& v : values) a.values.push_back(v);
           axes.push_back(std::move(a));
         }
       }
