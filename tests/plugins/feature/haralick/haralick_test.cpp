@@ -178,8 +178,9 @@ TEST(Haralick, GreyFromRgbAndQuantisation) {
   EXPECT_FLOAT_EQ(sixteen.asm_, 0.5f);
   EXPECT_FLOAT_EQ(sixteen.variance, 2.25f);  // levels 1 and 4: ((4 − 1)/2)²
   EXPECT_FLOAT_EQ(sixteen.idm, 0.1f);        // 1 / (1 + 3²)
-  // A 1-channel image is used as grey directly.
-  const Result g = run("{levels: 2, offsets: [1, 0]}", checker, 10, 19, 10, 19, 1);
+  // A 1-channel image is used as grey directly (its fill writes one byte per pixel).
+  auto checker_grey = [](int u, int v, uint8_t* p) { p[0] = (u + v) % 2 ? 255 : 0; };
+  const Result g = run("{levels: 2, offsets: [1, 0]}", checker_grey, 10, 19, 10, 19, 1);
   EXPECT_FLOAT_EQ(g.asm_, 0.5f);
 }
 
