@@ -455,6 +455,13 @@ int findRuns(const float* a, std::size_t n, int* seg) {
   return s + 1;
 }
 
+/// 10° azimuth sectors: coarse enough for a median per ring (~55 points of an HDL-64E ring),
+/// fine enough to place a ring start to within 20°, which refineCut() then resolves.
+constexpr int kSectors = 36;
+
+/// Sector of an unwrapped azimuth a [rad, in [0, 2π)].
+inline int sectorOf(float a) { return std::min(kSectors - 1, int(a * float(kSectors / kTwoPi))); }
+
 /// Median elevation of the first and of the last few points of each run, in file order (NaN for
 /// runs too short to tell). seg is findRuns() output: non-decreasing, runs contiguous.
 void runEndElevations(const std::vector<float>& el, const std::vector<int>& seg, int nseg,
@@ -507,13 +514,11 @@ double ringStartAzimuth(const std::vector<float>& a, const std::vector<float>& e
   // continuing each run with the previous run's points (rings starting in k) fits best: per run,
   // how much the elevation step across k shrinks. Sector k itself, which may hold both rings
   // (the lasers' starts spread over a few degrees), is left out.
-  constexpr int kSectors = 36;  // 10°
   constexpr std::size_t kEvery = 4;
   const std::size_t cells = std::size_t(nseg) * kSectors;
   std::vector<std::vector<float>> sample(cells);
   for (std::size_t i = 0; i < a.size(); i += kEvery) {
-    const int j = std::min(kSectors - 1, int(a[i] * float(kSectors / kTwoPi)));
-    sample[std::size_t(seg[i]) * kSectors + j].push_back(el[i]);
+    sample[std::size_t(seg[i]) * kSectors + sectorOf(a[i])].push_back(el[i]);
   }
   std::vector<float> level(cells, std::numeric_limits<float>::quiet_NaN());
   for (std::size_t c = 0; c < cells; ++c)
@@ -631,14 +636,9 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
   if (rotation != 0) {
     const int p = std::min(position(0), position(nseg - 1));
     if (std::max(position(0), position(nseg - 1)) == p + 1) {
-      constexpr int kSectors = 36;
       int count[2][kSectors] = {};
-      const float* const a_of = a.data();
-      for (std::size_t i = 0; i < n; ++i) {
-        if (seg[i] != 0 && seg[i] != nseg - 1) continue;
-        const int j = std::min(kSectors - 1, int(a_of[i] * float(kSectors / kTwoPi)));
-        ++count[seg[i] == 0 ? 0 : 1][j];
-      }
+      for (std::size_t i = 0; i < n; ++i)
+        if (seg[i] == 0 || seg[i] == nseg - 1) ++count[seg[i] == 0 ? 0 : 1][sectorOf(a[i])];
       int both = 0, either = 0;
       for (int j = 0; j < kSectors; ++j) {
         both += count[0][j] >= 2 && count[1][j] >= 2;
