@@ -5,6 +5,8 @@
 #include <limits>
 #include <numeric>
 
+#include "ring_cut.hpp"
+
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -87,11 +89,14 @@ float medianOf(std::vector<float>& v, std::size_t begin, std::size_t end) {
 // taken once: in a shared library every thread_local access calls __tls_get_addr, which GCC does
 // not hoist out of a loop that calls a function (a fifth of scanOrderRings was that call).
 
-/// Elevation [deg] of every point, seen from (0, 0, z_offset).
-const std::vector<float>& elevationsDeg(const PointCloud& c, double z_offset_m) {
+/// Elevation [deg] of every point, seen from (0, 0, z_offset), and with an `az` array also its
+/// azimuth [rad, in [-π, π]]: one pass over the coordinates for both.
+const std::vector<float>& elevationsDeg(const PointCloud& c, double z_offset_m,
+                                        std::vector<float>* az = nullptr) {
   thread_local std::vector<float> el;
   const std::size_t n = c.size();
   el.resize(n);
+  if (az) az->resize(n);
   const float dz = static_cast<float>(z_offset_m), to_deg = static_cast<float>(1 / kDeg);
   std::size_t i = 0;
 #if defined(__SSE2__)
@@ -100,32 +105,57 @@ const std::vector<float>& elevationsDeg(const PointCloud& c, double z_offset_m) 
   const float *px = c.x.data(), *py = c.y.data(), *pz = c.z.data();
   float* out = el.data();
   const __m128 dz4 = _mm_set1_ps(dz), to_deg4 = _mm_set1_ps(to_deg);
-  for (; i + 4 <= n; i += 4) {
-    const __m128 x = _mm_loadu_ps(px + i), y = _mm_loadu_ps(py + i);
+  auto elevation = [&](__m128 x, __m128 y) {
     const __m128 r = _mm_sqrt_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)));
-    const __m128 e = fastAtan2x4(_mm_sub_ps(_mm_loadu_ps(pz + i), dz4), r);
-    _mm_storeu_ps(out + i, _mm_mul_ps(e, to_deg4));
+    _mm_storeu_ps(out + i,
+                  _mm_mul_ps(fastAtan2x4(_mm_sub_ps(_mm_loadu_ps(pz + i), dz4), r), to_deg4));
+  };
+  if (az) {
+    float* out_az = az->data();
+    for (; i + 4 <= n; i += 4) {
+      const __m128 x = _mm_loadu_ps(px + i), y = _mm_loadu_ps(py + i);
+      elevation(x, y);
+      _mm_storeu_ps(out_az + i, fastAtan2x4(y, x));
+    }
+  } else {
+    for (; i + 4 <= n; i += 4) elevation(_mm_loadu_ps(px + i), _mm_loadu_ps(py + i));
   }
 #endif
   for (; i < n; ++i) {
     const float r = std::sqrt(c.x[i] * c.x[i] + c.y[i] * c.y[i]);
     el[i] = fastAtan2(c.z[i] - dz, r) * to_deg;
+    if (az) (*az)[i] = fastAtan2(c.y[i], c.x[i]);
   }
   return el;
 }
 
-/// Azimuth [rad] of every point, in [-π, π].
-void azimuths(const PointCloud& c, std::vector<float>& az) {
-  const std::size_t n = c.size();
-  az.resize(n);
-  std::size_t i = 0;
+/// End of the run of ids equal to id[i] (taken modulo 2^16) that starts at i.
+template <typename Id>
+std::size_t runEnd(const Id* id, std::size_t i, std::size_t n) {
+  const uint16_t r = static_cast<uint16_t>(id[i]);
+  std::size_t j = i + 1;
 #if defined(__SSE2__)
-  const float *px = c.x.data(), *py = c.y.data();  // see elevationsDeg()
-  float* out = az.data();
-  for (; i + 4 <= n; i += 4)
-    _mm_storeu_ps(out + i, fastAtan2x4(_mm_loadu_ps(py + i), _mm_loadu_ps(px + i)));
+  // Eight (uint16_t) or four (int) ids per test: runs are rings, ~2000 points long.
+  if constexpr (sizeof(Id) == 2) {
+    const __m128i rv = _mm_set1_epi16(static_cast<short>(r));
+    for (; j + 8 <= n; j += 8) {
+      const int eq = _mm_movemask_epi8(
+          _mm_cmpeq_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + j)), rv));
+      if (eq != 0xFFFF) return j + __builtin_ctz(~unsigned(eq)) / 2;
+    }
+  } else if constexpr (sizeof(Id) == 4) {
+    // Equal modulo 2^16: compare the low halves only.
+    const __m128i rv = _mm_set1_epi32(r), low = _mm_set1_epi32(0xFFFF);
+    for (; j + 4 <= n; j += 4) {
+      const __m128i v =
+          _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + j)), low);
+      const int eq = _mm_movemask_epi8(_mm_cmpeq_epi32(v, rv));
+      if (eq != 0xFFFF) return j + __builtin_ctz(~unsigned(eq)) / 4;
+    }
+  }
 #endif
-  for (; i < n; ++i) az[i] = fastAtan2(c.y[i], c.x[i]);
+  while (j < n && static_cast<uint16_t>(id[j]) == r) ++j;
+  return j;
 }
 
 /// Per-ring median elevation (NaN for empty rings) via a counting sort of the elevations. Rings
@@ -146,10 +176,10 @@ std::vector<float> ringMedians(const std::vector<Id>& ring, const std::vector<fl
   runs.clear();
   std::vector<std::size_t> count(nrings, 0);
   const std::size_t n = ring.size();
+  const Id* const id_of = ring.data();
   for (std::size_t i = 0; i < n;) {
-    const uint16_t r = static_cast<uint16_t>(ring[i]);
-    std::size_t j = i + 1;
-    while (j < n && static_cast<uint16_t>(ring[j]) == r) ++j;
+    const uint16_t r = static_cast<uint16_t>(id_of[i]);
+    const std::size_t j = runEnd(id_of, i, n);
     if (r < nrings) runs.push_back({i, j, r}), count[r] += j - i;
     i = j;
   }
@@ -259,131 +289,71 @@ int countViolations(const std::vector<float>& med) {
 /// Runs are split where the azimuth (measured from the first point) steps back. If the first
 /// point is not where the sweep starts (the first ring has no return there, or the file begins
 /// mid-ring), every run ends with the first degrees of the next ring. The cut that fits the
-/// elevations best is found over a 0.05° azimuth histogram: moving the points at azimuth >= c of
-/// run s to run s+1 changes the summed elevation misfit by the sum of their per-point deltas.
-/// Returns whether points were moved; med gets the runs' median elevations from before the move
-/// (the caller reuses them if nothing moved).
+/// elevations best is found over a 0.05° azimuth histogram (detail::bestRingCut): moving the
+/// points at azimuth >= c of run s to run s+1 changes the summed elevation misfit by the sum of
+/// their per-point deltas. Returns whether points were moved; med gets the runs' median
+/// elevations from before the move (the caller reuses them if nothing moved).
+///
+/// The best cut lies within the last 20° of the runs (ringStartAzimuth() sees to that for larger
+/// offsets), so only the points of the last 40° are binned at first (a seventh of the work of
+/// binning all).
 bool refineCut(const std::vector<float>& a, const std::vector<float>& el, std::vector<int>& seg,
                int nseg, std::vector<float>& med) {
   med = ringMedians(seg, el, nseg);
   if (nseg < 2) return false;
-  constexpr int kBins = 7200;   // 0.05°
-  constexpr float kCap = 1.0f;  // [deg] misfit cap, so near-range points and edges do not dominate
-  // int(a / 2π · kBins) without the division, which took a third of refineCut: a · (kBins / 2π)
-  // differs from it by a few ulp (< 1e-11), which can change the integer part only right next to
-  // an integer; such points take the exact expression.
-  auto bin = [](float a) {
-    constexpr double kBinsPerRad = kBins / kTwoPi;
-    const double q = double(a) * kBinsPerRad;
-    const int b = int(q);
-    const double frac = q - b;
-    return frac > 1e-6 && frac < 1 - 1e-6 ? b : int(a / kTwoPi * kBins);
-  };
-  thread_local std::vector<double> gain;
-  thread_local std::vector<std::size_t> count;
-  gain.assign(kBins, 0.0);
-  count.assign(kBins, 0);
-  double* const gain_of = gain.data();  // see 'Scratch arrays' above
-  std::size_t* const count_of = count.data();
-  // Runs whose points may move on: there is a next run and both medians are known.
-  std::vector<char> movable(nseg, 0);
-  for (int k = 0; k + 1 < nseg; ++k)
-    movable[k] = std::isfinite(med[k]) && std::isfinite(med[k + 1]);
-  auto add = [&](std::size_t i, float delta) {
-    const int b = std::min(kBins - 1, bin(a[i]));
-    gain_of[b] += delta;
-    ++count_of[b];
-  };
-  const std::size_t n = a.size();
-  // Run by run (each run is one stretch of the file here), the misfit deltas four at a time.
-  for (std::size_t i = 0; i < n;) {
-    const int s = seg[i];
-    std::size_t end = i + 1;
-    while (end < n && seg[end] == s) ++end;
-    if (!movable[s]) {
-      i = end;
-      continue;
-    }
-    const float m_now = med[s], m_moved = med[s + 1];
-#if defined(__SSE2__)
-    // minps(x, cap) and std::min(cap, x) both give cap unless x < cap (NaN included).
-    const __m128 now4 = _mm_set1_ps(m_now), moved4 = _mm_set1_ps(m_moved);
-    const __m128 cap = _mm_set1_ps(kCap), abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
-    // bin() two lanes at a time in double, with the same products and tests; a lane whose
-    // fraction is within 1e-6 of an integer takes bin() itself.
-    const __m128d bins_per_rad = _mm_set1_pd(kBins / kTwoPi);
-    const __m128d frac_lo = _mm_set1_pd(1e-6), frac_hi = _mm_set1_pd(1 - 1e-6);
-    auto binsOf = [&](__m128d q, int* out) {
-      const __m128i b = _mm_cvttpd_epi32(q);
-      const __m128d frac = _mm_sub_pd(q, _mm_cvtepi32_pd(b));
-      const int exact =
-          _mm_movemask_pd(_mm_and_pd(_mm_cmpgt_pd(frac, frac_lo), _mm_cmplt_pd(frac, frac_hi)));
-      out[0] = _mm_cvtsi128_si32(b);
-      out[1] = _mm_cvtsi128_si32(_mm_shuffle_epi32(b, 1));
-      return exact;
-    };
-    for (; i + 4 <= end; i += 4) {
-      const __m128 e = _mm_loadu_ps(&el[i]);
-      const __m128 now = _mm_min_ps(_mm_and_ps(_mm_sub_ps(e, now4), abs_mask), cap);
-      const __m128 moved = _mm_min_ps(_mm_and_ps(_mm_sub_ps(e, moved4), abs_mask), cap);
-      float delta[4];
-      _mm_storeu_ps(delta, _mm_sub_ps(moved, now));
-      const __m128 av = _mm_loadu_ps(&a[i]);
-      int b[4];
-      const int exact = binsOf(_mm_mul_pd(_mm_cvtps_pd(av), bins_per_rad), b) |
-                        binsOf(_mm_mul_pd(_mm_cvtps_pd(_mm_movehl_ps(av, av)), bins_per_rad), b + 2)
-                            << 2;
-      for (int k = 0; k < 4; ++k) {
-        const int bk = std::min(kBins - 1, exact >> k & 1 ? b[k] : bin(a[i + k]));
-        gain_of[bk] += delta[k];
-        ++count_of[bk];
-      }
-    }
-#endif
-    for (; i < end; ++i) {
-      const float now = std::min(kCap, std::fabs(el[i] - m_now));
-      const float moved = std::min(kCap, std::fabs(el[i] - m_moved));
-      add(i, moved - now);
-    }
-  }
-  double sum = 0, best = 0;
-  std::size_t moved = 0, best_moved = 0;
-  int best_bin = kBins;
-  for (int b = kBins - 1; b > 0; --b) {
-    sum += gain[b];
-    moved += count[b];
-    if (sum < best) best = sum, best_bin = b, best_moved = moved;
-  }
+  constexpr int kLast40Deg = detail::kRingCutBins / 9 * 8;
+  const detail::RingCut best = detail::bestRingCut(a, el, seg, med, kLast40Deg);
   // Only a clear gain (a ring spacing is 0.3-0.5°) moves points.
-  if (best_bin == kBins || best > -0.1 * double(best_moved)) return false;
-  const float cut = float(best_bin) / kBins * float(kTwoPi);
-  for (std::size_t i = 0; i < a.size(); ++i)
-    if (seg[i] + 1 < nseg && a[i] >= cut) ++seg[i];
+  if (best.bin == detail::kRingCutBins || best.gain > -0.1 * double(best.moved)) return false;
+  const float cut = float(best.bin) / detail::kRingCutBins * float(kTwoPi);
+  const std::size_t n = a.size();
+  int* const seg_of = seg.data();
+  std::size_t i = 0;
+#if defined(__SSE2__)
+  const __m128 cut4 = _mm_set1_ps(cut);
+  const __m128i last = _mm_set1_epi32(nseg - 1);
+  for (; i + 4 <= n; i += 4) {
+    const __m128i s = _mm_loadu_si128(reinterpret_cast<const __m128i*>(seg_of + i));
+    const __m128i move = _mm_and_si128(_mm_cmplt_epi32(s, last),
+                                       _mm_castps_si128(_mm_cmpge_ps(_mm_loadu_ps(&a[i]), cut4)));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(seg_of + i), _mm_sub_epi32(s, move));
+  }
+#endif
+  for (; i < n; ++i)
+    if (seg_of[i] + 1 < nseg && a[i] >= cut) ++seg_of[i];
   return true;
 }
 
 /// Consecutive azimuth steps (wrapped to (-π, π]) that are small forward (fwd) or small
-/// backward (bwd): below 5°.
+/// backward (bwd): below 5°. In float: a step lies within [-2π, 2π] (plus an ulp of fastAtan2's
+/// π), so one wrap each way suffices.
 void countSmallSteps(const float* az, std::size_t n, std::size_t& fwd, std::size_t& bwd) {
-  const double small = 5 * kDeg;
+  const float pi = float(kPi), two_pi = float(kTwoPi), small = float(5 * kDeg);
   std::size_t i = 1;
 #if defined(__SSE2__)
-  // Two steps at a time in double, as the scalar code computes them: a step lies within
-  // [-2π, 2π] (plus an ulp of fastAtan2's π), so wrapPi's loops run at most once each.
-  const __m128d pi = _mm_set1_pd(kPi), two_pi = _mm_set1_pd(kTwoPi), zero = _mm_setzero_pd();
-  const __m128d small2 = _mm_set1_pd(small), neg_small2 = _mm_set1_pd(-small);
-  for (; i + 2 <= n; i += 2) {
-    __m128d d = _mm_sub_pd(loadTwoAsDouble(az + i), loadTwoAsDouble(az + i - 1));
-    d = selectPd(_mm_cmpgt_pd(d, pi), _mm_sub_pd(d, two_pi), d);
-    d = selectPd(_mm_cmple_pd(d, _mm_sub_pd(zero, pi)), _mm_add_pd(d, two_pi), d);
-    const int f = _mm_movemask_pd(_mm_and_pd(_mm_cmpgt_pd(d, zero), _mm_cmplt_pd(d, small2)));
-    const int b = _mm_movemask_pd(_mm_and_pd(_mm_cmplt_pd(d, zero), _mm_cmpgt_pd(d, neg_small2)));
-    fwd += (f & 1) + (f >> 1);
-    bwd += (b & 1) + (b >> 1);
+  const __m128 pi4 = _mm_set1_ps(pi), neg_pi4 = _mm_set1_ps(-pi), two_pi4 = _mm_set1_ps(two_pi);
+  const __m128 zero = _mm_setzero_ps(), small4 = _mm_set1_ps(small),
+               neg_small4 = _mm_set1_ps(-small);
+  __m128i f4 = _mm_setzero_si128(), b4 = _mm_setzero_si128();
+  for (; i + 4 <= n; i += 4) {
+    __m128 d = _mm_sub_ps(_mm_loadu_ps(az + i), _mm_loadu_ps(az + i - 1));
+    d = _mm_sub_ps(d, _mm_and_ps(_mm_cmpgt_ps(d, pi4), two_pi4));
+    d = _mm_add_ps(d, _mm_and_ps(_mm_cmple_ps(d, neg_pi4), two_pi4));
+    f4 = _mm_sub_epi32(
+        f4, _mm_castps_si128(_mm_and_ps(_mm_cmpgt_ps(d, zero), _mm_cmplt_ps(d, small4))));
+    b4 = _mm_sub_epi32(
+        b4, _mm_castps_si128(_mm_and_ps(_mm_cmplt_ps(d, zero), _mm_cmpgt_ps(d, neg_small4))));
   }
+  alignas(16) int32_t fc[4], bc[4];
+  _mm_store_si128(reinterpret_cast<__m128i*>(fc), f4);
+  _mm_store_si128(reinterpret_cast<__m128i*>(bc), b4);
+  fwd += std::size_t(fc[0]) + fc[1] + fc[2] + fc[3];
+  bwd += std::size_t(bc[0]) + bc[1] + bc[2] + bc[3];
 #endif
   for (; i < n; ++i) {
-    const double d = wrapPi(double(az[i]) - az[i - 1]);
+    float d = az[i] - az[i - 1];
+    if (d > pi) d -= two_pi;
+    if (d <= -pi) d += two_pi;
     if (d > 0 && d < small)
       ++fwd;
     else if (d < 0 && d > -small)
@@ -393,23 +363,27 @@ void countSmallSteps(const float* az, std::size_t n, std::size_t& fwd, std::size
 
 /// a[i] = azimuth [rad] in the sweep direction `dir` (±1) from `start`, in [0, 2π).
 void unwrapAzimuths(const float* az, std::size_t n, double start, int dir, float* a) {
+  const float s = float(start), d = float(dir), two_pi = float(kTwoPi);
   std::size_t i = 0;
 #if defined(__SSE2__)
-  // v lies within (-3π, 3π), so each of the scalar loops below runs at most twice.
-  const __m128d two_pi = _mm_set1_pd(kTwoPi), zero = _mm_setzero_pd();
-  const __m128d start2 = _mm_set1_pd(start), dir2 = _mm_set1_pd(dir);
-  for (; i + 2 <= n; i += 2) {
-    __m128d v = _mm_mul_pd(dir2, _mm_sub_pd(loadTwoAsDouble(az + i), start2));
-    for (int k = 0; k < 2; ++k) v = selectPd(_mm_cmplt_pd(v, zero), _mm_add_pd(v, two_pi), v);
-    for (int k = 0; k < 2; ++k) v = selectPd(_mm_cmpge_pd(v, two_pi), _mm_sub_pd(v, two_pi), v);
-    _mm_storel_pi(reinterpret_cast<__m64*>(a + i), _mm_cvtpd_ps(v));
+  const __m128 two_pi4 = _mm_set1_ps(two_pi), zero = _mm_setzero_ps();
+  const __m128 s4 = _mm_set1_ps(s), d4 = _mm_set1_ps(d);
+  for (; i + 4 <= n; i += 4) {
+    __m128 v = _mm_mul_ps(d4, _mm_sub_ps(_mm_loadu_ps(az + i), s4));  // within (-3π, 3π)
+    v = _mm_add_ps(v, _mm_and_ps(_mm_cmplt_ps(v, zero), two_pi4));
+    v = _mm_add_ps(v, _mm_and_ps(_mm_cmplt_ps(v, zero), two_pi4));
+    v = _mm_sub_ps(v, _mm_and_ps(_mm_cmpge_ps(v, two_pi4), two_pi4));
+    v = _mm_sub_ps(v, _mm_and_ps(_mm_cmpge_ps(v, two_pi4), two_pi4));
+    _mm_storeu_ps(a + i, v);
   }
 #endif
   for (; i < n; ++i) {
-    double v = dir * (double(az[i]) - start);  // within (-3π, 3π)
-    while (v < 0) v += kTwoPi;
-    while (v >= kTwoPi) v -= kTwoPi;
-    a[i] = static_cast<float>(v);
+    float v = d * (az[i] - s);
+    if (v < 0) v += two_pi;
+    if (v < 0) v += two_pi;
+    if (v >= two_pi) v -= two_pi;
+    if (v >= two_pi) v -= two_pi;
+    a[i] = v;
   }
 }
 
@@ -548,14 +522,13 @@ double ringStartAzimuth(const std::vector<float>& a, const std::vector<float>& e
 /// Scan-order segmentation. Returns false (with a reason) when the order carries no rings.
 /// ring_med gets each ring's median elevation (as ringMedians(ring, el, nrings) would) when every
 /// ring is one run, whose median is already known; otherwise it is left empty.
-bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nrings,
+bool scanOrderRings(const std::vector<float>& el, const std::vector<float>& az, int nrings,
                     std::vector<uint16_t>& ring, RingRecoveryStats& st,
                     std::vector<float>& ring_med) {
-  const std::size_t n = c.size();
-  thread_local std::vector<float> az, a;
+  const std::size_t n = el.size();
+  thread_local std::vector<float> a;
   thread_local std::vector<int> seg;
   ring_med.clear();
-  azimuths(c, az);
   const float* const az_of = az.data();  // see 'Scratch arrays' above
   // Sweep direction and evidence of ring-major order: most steps are small and one-signed.
   std::size_t fwd = 0, bwd = 0;
@@ -715,7 +688,10 @@ bool scanOrderRings(const PointCloud& c, const std::vector<float>& el, int nring
   for (int s = 0; s < nseg; ++s) ring_of_run[s] = static_cast<uint16_t>(id[position(s)]);
   ring.resize(n);
   const int* const seg_of = seg.data();  // see 'Scratch arrays' above
-  for (std::size_t i = 0; i < n; ++i) ring[i] = ring_of_run[seg_of[i]];
+  for (std::size_t i = 0, j; i < n; i = j) {
+    j = runEnd(seg_of, i, n);
+    std::fill(ring.begin() + i, ring.begin() + j, ring_of_run[seg_of[i]]);
+  }
   // Without merges each ring holds exactly one run's points, in the same order, so ringMedians
   // would sample and select the same values: reuse the run's median.
   if (groups == nseg) {
@@ -768,6 +744,180 @@ void elevationRings(const std::vector<float>& el, const RingRecoveryOptions& o,
 
 }  // namespace
 
+namespace detail {
+
+RingCut bestRingCut(const std::vector<float>& a, const std::vector<float>& el,
+                    const std::vector<int>& seg, const std::vector<float>& med, int fine_from_bin) {
+  const int nseg = static_cast<int>(med.size());
+  constexpr int kBins = kRingCutBins;
+  constexpr float kCap = 1.0f;   // [deg] misfit cap, so near-range points and edges do not dominate
+  constexpr int kSectors5 = 72;  // 5° sectors of the bound
+  // int(a / 2π · kBins) without the division, which took a third of refineCut: a · (kBins / 2π)
+  // differs from it by a few ulp (< 1e-11), which can change the integer part only right next to
+  // an integer; such points take the exact expression.
+  auto bin = [](float a) {
+    constexpr double kBinsPerRad = kBins / kTwoPi;
+    const double q = double(a) * kBinsPerRad;
+    const int b = int(q);
+    const double frac = q - b;
+    return frac > 1e-6 && frac < 1 - 1e-6 ? b : int(a / kTwoPi * kBins);
+  };
+  thread_local std::vector<double> gain;
+  thread_local std::vector<std::size_t> count;
+  // Runs whose points may move on: there is a next run and both medians are known.
+  std::vector<char> movable(nseg, 0);
+  for (int k = 0; k + 1 < nseg; ++k)
+    movable[k] = std::isfinite(med[k]) && std::isfinite(med[k + 1]);
+  // Points at azimuth >= fine_from_rad fall in bins >= fine_from - 1 (the half bin keeps the
+  // float comparison clear of the boundary), points below it in bins <= fine_from - 1: the bins
+  // from fine_from on hold all their points. The others add up per 5° sector.
+  double sector_sum[kSectors5], sector_neg[kSectors5];
+  auto histogram = [&](float fine_from_rad) {
+    gain.assign(kBins, 0.0);
+    count.assign(kBins, 0);
+    std::fill(sector_sum, sector_sum + kSectors5, 0.0);
+    std::fill(sector_neg, sector_neg + kSectors5, 0.0);
+    double* const gain_of = gain.data();  // see 'Scratch arrays' in the namespace above
+    std::size_t* const count_of = count.data();
+    auto fine = [&](std::size_t i, float delta) {
+      const int b = std::min(kBins - 1, bin(a[i]));
+      gain_of[b] += delta;
+      ++count_of[b];
+    };
+    auto coarse = [&](std::size_t i, float delta) {
+      const int k = std::min(kSectors5 - 1, int(a[i] * float(kSectors5 / kTwoPi)));
+      sector_sum[k] += delta;
+      sector_neg[k] += std::min(0.f, delta);
+    };
+    const std::size_t n = a.size();
+    // Run by run (each run is one stretch of the file here), the misfit deltas four at a time.
+    for (std::size_t i = 0; i < n;) {
+      const int s = seg[i];
+      const std::size_t end = runEnd(seg.data(), i, n);
+      if (!movable[s]) {
+        i = end;
+        continue;
+      }
+      const float m_now = med[s], m_moved = med[s + 1];
+#if defined(__SSE2__)
+      // minps(x, cap) and std::min(cap, x) both give cap unless x < cap (NaN included).
+      const __m128 now4 = _mm_set1_ps(m_now), moved4 = _mm_set1_ps(m_moved);
+      const __m128 cap = _mm_set1_ps(kCap), abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+      const __m128 fine_from4 = _mm_set1_ps(fine_from_rad), zero = _mm_setzero_ps();
+      const __m128 sectors_per_rad = _mm_set1_ps(float(kSectors5 / kTwoPi));
+      // bin() two lanes at a time in double, with the same products and tests; a lane whose
+      // fraction is within 1e-6 of an integer takes bin() itself.
+      const __m128d bins_per_rad = _mm_set1_pd(kBins / kTwoPi);
+      const __m128d frac_lo = _mm_set1_pd(1e-6), frac_hi = _mm_set1_pd(1 - 1e-6);
+      auto binsOf = [&](__m128d q, int* out) {
+        const __m128i b = _mm_cvttpd_epi32(q);
+        const __m128d frac = _mm_sub_pd(q, _mm_cvtepi32_pd(b));
+        const int exact =
+            _mm_movemask_pd(_mm_and_pd(_mm_cmpgt_pd(frac, frac_lo), _mm_cmplt_pd(frac, frac_hi)));
+        out[0] = _mm_cvtsi128_si32(b);
+        out[1] = _mm_cvtsi128_si32(_mm_shuffle_epi32(b, 1));
+        return exact;
+      };
+      // The coarse sums of the sector the last groups fell in, kept in registers.
+      int sector = -1;
+      __m128d sum2 = _mm_setzero_pd(), neg2 = _mm_setzero_pd();
+      auto flush = [&] {
+        if (sector < 0) return;
+        alignas(16) double v[2], w[2];
+        _mm_store_pd(v, sum2);
+        _mm_store_pd(w, neg2);
+        sector_sum[sector] += v[0] + v[1];
+        sector_neg[sector] += w[0] + w[1];
+        sum2 = neg2 = _mm_setzero_pd();
+        sector = -1;
+      };
+      for (; i + 4 <= end; i += 4) {
+        const __m128 e = _mm_loadu_ps(&el[i]);
+        const __m128 now = _mm_min_ps(_mm_and_ps(_mm_sub_ps(e, now4), abs_mask), cap);
+        const __m128 moved = _mm_min_ps(_mm_and_ps(_mm_sub_ps(e, moved4), abs_mask), cap);
+        const __m128 d = _mm_sub_ps(moved, now);
+        const __m128 av = _mm_loadu_ps(&a[i]);
+        const int high = _mm_movemask_ps(_mm_cmpge_ps(av, fine_from4));
+        if (high == 0) {
+          const __m128i k = _mm_cvttps_epi32(_mm_mul_ps(av, sectors_per_rad));
+          const int k0 = _mm_cvtsi128_si32(k);
+          if (k0 < kSectors5 &&
+              _mm_movemask_epi8(_mm_cmpeq_epi32(k, _mm_set1_epi32(k0))) == 0xFFFF) {
+            if (k0 != sector) flush(), sector = k0;
+            const __m128 dneg = _mm_min_ps(d, zero);
+            sum2 = _mm_add_pd(sum2, _mm_add_pd(_mm_cvtps_pd(d), _mm_cvtps_pd(_mm_movehl_ps(d, d))));
+            neg2 = _mm_add_pd(
+                neg2, _mm_add_pd(_mm_cvtps_pd(dneg), _mm_cvtps_pd(_mm_movehl_ps(dneg, dneg))));
+            continue;
+          }
+        }
+        alignas(16) float delta[4];
+        _mm_store_ps(delta, d);
+        if (high == 0xF) {
+          int b[4];
+          const int exact =
+              binsOf(_mm_mul_pd(_mm_cvtps_pd(av), bins_per_rad), b) |
+              binsOf(_mm_mul_pd(_mm_cvtps_pd(_mm_movehl_ps(av, av)), bins_per_rad), b + 2) << 2;
+          for (int k = 0; k < 4; ++k) {
+            const int bk = std::min(kBins - 1, exact >> k & 1 ? b[k] : bin(a[i + k]));
+            gain_of[bk] += delta[k];
+            ++count_of[bk];
+          }
+          continue;
+        }
+        for (int k = 0; k < 4; ++k) {
+          if (high >> k & 1)
+            fine(i + k, delta[k]);
+          else
+            coarse(i + k, delta[k]);
+        }
+      }
+      flush();
+#endif
+      for (; i < end; ++i) {
+        const float now = std::min(kCap, std::fabs(el[i] - m_now));
+        const float moved = std::min(kCap, std::fabs(el[i] - m_moved));
+        if (a[i] >= fine_from_rad)
+          fine(i, moved - now);
+        else
+          coarse(i, moved - now);
+      }
+    }
+  };
+  double sum = 0, best = 0;
+  std::size_t moved = 0, best_moved = 0;
+  int best_bin = kBins;
+  auto search = [&](int down_to) {
+    for (int b = kBins - 1; b >= down_to; --b) {
+      sum += gain[b];
+      moved += count[b];
+      if (sum < best) best = sum, best_bin = b, best_moved = moved;
+    }
+  };
+  const int fine_from = std::clamp(fine_from_bin, 1, kBins);
+  histogram(float((fine_from - 0.5) / kBins * kTwoPi));
+  search(fine_from);
+  // A cut in bin b < fine_from gains sum + gain[fine_from - 1] (that bin's binned points) + the
+  // deltas of the unbinned points in bins >= b: at least those of the sectors above b's sector
+  // plus the negative ones of its own. The margin covers the rounding of the sums (< 1e-9 here).
+  bool bounded = true;
+  double above = sum + gain[fine_from - 1];
+  for (int k = kSectors5 - 1; k >= 0 && bounded; --k) {
+    bounded = above + sector_neg[k] >= best + 1e-3;
+    above += sector_sum[k];
+  }
+  if (!bounded) {
+    sum = 0, best = 0, moved = 0, best_moved = 0, best_bin = kBins;
+    histogram(-std::numeric_limits<float>::infinity());
+    search(1);
+  }
+  RingCut cut;
+  cut.bin = best_bin, cut.gain = best, cut.moved = best_moved, cut.binned_all = !bounded;
+  return cut;
+}
+
+}  // namespace detail
+
 const char* toString(RingMethod m) {
   switch (m) {
     case RingMethod::kScanOrder:
@@ -790,12 +940,14 @@ RingRecoveryStats recoverRings(PointCloud& cloud, const RingRecoveryOptions& o) 
                          std::to_string(nrings) + " rings";
     return st;
   }
-  const std::vector<float>& el = elevationsDeg(cloud, o.z_offset_m);
+  thread_local std::vector<float> az;  // filled for scan order only
+  const std::vector<float>& el =
+      elevationsDeg(cloud, o.z_offset_m, o.use_scan_order ? &az : nullptr);
   std::vector<uint16_t> ring;
   std::vector<float> med;  // per ring id
   bool done = false;
   if (o.use_scan_order) {
-    done = scanOrderRings(cloud, el, nrings, ring, st, med);
+    done = scanOrderRings(el, az, nrings, ring, st, med);
     if (done) {
       if (med.empty()) med = ringMedians(ring, el, nrings);
       st.monotonic_violations = countViolations(med);
