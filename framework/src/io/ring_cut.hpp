@@ -1,5 +1,5 @@
 #pragma once
-// The cut search of ring recovery (ring_recovery.cpp), declared here for its property test.
+// Internals of ring recovery (ring_recovery.cpp), declared here for their tests.
 #include <cstddef>
 #include <vector>
 
@@ -23,5 +23,9 @@ struct RingCut {
 /// is that of binning every point (fine_from_bin <= 1) whatever fine_from_bin is.
 RingCut bestRingCut(const std::vector<float>& a, const std::vector<float>& el,
                     const std::vector<int>& seg, const std::vector<float>& med, int fine_from_bin);
+
+/// Lets ring recovery use AVX where the CPU has it (the default), or keeps it to SSE2, for the
+/// test that both give the same rings. Returns whether AVX is now used.
+bool allowAvx(bool allowed);
 
 }  // namespace terramrf::detail

@@ -1,6 +1,7 @@
 #include "terramrf/io/ring_recovery.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -9,6 +10,10 @@
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
+#endif
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define TERRAMRF_AVX_DISPATCH 1  // the per-point angles also in AVX, where the CPU has it
 #endif
 
 namespace terramrf {
@@ -76,6 +81,57 @@ inline __m128 fastAtan2x4(__m128 y, __m128 x) {
 }
 #endif
 
+#if defined(TERRAMRF_AVX_DISPATCH)
+// The elevation and azimuth pass is the largest part of the recovery; with AVX (eight lanes, no
+// FMA, so the same IEEE operations in the same order) it takes about half the time and gives the
+// same bits. Chosen at run time: the build targets plain x86-64.
+#define TERRAMRF_AVX __attribute__((target("avx")))
+
+TERRAMRF_AVX inline __m256 select8(__m256 mask, __m256 if_true, __m256 if_false) {
+  return _mm256_or_ps(_mm256_and_ps(mask, if_true), _mm256_andnot_ps(mask, if_false));
+}
+
+/// fastAtan2 on eight lanes.
+TERRAMRF_AVX inline __m256 fastAtan2x8(__m256 y, __m256 x) {
+  const __m256 sign = _mm256_set1_ps(-0.f), zero = _mm256_setzero_ps();
+  const __m256 ax = _mm256_andnot_ps(sign, x), ay = _mm256_andnot_ps(sign, y);
+  const __m256 mx = _mm256_max_ps(ay, ax), mn = _mm256_min_ps(ay, ax);
+  const __m256 a = _mm256_div_ps(mn, mx), s = _mm256_mul_ps(a, a);
+  __m256 r =
+      _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(-0.0117212f), s), _mm256_set1_ps(0.05265332f));
+  r = _mm256_sub_ps(_mm256_mul_ps(r, s), _mm256_set1_ps(0.11643287f));
+  r = _mm256_add_ps(_mm256_mul_ps(r, s), _mm256_set1_ps(0.19354346f));
+  r = _mm256_sub_ps(_mm256_mul_ps(r, s), _mm256_set1_ps(0.33262347f));
+  r = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(r, s), a),
+                    _mm256_mul_ps(_mm256_set1_ps(0.99997726f), a));
+  r = select8(_mm256_cmp_ps(ay, ax, _CMP_GT_OS), _mm256_sub_ps(_mm256_set1_ps(1.57079637f), r), r);
+  r = select8(_mm256_cmp_ps(x, zero, _CMP_LT_OS), _mm256_sub_ps(_mm256_set1_ps(3.14159274f), r), r);
+  r = _mm256_xor_ps(r, _mm256_and_ps(_mm256_cmp_ps(y, zero, _CMP_LT_OS), sign));
+  return _mm256_andnot_ps(_mm256_cmp_ps(mx, zero, _CMP_EQ_OQ), r);
+}
+
+/// elevationsDeg's loop for points [0, n - n % 8): elevation [deg] into el, azimuth into az
+/// unless null.
+TERRAMRF_AVX void anglesX8(const float* px, const float* py, const float* pz, std::size_t n,
+                           float dz, float to_deg, float* el, float* az) {
+  const __m256 dz8 = _mm256_set1_ps(dz), to_deg8 = _mm256_set1_ps(to_deg);
+  for (std::size_t i = 0; i + 8 <= n; i += 8) {
+    const __m256 x = _mm256_loadu_ps(px + i), y = _mm256_loadu_ps(py + i);
+    const __m256 r = _mm256_sqrt_ps(_mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y)));
+    const __m256 e = fastAtan2x8(_mm256_sub_ps(_mm256_loadu_ps(pz + i), dz8), r);
+    _mm256_storeu_ps(el + i, _mm256_mul_ps(e, to_deg8));
+    if (az) _mm256_storeu_ps(az + i, fastAtan2x8(y, x));
+  }
+}
+
+std::atomic<bool> avx_allowed{true};  // detail::allowAvx()
+
+bool haveAvx() {
+  static const bool avx = __builtin_cpu_supports("avx");
+  return avx && avx_allowed.load(std::memory_order_relaxed);
+}
+#endif
+
 /// Median of v[begin, end) (reorders that range).
 float medianOf(std::vector<float>& v, std::size_t begin, std::size_t end) {
   if (begin >= end) return std::numeric_limits<float>::quiet_NaN();
@@ -105,6 +161,12 @@ const std::vector<float>& elevationsDeg(const PointCloud& c, double z_offset_m,
   const float *px = c.x.data(), *py = c.y.data(), *pz = c.z.data();
   float* out = el.data();
   const __m128 dz4 = _mm_set1_ps(dz), to_deg4 = _mm_set1_ps(to_deg);
+#if defined(TERRAMRF_AVX_DISPATCH)
+  if (haveAvx()) {
+    anglesX8(px, py, pz, n, dz, to_deg, out, az ? az->data() : nullptr);
+    i = n - n % 8;
+  }
+#endif
   auto elevation = [&](__m128 x, __m128 y) {
     const __m128 r = _mm_sqrt_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)));
     _mm_storeu_ps(out + i,
@@ -745,6 +807,16 @@ void elevationRings(const std::vector<float>& el, const RingRecoveryOptions& o,
 }  // namespace
 
 namespace detail {
+
+bool allowAvx(bool allowed) {
+#if defined(TERRAMRF_AVX_DISPATCH)
+  avx_allowed = allowed;
+  return haveAvx();
+#else
+  (void)allowed;
+  return false;
+#endif
+}
 
 RingCut bestRingCut(const std::vector<float>& a, const std::vector<float>& el,
                     const std::vector<int>& seg, const std::vector<float>& med, int fine_from_bin) {

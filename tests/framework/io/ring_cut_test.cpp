@@ -1,6 +1,6 @@
-// The cut search of ring recovery: binning only the last 40° first, and every point only when
-// the sector bound cannot rule out the earlier bins, must find exactly what binning every point
-// finds.
+// Ring recovery's internals. The cut search: binning only the last 40° first, and every point only
+// when the sector bound cannot rule out the earlier bins, must find exactly what binning every
+// point finds.
 #include "io/ring_cut.hpp"
 
 #include <gtest/gtest.h>
@@ -8,6 +8,10 @@
 #include <cmath>
 #include <random>
 #include <vector>
+
+#include "io_test_util.hpp"
+#include "terramrf/io/kitti.hpp"
+#include "terramrf/io/ring_recovery.hpp"
 
 namespace terramrf::detail {
 namespace {
@@ -115,6 +119,26 @@ TEST(RingCut, RunsWithoutAKnownMedianOrANextRunStay) {
   const RingCut cut = bestRingCut(r.a, r.el, r.seg, r.med, kLast40Deg);
   EXPECT_NEAR(cut.bin * 360.0 / kRingCutBins, 350, 0.5);
   EXPECT_NEAR(double(cut.moved), 500 * 10 / 360.0, 4);
+}
+
+TEST(RingRecoveryAvx, SameRingsAndMediansAsSse2) {
+  // The per-point angles run in AVX where the CPU has it: the same operations on eight lanes
+  // must give the same bits as on four.
+  PointCloud with_avx = test::readDataScan(test::seq00Scan(0));
+  PointCloud with_sse2 = with_avx;
+  const bool avx = allowAvx(true);
+  const RingRecoveryStats a = recoverRings(with_avx);
+  allowAvx(false);
+  const RingRecoveryStats b = recoverRings(with_sse2);
+  allowAvx(true);
+  if (!avx) GTEST_LOG_(INFO) << "this CPU has no AVX: SSE2 compared with itself";
+  EXPECT_EQ(a.method, RingMethod::kScanOrder);
+  EXPECT_EQ(with_avx.ring, with_sse2.ring);
+  ASSERT_EQ(a.ring_median_elevation_deg.size(), b.ring_median_elevation_deg.size());
+  for (std::size_t k = 0; k < a.ring_median_elevation_deg.size(); ++k)
+    EXPECT_EQ(a.ring_median_elevation_deg[k], b.ring_median_elevation_deg[k]) << "ring " << k;
+  EXPECT_EQ(a.elevation_consistency, b.elevation_consistency);
+  EXPECT_EQ(a.ordered_fraction, b.ordered_fraction);
 }
 
 }  // namespace
