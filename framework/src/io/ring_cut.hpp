@@ -24,8 +24,4 @@ struct RingCut {
 RingCut bestRingCut(const std::vector<float>& a, const std::vector<float>& el,
                     const std::vector<int>& seg, const std::vector<float>& med, int fine_from_bin);
 
-/// Lets ring recovery use AVX where the CPU has it (the default), or keeps it to SSE2, for the
-/// test that both give the same rings. Returns whether AVX is now used.
-bool allowAvx(bool allowed);
-
 }  // namespace terramrf::detail

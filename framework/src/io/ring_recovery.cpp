@@ -1,12 +1,12 @@
 #include "terramrf/io/ring_recovery.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <limits>
 #include <numeric>
 
 #include "ring_cut.hpp"
+#include "terramrf/simd.hpp"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -170,12 +170,6 @@ TERRAMRF_AVX std::size_t unwrapX8(const float* az, std::size_t n, float s, float
   return i;
 }
 
-std::atomic<bool> avx_allowed{true};  // detail::allowAvx()
-
-bool haveAvx() {
-  static const bool avx = __builtin_cpu_supports("avx");
-  return avx && avx_allowed.load(std::memory_order_relaxed);
-}
 #endif
 
 /// Median of v[begin, end) (reorders that range).
@@ -208,7 +202,7 @@ const std::vector<float>& elevationsDeg(const PointCloud& c, double z_offset_m,
   float* out = el.data();
   const __m128 dz4 = _mm_set1_ps(dz), to_deg4 = _mm_set1_ps(to_deg);
 #if defined(TERRAMRF_AVX_DISPATCH)
-  if (haveAvx()) {
+  if (useAvx()) {
     anglesX8(px, py, pz, n, dz, to_deg, out, az ? az->data() : nullptr);
     i = n - n % 8;
   }
@@ -439,7 +433,7 @@ void countSmallSteps(const float* az, std::size_t n, std::size_t& fwd, std::size
   const float pi = float(kPi), two_pi = float(kTwoPi), small = float(5 * kDeg);
   std::size_t i = 1;
 #if defined(TERRAMRF_AVX_DISPATCH)
-  if (haveAvx()) i = smallStepsX8(az, n, fwd, bwd);
+  if (useAvx()) i = smallStepsX8(az, n, fwd, bwd);
 #endif
 #if defined(__SSE2__)
   const __m128 pi4 = _mm_set1_ps(pi), neg_pi4 = _mm_set1_ps(-pi), two_pi4 = _mm_set1_ps(two_pi);
@@ -477,7 +471,7 @@ void unwrapAzimuths(const float* az, std::size_t n, double start, int dir, float
   const float s = float(start), d = float(dir), two_pi = float(kTwoPi);
   std::size_t i = 0;
 #if defined(TERRAMRF_AVX_DISPATCH)
-  if (haveAvx()) i = unwrapX8(az, n, s, d, a);
+  if (useAvx()) i = unwrapX8(az, n, s, d, a);
 #endif
 #if defined(__SSE2__)
   const __m128 two_pi4 = _mm_set1_ps(two_pi), zero = _mm_setzero_ps();
@@ -859,16 +853,6 @@ void elevationRings(const std::vector<float>& el, const RingRecoveryOptions& o,
 }  // namespace
 
 namespace detail {
-
-bool allowAvx(bool allowed) {
-#if defined(TERRAMRF_AVX_DISPATCH)
-  avx_allowed = allowed;
-  return haveAvx();
-#else
-  (void)allowed;
-  return false;
-#endif
-}
 
 RingCut bestRingCut(const std::vector<float>& a, const std::vector<float>& el,
                     const std::vector<int>& seg, const std::vector<float>& med, int fine_from_bin) {

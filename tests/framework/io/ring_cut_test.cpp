@@ -12,6 +12,7 @@
 #include "io_test_util.hpp"
 #include "terramrf/io/kitti.hpp"
 #include "terramrf/io/ring_recovery.hpp"
+#include "terramrf/simd.hpp"
 
 namespace terramrf::detail {
 namespace {
@@ -126,11 +127,11 @@ TEST(RingRecoveryAvx, SameRingsAndMediansAsSse2) {
   // must give the same bits as on four.
   PointCloud with_avx = test::readDataScan(test::seq00Scan(0));
   PointCloud with_sse2 = with_avx;
-  const bool avx = allowAvx(true);
+  const bool avx = useAvx();
   const RingRecoveryStats a = recoverRings(with_avx);
-  allowAvx(false);
+  test::ScopedEnv sse2("TERRAMRF_SIMD", "sse2");
+  ASSERT_FALSE(useAvx());
   const RingRecoveryStats b = recoverRings(with_sse2);
-  allowAvx(true);
   if (!avx) GTEST_LOG_(INFO) << "this CPU has no AVX: SSE2 compared with itself";
   EXPECT_EQ(a.method, RingMethod::kScanOrder);
   EXPECT_EQ(with_avx.ring, with_sse2.ring);
