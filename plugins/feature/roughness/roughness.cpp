@@ -21,8 +21,13 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define TERRAMRF_ROUGHNESS_AVX2 1  // ringResidualsX8, chosen at run time (terramrf/simd.hpp)
+#endif
 
 #include "terramrf/plugin.hpp"
+#include "terramrf/simd.hpp"
 
 namespace terramrf {
 
@@ -126,11 +131,12 @@ class Roughness final : public Stage {
     // Passed-over neighbours widen the search, up to 4 windows along the ring.
     const int span = elev ? 4 * window_ : window_;
     // range_ and sin_el_ carry `pad` slots before and after the ring-ordered values, so the
-    // four-point groups of the SSE2 path may load past either end (those lanes are masked).
-    const std::size_t pad = static_cast<std::size_t>(span) + 4;
+    // four- and eight-point groups of the vector paths may load past either end (those lanes are
+    // masked).
+    const std::size_t pad = static_cast<std::size_t>(span) + 8;
     range_.resize(order_.size() + 2 * pad);
     if (elev || vertical) sin_el_.resize(order_.size() + 2 * pad);
-    cell_.resize(order_.size() + 4);
+    cell_.resize(order_.size() + 8);
     rangesInRingOrder(pc, g.cellOfPoint().data(), pad, elev || vertical);
     Filter f;
     f.range = range_.data() + pad;
@@ -145,8 +151,20 @@ class Roughness final : public Stage {
     sum_.assign(g.cells(), 0.f);
     cnt_.assign(g.cells(), 0);
     CellSums acc{sum_.data(), cnt_.data()};
+#if defined(TERRAMRF_ROUGHNESS_AVX2)
+    const bool avx2 = useAvx2();
+#endif
     for (int r = 0; r < rings; ++r) {
       const int b = static_cast<int>(offsets_[r]), e = static_cast<int>(offsets_[r + 1]);
+#if defined(TERRAMRF_ROUGHNESS_AVX2)
+      if (avx2) {
+        if (elev)
+          ringResidualsX8<true>(b, e, f, acc);
+        else
+          ringResidualsX8<false>(b, e, f, acc);
+        continue;
+      }
+#endif
 #if defined(__SSE2__)
       if (elev)
         ringResidualsX4<true>(b, e, f, acc);
@@ -339,6 +357,92 @@ class Roughness final : public Stage {
   }
 #endif
 
+#if defined(TERRAMRF_ROUGHNESS_AVX2)
+  /// One side's window walk of ringResidualsX8 (the walk lambda of ringResidualsX4 on eight
+  /// lanes; a lambda would not inherit the AVX2 target).
+  template <bool kElev>
+  __attribute__((target("avx2"))) static void walkX8(const Filter& f, int k0, int dir, __m256i room,
+                                                     __m256i full, __m256i in_grid, __m256 rk,
+                                                     __m256 sk, __m256& s, __m256i& m,
+                                                     __m256i& passed) {
+    const __m256 sign = _mm256_set1_ps(-0.f), max_dsin = _mm256_set1_ps(f.max_dsin),
+                 jump = _mm256_set1_ps(f.jump);
+    const __m256i one = _mm256_set1_epi32(1), none = _mm256_set1_epi32(-1);
+    __m256i active = in_grid;
+    for (int d = 1; d <= f.span; ++d) {
+      room = _mm256_sub_epi32(room, one);
+      active = _mm256_and_si256(active, _mm256_cmpgt_epi32(room, none));
+      if (!_mm256_movemask_epi8(active)) break;
+      const int j = k0 + dir * d;
+      const __m256 rj = _mm256_loadu_ps(f.range + j);
+      __m256 take = _mm256_castsi256_ps(active);
+      if (kElev) {  // another laser: passed over
+        const __m256 other =
+            _mm256_cmp_ps(_mm256_andnot_ps(sign, _mm256_sub_ps(_mm256_loadu_ps(f.sin_el + j), sk)),
+                          max_dsin, _CMP_GT_OS);
+        passed = _mm256_sub_epi32(passed, _mm256_castps_si256(_mm256_and_ps(take, other)));
+        take = _mm256_andnot_ps(other, take);
+      }
+      const __m256 edge =
+          _mm256_cmp_ps(_mm256_andnot_ps(sign, _mm256_sub_ps(rj, rk)), jump, _CMP_GT_OS);
+      active = _mm256_andnot_si256(_mm256_castps_si256(_mm256_and_ps(take, edge)), active);
+      take = _mm256_andnot_ps(edge, take);
+      s = _mm256_add_ps(s, _mm256_and_ps(take, rj));
+      m = _mm256_sub_epi32(m, _mm256_castps_si256(take));
+      active = _mm256_andnot_si256(_mm256_cmpeq_epi32(m, full), active);
+    }
+  }
+
+  /// ringResidualsX4 on eight lanes (AVX2): the same operations per lane in the same order, and
+  /// the squares reach CellSums in point order, so the result is the same bits.
+  template <bool kElev>
+  __attribute__((target("avx2"))) void ringResidualsX8(int b, int e, const Filter& filter,
+                                                       CellSums& sums) const {
+    const Filter f = filter;
+    CellSums acc = sums;
+    const __m256 sign = _mm256_set1_ps(-0.f);
+    const __m256i window = _mm256_set1_epi32(f.window),
+                  lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), none = _mm256_set1_epi32(-1),
+                  zero = _mm256_setzero_si256();
+    __m256i passed = zero;
+    for (int k0 = b; k0 < e; k0 += 8) {
+      const int32_t* cells = f.cell + k0;
+      const __m256i cell8 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cells));
+      const __m256i in_grid = _mm256_and_si256(_mm256_cmpgt_epi32(cell8, none),
+                                               _mm256_cmpgt_epi32(_mm256_set1_epi32(e - k0), lane));
+      if (!_mm256_movemask_epi8(in_grid)) continue;
+      const __m256 rk = _mm256_loadu_ps(f.range + k0);
+      const __m256 sk = f.sin_el ? _mm256_loadu_ps(f.sin_el + k0) : _mm256_setzero_ps();
+      __m256 s = _mm256_setzero_ps();
+      __m256i m = zero;
+      walkX8<kElev>(f, k0, -1, _mm256_add_epi32(_mm256_set1_epi32(k0 - b), lane), window, in_grid,
+                    rk, sk, s, m, passed);
+      const __m256i left = m;
+      walkX8<kElev>(f, k0, +1, _mm256_sub_epi32(_mm256_set1_epi32(e - 1 - k0), lane),
+                    _mm256_add_epi32(left, window), in_grid, rk, sk, s, m, passed);
+      const int valid = _mm256_movemask_ps(_mm256_castsi256_ps(
+          _mm256_and_si256(_mm256_cmpgt_epi32(left, zero), _mm256_cmpgt_epi32(m, left))));
+      if (!valid) continue;
+      __m256 res = _mm256_sub_ps(rk, _mm256_div_ps(s, _mm256_cvtepi32_ps(m)));
+      if (f.vertical) res = _mm256_mul_ps(res, _mm256_andnot_ps(sign, sk));
+      alignas(32) float sq[8];
+      _mm256_store_ps(sq, _mm256_mul_ps(res, res));
+      if (valid == 0xFF &&
+          _mm256_movemask_epi8(_mm256_cmpeq_epi32(cell8, _mm256_set1_epi32(acc.cell))) == -1) {
+        acc.s = (((((((acc.s + sq[0]) + sq[1]) + sq[2]) + sq[3]) + sq[4]) + sq[5]) + sq[6]) + sq[7];
+        acc.n += 8;
+        continue;
+      }
+      for (int l = 0; l < 8; ++l)
+        if (valid >> l & 1) acc.add(cells[l], sq[l]);
+    }
+    alignas(32) int32_t p[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(p), passed);
+    for (int l = 0; l < 8; ++l) acc.passed_over += static_cast<std::size_t>(p[l]);
+    sums = acc;
+  }
+#endif
+
   /// range_[pad + k] (and sin_el_[pad + k] = z / range when `with_sin`) and cell_[k] of the
   /// point order_[k].
   void rangesInRingOrder(const PointCloud& pc, const int32_t* cell_of, std::size_t pad,
@@ -418,7 +522,7 @@ class Roughness final : public Stage {
   std::vector<uint32_t> offsets_, cursor_, order_, cnt_;
   double max_elev_step_deg_ = 0.15;
   std::vector<float> range_, sin_el_, sum_;
-  std::vector<int32_t> cell_;  // in ring order, + 4 for the SSE2 path's last group
+  std::vector<int32_t> cell_;  // in ring order, + 8 for the vector paths' last group
 };
 
 }  // namespace terramrf

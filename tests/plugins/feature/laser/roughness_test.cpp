@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <random>
 #include <string>
 #include <utility>
@@ -187,7 +188,8 @@ namespace terramrf {
 
 namespace {
 // The filter of roughness.cpp's file comment written out point by point, with the plugin's float
-// operations in the plugin's order: the reference for the four-points-at-a-time SSE2 path.
+// operations in the plugin's order: the reference for the four- (SSE2) and eight-points-at-a-time
+// (AVX2) paths.
 struct ReferenceRoughness {
   std::vector<float> layer;
   double passed_over_per_point = 0;
@@ -253,7 +255,7 @@ ReferenceRoughness referenceRoughness(const PointCloud& pc, const TerrainGrid& g
 // out of the grid, with range jumps (edges) and points of another laser (passed over) at random
 // places: the plugin's layer and passed-over metric must equal the definition's bit for bit,
 // whatever the window, so the SSE2 path's lanes, ring ends and masks are checked.
-TEST(Roughness, FourPointGroupsEqualTheDefinitionBitForBit) {
+TEST(Roughness, VectorGroupsEqualTheDefinitionBitForBit) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(0, 1);
   std::vector<std::vector<std::array<float, 3>>> rings;
@@ -312,22 +314,28 @@ TEST(Roughness, FourPointGroupsEqualTheDefinitionBitForBit) {
              {"{window: 7, max_elevation_step_deg: 0.3, min_points: 2}", 7, 0.5, 0.3, false, 2},
              {"{window: 2, residual: vertical, max_elevation_step_deg: 0}", 2, 0.5, 0, true, 1}}) {
       SCOPED_TRACE(c.params);
-      h.bin();
-      auto p = h.make("roughness", c.params.substr(0, c.params.size() - 1) +
-                                       (c.params == "{}" ? "" : ", ") + "azimuth_order: scan}");
-      p->process(h.ctx);
-      const ReferenceRoughness ref = referenceRoughness(h.frame.points, h.grid, c.window, c.jump,
-                                                        c.elev, c.vertical, c.min_points);
-      const auto& got = h.grid.layer("roughness");
-      int valid = 0, differ = 0;
-      for (std::size_t i = 0; i < got.size(); ++i) {
-        valid += !std::isnan(ref.layer[i]);
-        const bool both_nan = std::isnan(got[i]) && std::isnan(ref.layer[i]);
-        differ += !both_nan && std::memcmp(&got[i], &ref.layer[i], sizeof(float)) != 0;
+      // Eight-point groups (AVX2) where the CPU has them, and the four-point SSE2 groups.
+      for (const bool sse2 : {false, true}) {
+        SCOPED_TRACE(sse2 ? "SSE2" : "widest vectors of this CPU");
+        std::optional<test::ScopedEnv> env;
+        if (sse2) env.emplace("TERRAMRF_SIMD", "sse2");
+        h.bin();
+        auto p = h.make("roughness", c.params.substr(0, c.params.size() - 1) +
+                                         (c.params == "{}" ? "" : ", ") + "azimuth_order: scan}");
+        p->process(h.ctx);
+        const ReferenceRoughness ref = referenceRoughness(h.frame.points, h.grid, c.window, c.jump,
+                                                          c.elev, c.vertical, c.min_points);
+        const auto& got = h.grid.layer("roughness");
+        int valid = 0, differ = 0;
+        for (std::size_t i = 0; i < got.size(); ++i) {
+          valid += !std::isnan(ref.layer[i]);
+          const bool both_nan = std::isnan(got[i]) && std::isnan(ref.layer[i]);
+          differ += !both_nan && std::memcmp(&got[i], &ref.layer[i], sizeof(float)) != 0;
+        }
+        EXPECT_EQ(differ, 0) << "of " << valid << " valid cells";
+        EXPECT_GT(valid, 30);
+        EXPECT_EQ(h.ctx.metrics.at("roughness.passed_over_per_point"), ref.passed_over_per_point);
       }
-      EXPECT_EQ(differ, 0) << "of " << valid << " valid cells";
-      EXPECT_GT(valid, 30);
-      EXPECT_EQ(h.ctx.metrics.at("roughness.passed_over_per_point"), ref.passed_over_per_point);
     }
   }
 }
