@@ -14,22 +14,18 @@ bool sse2Only() {
 
 }  // namespace
 
-bool useAvx() {
 #if defined(__x86_64__) && defined(__GNUC__)
+bool useAvx() {
   static const bool cpu = __builtin_cpu_supports("avx");
   return cpu && !sse2Only();
-#else
-  return false;
-#endif
 }
-
 bool useAvx2() {
-#if defined(__x86_64__) && defined(__GNUC__)
   static const bool cpu = __builtin_cpu_supports("avx2");
   return cpu && !sse2Only();
-#else
-  return false;
-#endif
 }
+#else
+bool useAvx() { return false; }
+bool useAvx2() { return false; }
+#endif
 
 }  // namespace terramrf
