@@ -170,6 +170,62 @@ TERRAMRF_AVX std::size_t unwrapX8(const float* az, std::size_t n, float s, float
   return i;
 }
 
+/// coarseSumsX8's running sums of `sector` into sum/neg; starts `next`.
+__attribute__((target("avx2"))) inline void flushSector(int& sector, int next, __m256d& sum4,
+                                                        __m256d& neg4, double* sum, double* neg) {
+  if (sector >= 0) {
+    alignas(32) double v[4], w[4];
+    _mm256_store_pd(v, sum4);
+    _mm256_store_pd(w, neg4);
+    sum[sector] += (v[0] + v[1]) + (v[2] + v[3]);
+    neg[sector] += (w[0] + w[1]) + (w[2] + w[3]);
+  }
+  sum4 = neg4 = _mm256_setzero_pd();
+  sector = next;
+}
+
+/// The cut search's sums of points below the finely binned azimuths (see detail::bestRingCut),
+/// eight points of one run at a time from i on while none is at azimuth >= fine_from; returns
+/// the first point left. Adds each point's delta and its negative part to its 5° sector.
+__attribute__((target("avx2"))) std::size_t coarseSumsX8(
+    const float* a, const float* el, std::size_t i, std::size_t end, float m_now, float m_moved,
+    float fine_from, float cap, float sectors_per_rad, int sectors, double* sum, double* neg) {
+  const __m256 now8 = _mm256_set1_ps(m_now), moved8 = _mm256_set1_ps(m_moved);
+  const __m256 cap8 = _mm256_set1_ps(cap),
+               abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  const __m256 fine8 = _mm256_set1_ps(fine_from), zero = _mm256_setzero_ps();
+  const __m256 per_rad = _mm256_set1_ps(sectors_per_rad);
+  int sector = -1;
+  __m256d sum4 = _mm256_setzero_pd(), neg4 = _mm256_setzero_pd();
+  for (; i + 8 <= end; i += 8) {
+    const __m256 av = _mm256_loadu_ps(a + i);
+    if (_mm256_movemask_ps(_mm256_cmp_ps(av, fine8, _CMP_GE_OS))) break;
+    const __m256 e = _mm256_loadu_ps(el + i);
+    const __m256 d =
+        _mm256_sub_ps(_mm256_min_ps(_mm256_and_ps(_mm256_sub_ps(e, moved8), abs_mask), cap8),
+                      _mm256_min_ps(_mm256_and_ps(_mm256_sub_ps(e, now8), abs_mask), cap8));
+    const __m256i k = _mm256_min_epi32(_mm256_cvttps_epi32(_mm256_mul_ps(av, per_rad)),
+                                       _mm256_set1_epi32(sectors - 1));
+    const int k0 = _mm256_cvtsi256_si32(k);
+    if (_mm256_movemask_epi8(_mm256_cmpeq_epi32(k, _mm256_set1_epi32(k0))) == -1) {
+      if (k0 != sector) flushSector(sector, k0, sum4, neg4, sum, neg);
+      const __m256 dn = _mm256_min_ps(d, zero);
+      sum4 = _mm256_add_pd(sum4, _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(d)),
+                                               _mm256_cvtps_pd(_mm256_extractf128_ps(d, 1))));
+      neg4 = _mm256_add_pd(neg4, _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(dn)),
+                                               _mm256_cvtps_pd(_mm256_extractf128_ps(dn, 1))));
+      continue;
+    }
+    alignas(32) float dv[8];
+    alignas(32) int32_t kv[8];
+    _mm256_store_ps(dv, d);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(kv), k);
+    for (int l = 0; l < 8; ++l) sum[kv[l]] += dv[l], neg[kv[l]] += std::min(0.f, dv[l]);
+  }
+  flushSector(sector, -1, sum4, neg4, sum, neg);
+  return i;
+}
+
 #endif
 
 /// Median of v[begin, end) (reorders that range).
@@ -880,6 +936,9 @@ RingCut bestRingCut(const std::vector<float>& a, const std::vector<float>& el,
   // float comparison clear of the boundary), points below it in bins <= fine_from - 1: the bins
   // from fine_from on hold all their points. The others add up per 5° sector.
   double sector_sum[kSectors5], sector_neg[kSectors5];
+#if defined(TERRAMRF_AVX_DISPATCH)
+  const bool avx2 = useAvx2();
+#endif
   auto histogram = [&](float fine_from_rad) {
     gain.assign(kBins, 0.0);
     count.assign(kBins, 0);
@@ -926,6 +985,12 @@ RingCut bestRingCut(const std::vector<float>& a, const std::vector<float>& el,
         out[1] = _mm_cvtsi128_si32(_mm_shuffle_epi32(b, 1));
         return exact;
       };
+#if defined(TERRAMRF_AVX_DISPATCH)
+      // The points below fine_from come first in a run (its azimuth rises): eight at a time.
+      if (avx2)
+        i = coarseSumsX8(a.data(), el.data(), i, end, m_now, m_moved, fine_from_rad, kCap,
+                         float(kSectors5 / kTwoPi), kSectors5, sector_sum, sector_neg);
+#endif
       // The coarse sums of the sector the last groups fell in, kept in registers.
       int sector = -1;
       __m128d sum2 = _mm_setzero_pd(), neg2 = _mm_setzero_pd();
