@@ -4,6 +4,13 @@
 #include <stdexcept>
 #include <vector>
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define TERRAMRF_GRID_AVX2 1
+#endif
+
+#include "terramrf/simd.hpp"
+
 namespace terramrf {
 
 void TerrainGrid::reset(const GridGeometry& g) {
@@ -44,6 +51,30 @@ std::vector<std::string> TerrainGrid::layerNames() const {
 }
 
 namespace {
+
+#if defined(TERRAMRF_GRID_AVX2)
+/// binPoints's cell of each point, eight at a time: the same float operations as its cellOf, and
+/// the same bounds (tested before the conversion to int, as there).
+__attribute__((target("avx2"))) void cellsX8(const float* px, const float* py, std::size_t n,
+                                             float ox, float oy, float inv, int rows, int cols,
+                                             int32_t* cell) {
+  const __m256 ox8 = _mm256_set1_ps(ox), oy8 = _mm256_set1_ps(oy), inv8 = _mm256_set1_ps(inv);
+  const __m256 zero = _mm256_setzero_ps(), rows8 = _mm256_set1_ps(float(rows)),
+               cols8 = _mm256_set1_ps(float(cols));
+  const __m256i colsi = _mm256_set1_epi32(cols), none = _mm256_set1_epi32(-1);
+  for (std::size_t i = 0; i + 8 <= n; i += 8) {
+    const __m256 fr = _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(px + i), ox8), inv8);
+    const __m256 fc = _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(py + i), oy8), inv8);
+    const __m256 in = _mm256_and_ps(
+        _mm256_and_ps(_mm256_cmp_ps(fr, zero, _CMP_GE_OQ), _mm256_cmp_ps(fc, zero, _CMP_GE_OQ)),
+        _mm256_and_ps(_mm256_cmp_ps(fr, rows8, _CMP_LT_OQ), _mm256_cmp_ps(fc, cols8, _CMP_LT_OQ)));
+    const __m256i c = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(fr), colsi),
+                                       _mm256_cvttps_epi32(fc));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(cell + i),
+                        _mm256_blendv_epi8(none, c, _mm256_castps_si256(in)));
+  }
+}
+#endif
 
 /// The counting sort of TerrainGrid::binPoints with the cloud cut into kBlocks consecutive blocks
 /// walked side by side, each with its own counters and cursors. Consecutive points often share a
@@ -113,22 +144,36 @@ void TerrainGrid::binPoints(const PointCloud& cloud) {
   cell_of_point_.resize(n);
   const float* px = cloud.x.data();
   const float* py = cloud.y.data();
+  // Bounds are tested on the floats (fr < rows ⇔ int(fr) < rows for fr >= 0), so points too
+  // far for an int are outside, not converted.
   auto cellOf = [=](std::size_t i) {
     const float fr = (px[i] - ox) * inv, fc = (py[i] - oy) * inv;
     int32_t cell = -1;
-    if (fr >= 0.f && fc >= 0.f) {
-      const int r = static_cast<int>(fr), c = static_cast<int>(fc);
-      if (r < rows && c < cols) cell = r * cols + c;
-    }
+    if (fr >= 0.f && fc >= 0.f && fr < float(rows) && fc < float(cols))
+      cell = static_cast<int>(fr) * cols + static_cast<int>(fc);
     return cell;
   };
   // Four blocks pay where cells hold many points (a scan on a 0.5 m grid: ~20 per cell, binning
   // 0.37–0.54 → 0.32–0.37 ms on seq 00 frame 0); on a large sparse grid (a map with fine cells)
   // their four counter arrays would cost more to clear than the chains they break.
-  if (n >= 8 * cells())
-    countingSort<4>(n, cells(), cellOf, cell_of_point_.data(), offsets_, indices_);
-  else
-    countingSort<1>(n, cells(), cellOf, cell_of_point_.data(), offsets_, indices_);
+  auto sort = [&](auto cell_of) {
+    if (n >= 8 * cells())
+      countingSort<4>(n, cells(), cell_of, cell_of_point_.data(), offsets_, indices_);
+    else
+      countingSort<1>(n, cells(), cell_of, cell_of_point_.data(), offsets_, indices_);
+  };
+#if defined(TERRAMRF_GRID_AVX2)
+  // Cells eight at a time first where the CPU has AVX2 (the counting sort then reads them).
+  if (useAvx2() && std::size_t(rows) * std::size_t(cols) < (std::size_t(1) << 31)) {
+    int32_t* cop = cell_of_point_.data();
+    cellsX8(px, py, n, ox, oy, inv, rows, cols, cop);
+    const std::size_t done = n - n % 8;
+    for (std::size_t i = done; i < n; ++i) cop[i] = cellOf(i);
+    sort([cop](std::size_t i) { return cop[i]; });
+    return;
+  }
+#endif
+  sort(cellOf);
 }
 
 }  // namespace terramrf

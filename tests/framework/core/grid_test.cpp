@@ -1,10 +1,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
 #include "terramrf/terrain_grid.hpp"
+#include "test_support.hpp"
 
 namespace terramrf {
 
@@ -82,6 +84,48 @@ TEST(TerrainGrid, EveryCellListsItsPointsInIndexOrder) {
       ASSERT_EQ(std::vector<uint32_t>(grid.pointsBegin(c), grid.pointsEnd(c)), expected[c])
           << "n " << n << " cell " << c;
   }
+}
+
+// Where the CPU has AVX2 the cells are computed eight points at a time; the scalar path must
+// give the same cells for points on the borders, beyond them, far away and not finite.
+TEST(TerrainGrid, VectorAndScalarBinningAgree) {
+  GridGeometry g;
+  g.size_m = 10;
+  g.cell_m = 0.5;
+  const float lo = static_cast<float>(g.origin().x()), hi = lo + 10.f;
+  const float edge[] = {lo,
+                        std::nextafter(lo, -1e9f),
+                        std::nextafter(lo, 1e9f),
+                        hi,
+                        std::nextafter(hi, -1e9f),
+                        0.f,
+                        -0.f,
+                        0.25f,
+                        1e30f,
+                        -1e30f,
+                        3e9f,
+                        std::numeric_limits<float>::quiet_NaN(),
+                        std::numeric_limits<float>::infinity()};
+  PointCloud pc;
+  for (float x : edge)
+    for (float y : edge) pc.push_back(x, y, 0, 0);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-7.f, 7.f);
+  for (int i = 0; i < 1000; ++i) pc.push_back(u(rng), u(rng), 0, 0);
+  TerrainGrid wide(g), narrow(g);
+  wide.binPoints(pc);
+  {
+    test::ScopedEnv sse2("TERRAMRF_SIMD", "sse2");
+    narrow.binPoints(pc);
+  }
+  EXPECT_EQ(wide.cellOfPoint(), narrow.cellOfPoint());
+  for (int c = 0; c < static_cast<int>(g.cells()); ++c)
+    ASSERT_EQ(std::vector<uint32_t>(wide.pointsBegin(c), wide.pointsEnd(c)),
+              std::vector<uint32_t>(narrow.pointsBegin(c), narrow.pointsEnd(c)));
+  // Far and non-finite points are outside, on both paths.
+  for (std::size_t i = 0; i < pc.size(); ++i)
+    if (!(std::fabs(pc.x[i]) < 1e9f && std::fabs(pc.y[i]) < 1e9f))
+      EXPECT_EQ(narrow.cellOfPoint()[i], -1) << pc.x[i] << ", " << pc.y[i];
 }
 
 TEST(TerrainGrid, LayersAreNaNByDefaultAndNamed) {
