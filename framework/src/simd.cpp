@@ -14,7 +14,7 @@ bool sse2Only() {
 
 }  // namespace
 
-#if defined(__x86_64__) && defined(__GNUC__)
+#if defined(TERRAMRF_SIMD_DISPATCH)
 bool useAvx() {
   static const bool cpu = __builtin_cpu_supports("avx");
   return cpu && !sse2Only();

@@ -4,11 +4,6 @@
 #include <stdexcept>
 #include <vector>
 
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
-#define TERRAMRF_GRID_AVX2 1
-#endif
-
 #include "terramrf/simd.hpp"
 
 namespace terramrf {
@@ -52,12 +47,11 @@ std::vector<std::string> TerrainGrid::layerNames() const {
 
 namespace {
 
-#if defined(TERRAMRF_GRID_AVX2)
+#if defined(TERRAMRF_SIMD_DISPATCH)
 /// binPoints's cell of each point, eight at a time: the same float operations as its cellOf, and
 /// the same bounds (tested before the conversion to int, as there).
-__attribute__((target("avx2"))) void cellsX8(const float* px, const float* py, std::size_t n,
-                                             float ox, float oy, float inv, int rows, int cols,
-                                             int32_t* cell) {
+TERRAMRF_TARGET_AVX2 void cellsX8(const float* px, const float* py, std::size_t n, float ox,
+                                  float oy, float inv, int rows, int cols, int32_t* cell) {
   const __m256 ox8 = _mm256_set1_ps(ox), oy8 = _mm256_set1_ps(oy), inv8 = _mm256_set1_ps(inv);
   const __m256 zero = _mm256_setzero_ps(), rows8 = _mm256_set1_ps(float(rows)),
                cols8 = _mm256_set1_ps(float(cols));
@@ -162,7 +156,7 @@ void TerrainGrid::binPoints(const PointCloud& cloud) {
     else
       countingSort<1>(n, cells(), cell_of, cell_of_point_.data(), offsets_, indices_);
   };
-#if defined(TERRAMRF_GRID_AVX2)
+#if defined(TERRAMRF_SIMD_DISPATCH)
   // Cells eight at a time first where the CPU has AVX2 (the counting sort then reads them).
   if (useAvx2() && std::size_t(rows) * std::size_t(cols) < (std::size_t(1) << 31)) {
     int32_t* cop = cell_of_point_.data();

@@ -11,10 +11,6 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
-#define TERRAMRF_AVX_DISPATCH 1  // the per-point angles also in AVX, where the CPU has it
-#endif
 
 namespace terramrf {
 namespace {
@@ -81,19 +77,17 @@ inline __m128 fastAtan2x4(__m128 y, __m128 x) {
 }
 #endif
 
-#if defined(TERRAMRF_AVX_DISPATCH)
+#if defined(TERRAMRF_SIMD_DISPATCH)
 // The per-point passes over angles (elevation and azimuth, then the azimuth steps and their
 // unwrapping) are the largest part of the recovery; with AVX (eight lanes, no FMA, so the same
 // IEEE operations in the same order) they take about half the time and give the same bits.
 // Chosen at run time: the build targets plain x86-64.
-#define TERRAMRF_AVX __attribute__((target("avx")))
-
-TERRAMRF_AVX inline __m256 select8(__m256 mask, __m256 if_true, __m256 if_false) {
+TERRAMRF_TARGET_AVX inline __m256 select8(__m256 mask, __m256 if_true, __m256 if_false) {
   return _mm256_or_ps(_mm256_and_ps(mask, if_true), _mm256_andnot_ps(mask, if_false));
 }
 
 /// fastAtan2 on eight lanes.
-TERRAMRF_AVX inline __m256 fastAtan2x8(__m256 y, __m256 x) {
+TERRAMRF_TARGET_AVX inline __m256 fastAtan2x8(__m256 y, __m256 x) {
   const __m256 sign = _mm256_set1_ps(-0.f), zero = _mm256_setzero_ps();
   const __m256 ax = _mm256_andnot_ps(sign, x), ay = _mm256_andnot_ps(sign, y);
   const __m256 mx = _mm256_max_ps(ay, ax), mn = _mm256_min_ps(ay, ax);
@@ -113,8 +107,8 @@ TERRAMRF_AVX inline __m256 fastAtan2x8(__m256 y, __m256 x) {
 
 /// elevationsDeg's loop for points [0, n - n % 8): elevation [deg] into el, azimuth into az
 /// unless null.
-TERRAMRF_AVX void anglesX8(const float* px, const float* py, const float* pz, std::size_t n,
-                           float dz, float to_deg, float* el, float* az) {
+TERRAMRF_TARGET_AVX void anglesX8(const float* px, const float* py, const float* pz, std::size_t n,
+                                  float dz, float to_deg, float* el, float* az) {
   const __m256 dz8 = _mm256_set1_ps(dz), to_deg8 = _mm256_set1_ps(to_deg);
   for (std::size_t i = 0; i + 8 <= n; i += 8) {
     const __m256 x = _mm256_loadu_ps(px + i), y = _mm256_loadu_ps(py + i);
@@ -127,8 +121,8 @@ TERRAMRF_AVX void anglesX8(const float* px, const float* py, const float* pz, st
 
 /// countSmallSteps's loop from step 1 on, eight steps at a time; returns the first step left.
 /// Counts are kept as floats (exact up to 2^24 per lane) since AVX has no 256-bit integer adds.
-TERRAMRF_AVX std::size_t smallStepsX8(const float* az, std::size_t n, std::size_t& fwd,
-                                      std::size_t& bwd) {
+TERRAMRF_TARGET_AVX std::size_t smallStepsX8(const float* az, std::size_t n, std::size_t& fwd,
+                                             std::size_t& bwd) {
   const float pi = float(kPi), two_pi = float(kTwoPi), small = float(5 * kDeg);
   const __m256 pi8 = _mm256_set1_ps(pi), neg_pi8 = _mm256_set1_ps(-pi);
   const __m256 two_pi8 = _mm256_set1_ps(two_pi), zero = _mm256_setzero_ps();
@@ -155,7 +149,8 @@ TERRAMRF_AVX std::size_t smallStepsX8(const float* az, std::size_t n, std::size_
 }
 
 /// unwrapAzimuths's loop, eight points at a time; returns the first point left.
-TERRAMRF_AVX std::size_t unwrapX8(const float* az, std::size_t n, float s, float d, float* a) {
+TERRAMRF_TARGET_AVX std::size_t unwrapX8(const float* az, std::size_t n, float s, float d,
+                                         float* a) {
   const __m256 two_pi8 = _mm256_set1_ps(float(kTwoPi)), zero = _mm256_setzero_ps();
   const __m256 s8 = _mm256_set1_ps(s), d8 = _mm256_set1_ps(d);
   std::size_t i = 0;
@@ -171,8 +166,8 @@ TERRAMRF_AVX std::size_t unwrapX8(const float* az, std::size_t n, float s, float
 }
 
 /// coarseSumsX8's running sums of `sector` into sum/neg; starts `next`.
-__attribute__((target("avx2"))) inline void flushSector(int& sector, int next, __m256d& sum4,
-                                                        __m256d& neg4, double* sum, double* neg) {
+TERRAMRF_TARGET_AVX2 inline void flushSector(int& sector, int next, __m256d& sum4, __m256d& neg4,
+                                             double* sum, double* neg) {
   if (sector >= 0) {
     alignas(32) double v[4], w[4];
     _mm256_store_pd(v, sum4);
@@ -187,9 +182,10 @@ __attribute__((target("avx2"))) inline void flushSector(int& sector, int next, _
 /// The cut search's sums of points below the finely binned azimuths (see detail::bestRingCut),
 /// eight points of one run at a time from i on while none is at azimuth >= fine_from; returns
 /// the first point left. Adds each point's delta and its negative part to its 5° sector.
-__attribute__((target("avx2"))) std::size_t coarseSumsX8(
-    const float* a, const float* el, std::size_t i, std::size_t end, float m_now, float m_moved,
-    float fine_from, float cap, float sectors_per_rad, int sectors, double* sum, double* neg) {
+TERRAMRF_TARGET_AVX2 std::size_t coarseSumsX8(const float* a, const float* el, std::size_t i,
+                                              std::size_t end, float m_now, float m_moved,
+                                              float fine_from, float cap, float sectors_per_rad,
+                                              int sectors, double* sum, double* neg) {
   const __m256 now8 = _mm256_set1_ps(m_now), moved8 = _mm256_set1_ps(m_moved);
   const __m256 cap8 = _mm256_set1_ps(cap),
                abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
@@ -257,7 +253,7 @@ const std::vector<float>& elevationsDeg(const PointCloud& c, double z_offset_m,
   const float *px = c.x.data(), *py = c.y.data(), *pz = c.z.data();
   float* out = el.data();
   const __m128 dz4 = _mm_set1_ps(dz), to_deg4 = _mm_set1_ps(to_deg);
-#if defined(TERRAMRF_AVX_DISPATCH)
+#if defined(TERRAMRF_SIMD_DISPATCH)
   if (useAvx()) {
     anglesX8(px, py, pz, n, dz, to_deg, out, az ? az->data() : nullptr);
     i = n - n % 8;
@@ -488,7 +484,7 @@ bool refineCut(const std::vector<float>& a, const std::vector<float>& el, std::v
 void countSmallSteps(const float* az, std::size_t n, std::size_t& fwd, std::size_t& bwd) {
   const float pi = float(kPi), two_pi = float(kTwoPi), small = float(5 * kDeg);
   std::size_t i = 1;
-#if defined(TERRAMRF_AVX_DISPATCH)
+#if defined(TERRAMRF_SIMD_DISPATCH)
   if (useAvx()) i = smallStepsX8(az, n, fwd, bwd);
 #endif
 #if defined(__SSE2__)
@@ -526,7 +522,7 @@ void countSmallSteps(const float* az, std::size_t n, std::size_t& fwd, std::size
 void unwrapAzimuths(const float* az, std::size_t n, double start, int dir, float* a) {
   const float s = float(start), d = float(dir), two_pi = float(kTwoPi);
   std::size_t i = 0;
-#if defined(TERRAMRF_AVX_DISPATCH)
+#if defined(TERRAMRF_SIMD_DISPATCH)
   if (useAvx()) i = unwrapX8(az, n, s, d, a);
 #endif
 #if defined(__SSE2__)
@@ -936,7 +932,7 @@ RingCut bestRingCut(const std::vector<float>& a, const std::vector<float>& el,
   // float comparison clear of the boundary), points below it in bins <= fine_from - 1: the bins
   // from fine_from on hold all their points. The others add up per 5° sector.
   double sector_sum[kSectors5], sector_neg[kSectors5];
-#if defined(TERRAMRF_AVX_DISPATCH)
+#if defined(TERRAMRF_SIMD_DISPATCH)
   const bool avx2 = useAvx2();
 #endif
   auto histogram = [&](float fine_from_rad) {
@@ -985,7 +981,7 @@ RingCut bestRingCut(const std::vector<float>& a, const std::vector<float>& el,
         out[1] = _mm_cvtsi128_si32(_mm_shuffle_epi32(b, 1));
         return exact;
       };
-#if defined(TERRAMRF_AVX_DISPATCH)
+#if defined(TERRAMRF_SIMD_DISPATCH)
       // The points below fine_from come first in a run (its azimuth rises): eight at a time.
       if (avx2)
         i = coarseSumsX8(a.data(), el.data(), i, end, m_now, m_moved, fine_from_rad, kCap,

@@ -21,10 +21,6 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
-#define TERRAMRF_ROUGHNESS_AVX2 1  // ringResidualsX8, chosen at run time (terramrf/simd.hpp)
-#endif
 
 #include "terramrf/plugin.hpp"
 #include "terramrf/simd.hpp"
@@ -151,12 +147,12 @@ class Roughness final : public Stage {
     sum_.assign(g.cells(), 0.f);
     cnt_.assign(g.cells(), 0);
     CellSums acc{sum_.data(), cnt_.data()};
-#if defined(TERRAMRF_ROUGHNESS_AVX2)
+#if defined(TERRAMRF_SIMD_DISPATCH)
     const bool avx2 = useAvx2();
 #endif
     for (int r = 0; r < rings; ++r) {
       const int b = static_cast<int>(offsets_[r]), e = static_cast<int>(offsets_[r + 1]);
-#if defined(TERRAMRF_ROUGHNESS_AVX2)
+#if defined(TERRAMRF_SIMD_DISPATCH)
       if (avx2) {
         if (elev)
           ringResidualsX8<true>(b, e, f, acc);
@@ -357,14 +353,13 @@ class Roughness final : public Stage {
   }
 #endif
 
-#if defined(TERRAMRF_ROUGHNESS_AVX2)
+#if defined(TERRAMRF_SIMD_DISPATCH)
   /// One side's window walk of ringResidualsX8 (the walk lambda of ringResidualsX4 on eight
   /// lanes; a lambda would not inherit the AVX2 target).
   template <bool kElev>
-  __attribute__((target("avx2"))) static void walkX8(const Filter& f, int k0, int dir, __m256i room,
-                                                     __m256i full, __m256i in_grid, __m256 rk,
-                                                     __m256 sk, __m256& s, __m256i& m,
-                                                     __m256i& passed) {
+  TERRAMRF_TARGET_AVX2 static void walkX8(const Filter& f, int k0, int dir, __m256i room,
+                                          __m256i full, __m256i in_grid, __m256 rk, __m256 sk,
+                                          __m256& s, __m256i& m, __m256i& passed) {
     const __m256 sign = _mm256_set1_ps(-0.f), max_dsin = _mm256_set1_ps(f.max_dsin),
                  jump = _mm256_set1_ps(f.jump);
     const __m256i one = _mm256_set1_epi32(1), none = _mm256_set1_epi32(-1);
@@ -396,8 +391,8 @@ class Roughness final : public Stage {
   /// ringResidualsX4 on eight lanes (AVX2): the same operations per lane in the same order, and
   /// the squares reach CellSums in point order, so the result is the same bits.
   template <bool kElev>
-  __attribute__((target("avx2"))) void ringResidualsX8(int b, int e, const Filter& filter,
-                                                       CellSums& sums) const {
+  TERRAMRF_TARGET_AVX2 void ringResidualsX8(int b, int e, const Filter& filter,
+                                            CellSums& sums) const {
     const Filter f = filter;
     CellSums acc = sums;
     const __m256 sign = _mm256_set1_ps(-0.f);
