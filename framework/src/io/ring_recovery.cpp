@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include "ring_cut.hpp"
+#include "terramrf/run_end.hpp"
 #include "terramrf/simd.hpp"
 
 #if defined(__SSE2__)
@@ -281,35 +282,6 @@ const std::vector<float>& elevationsDeg(const PointCloud& c, double z_offset_m,
     if (az) (*az)[i] = fastAtan2(c.y[i], c.x[i]);
   }
   return el;
-}
-
-/// End of the run of ids equal to id[i] (taken modulo 2^16) that starts at i.
-template <typename Id>
-std::size_t runEnd(const Id* id, std::size_t i, std::size_t n) {
-  const uint16_t r = static_cast<uint16_t>(id[i]);
-  std::size_t j = i + 1;
-#if defined(__SSE2__)
-  // Eight (uint16_t) or four (int) ids per test: runs are rings, ~2000 points long.
-  if constexpr (sizeof(Id) == 2) {
-    const __m128i rv = _mm_set1_epi16(static_cast<short>(r));
-    for (; j + 8 <= n; j += 8) {
-      const int eq = _mm_movemask_epi8(
-          _mm_cmpeq_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + j)), rv));
-      if (eq != 0xFFFF) return j + __builtin_ctz(~unsigned(eq)) / 2;
-    }
-  } else if constexpr (sizeof(Id) == 4) {
-    // Equal modulo 2^16: compare the low halves only.
-    const __m128i rv = _mm_set1_epi32(r), low = _mm_set1_epi32(0xFFFF);
-    for (; j + 4 <= n; j += 4) {
-      const __m128i v =
-          _mm_and_si128(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id + j)), low);
-      const int eq = _mm_movemask_epi8(_mm_cmpeq_epi32(v, rv));
-      if (eq != 0xFFFF) return j + __builtin_ctz(~unsigned(eq)) / 4;
-    }
-  }
-#endif
-  while (j < n && static_cast<uint16_t>(id[j]) == r) ++j;
-  return j;
 }
 
 /// Per-ring median elevation (NaN for empty rings) via a counting sort of the elevations. Rings

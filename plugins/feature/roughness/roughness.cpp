@@ -23,6 +23,7 @@
 #endif
 
 #include "terramrf/plugin.hpp"
+#include "terramrf/run_end.hpp"
 #include "terramrf/simd.hpp"
 
 namespace terramrf {
@@ -184,22 +185,6 @@ class Roughness final : public Stage {
   }
 
  private:
-  /// End of the run of points with ring[i]'s ring that starts at i.
-  static std::size_t runEnd(const uint16_t* ring, std::size_t i, std::size_t n) {
-    const uint16_t r = ring[i];
-    std::size_t j = i + 1;
-#if defined(__SSE2__)
-    const __m128i rv = _mm_set1_epi16(static_cast<short>(r));
-    for (; j + 8 <= n; j += 8) {
-      const int eq = _mm_movemask_epi8(
-          _mm_cmpeq_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ring + j)), rv));
-      if (eq != 0xFFFF) return j + __builtin_ctz(static_cast<unsigned>(~eq)) / 2;
-    }
-#endif
-    while (j < n && ring[j] == r) ++j;
-    return j;
-  }
-
   /// What the high-pass of one ring reads: ranges and sin elevations in ring order.
   struct Filter {
     const float* range = nullptr;

@@ -60,9 +60,11 @@ TEST(Registry, RejectsFileThatIsNotALibrary) {
 }
 
 TEST(Registry, EnvironmentVariableAddsFolders) {
-  setenv("TERRAMRF_PLUGIN_PATH", (kTestPlugins + "/synthetic_source").c_str(), 1);
-  auto dirs = PluginRegistry::defaultSearchDirs();
-  unsetenv("TERRAMRF_PLUGIN_PATH");
+  std::vector<std::string> dirs;
+  {
+    test::ScopedEnv path("TERRAMRF_PLUGIN_PATH", (kTestPlugins + "/synthetic_source").c_str());
+    dirs = PluginRegistry::defaultSearchDirs();
+  }
   PluginRegistry reg(dirs);
   EXPECT_NE(reg.find("test_synthetic"), nullptr);
 }
