@@ -1,7 +1,10 @@
 #include "terramrf/terrain_grid.hpp"
 
+#include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "terramrf/simd.hpp"
@@ -19,6 +22,35 @@ void TerrainGrid::reset(const GridGeometry& g) {
   indices_.clear();
   cell_of_point_.clear();
   cell_pixels_.clear();
+  z_range_valid_ = false;
+}
+
+const TerrainGrid::ZRange& TerrainGrid::zRange(const PointCloud& cloud) {
+  if (cloud.size() != cell_of_point_.size())
+    throw std::logic_error("TerrainGrid::zRange: the cloud has " + std::to_string(cloud.size()) +
+                           " points, the binned one had " + std::to_string(cell_of_point_.size()) +
+                           "; expected the cloud last passed to binPoints()");
+  if (z_range_valid_) return z_range_;
+  const std::size_t n = cells();
+  z_range_.min.assign(n, kNoData);
+  z_range_.max.assign(n, kNoData);
+  const float* Z = cloud.z.data();
+  for (std::size_t c = 0; c < n; ++c) {
+    const uint32_t* it = indices_.data() + offsets_[c];
+    const uint32_t* end = indices_.data() + offsets_[c + 1];
+    if (it == end) continue;
+    // min(lo, z) keeps lo for a NaN z (readers drop non-finite points; others are skipped).
+    float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
+    for (; it != end; ++it) {
+      const float z = Z[*it];
+      lo = std::min(lo, z);
+      hi = std::max(hi, z);
+    }
+    z_range_.min[c] = lo;
+    z_range_.max[c] = hi;
+  }
+  z_range_valid_ = true;
+  return z_range_;
 }
 
 Layer& TerrainGrid::add(const std::string& name, float fill) {
@@ -130,6 +162,7 @@ void countingSort(std::size_t n, std::size_t ncells, CellOf cell_of, int32_t* co
 void TerrainGrid::binPoints(const PointCloud& cloud) {
   // Counting sort into CSR: one pass for cell ids and counts, one prefix sum, one scatter. No
   // per-cell allocations, so the cost is linear in points plus cells.
+  z_range_valid_ = false;
   const std::size_t n = cloud.size();
   const int cols = cols_, rows = rows_;
   const Eigen::Vector2d o = geom_.origin();

@@ -26,8 +26,6 @@
 namespace terramrf {
 namespace {
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
 // Separable min (erode) or max (dilate) over a (2w+1)² window. Cells without data hold the
@@ -93,28 +91,18 @@ class HeightAboveGround final : public Stage {
 
   void process(FrameContext& ctx) override {
     TerrainGrid& g = *ctx.grid;
-    const float* Z = ctx.frame->points.z.data();
+    const TerrainGrid::ZRange& z = g.zRange(ctx.frame->points);
+    const std::vector<float>& zmin = z.min;
+    const std::vector<float>& zmax = z.max;
     const int R = g.rows(), C = g.cols(), N = R * C;
     const float cell = static_cast<float>(g.geometry().cell_m);
-    zmin_.assign(N, kNaN);
-    zmax_.assign(N, kNaN);
-    for (int c = 0; c < N; ++c) {
-      if (!g.count(c)) continue;
-      float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
-      for (const uint32_t* it = g.pointsBegin(c); it != g.pointsEnd(c); ++it) {
-        lo = std::min(lo, Z[*it]);
-        hi = std::max(hi, Z[*it]);
-      }
-      zmin_[c] = lo;
-      zmax_[c] = hi;
-    }
 
     // Progressive opening: windows of half-width 1, 2, 4, ... cells. The surface holds +inf
     // where there is no data; an opening that found no data anywhere near gives ±inf, which
     // never flags a cell.
     nonground_.assign(N, 0);
     surface_.resize(N);
-    for (int c = 0; c < N; ++c) surface_[c] = std::isnan(zmin_[c]) ? kInf : zmin_[c];
+    for (int c = 0; c < N; ++c) surface_[c] = std::isnan(zmin[c]) ? kInf : zmin[c];
     const int w_max = std::max(1, static_cast<int>(std::lround(max_window_m_ / cell - 1) / 2));
     int prev_full = 1;
     for (int w = 1;; w = std::min(2 * w, w_max)) {
@@ -126,7 +114,7 @@ class HeightAboveGround final : public Stage {
       const float dh = std::min(dh_max_, dh0_ + slope_ * (full - prev_full) * cell);
       for (int c = 0; c < N; ++c) {
         // zmin NaN compares false; an opened −inf (no data in reach) flags nothing either.
-        if (opened_[c] != -kInf && zmin_[c] - opened_[c] > dh) nonground_[c] = 1;
+        if (opened_[c] != -kInf && zmin[c] - opened_[c] > dh) nonground_[c] = 1;
         surface_[c] = opened_[c] == -kInf ? kInf : opened_[c];
       }
       prev_full = full;
@@ -139,9 +127,10 @@ class HeightAboveGround final : public Stage {
     for (int r = 0; r < R; ++r)
       for (int c = 0; c < C; ++c) {
         const int i = r * C + c;
-        const bool ground = !std::isnan(zmin_[i]) && !nonground_[i];
+        const bool ground = !std::isnan(zmin[i]) && !nonground_[i];
         const int k = (r + 1) * (C + 1) + (c + 1);
-        sum_[k] = (ground ? zmin_[i] : 0.0) + sum_[k - 1] + sum_[k - (C + 1)] - sum_[k - (C + 1) - 1];
+        sum_[k] =
+            (ground ? zmin[i] : 0.0) + sum_[k - 1] + sum_[k - (C + 1)] - sum_[k - (C + 1) - 1];
         cnt_[k] = (ground ? 1 : 0) + cnt_[k - 1] + cnt_[k - (C + 1)] - cnt_[k - (C + 1) - 1];
       }
     auto box = [&](int r0, int c0, int r1, int c1, double& s) {  // inclusive corners, clamped
@@ -156,7 +145,7 @@ class HeightAboveGround final : public Stage {
     for (int r = 0; r < R; ++r)
       for (int c = 0; c < C; ++c) {
         const int i = r * C + c;
-        if (std::isnan(zmin_[i])) continue;
+        if (std::isnan(zmin[i])) continue;
         double s = 0.0;
         int n = 0;
         for (int rad = radius_; rad <= std::max(R, C); rad = std::max(1, 2 * rad)) {
@@ -165,7 +154,7 @@ class HeightAboveGround final : public Stage {
         }
         if (n == 0) continue;  // no ground anywhere in the grid: no evidence either way
         const float ground = static_cast<float>(s / n);
-        out[i] = zmax_[i] - ground;
+        out[i] = zmax[i] - ground;
         if (ground_out) (*ground_out)[i] = ground;
       }
   }
@@ -178,7 +167,7 @@ class HeightAboveGround final : public Stage {
   double dh0_ = 0.1;
   double dh_max_ = 2.5;
   int radius_ = 1;
-  std::vector<float> zmin_, zmax_, surface_, tmp_, eroded_, opened_;
+  std::vector<float> surface_, tmp_, eroded_, opened_;
   std::vector<char> nonground_;
   std::vector<double> sum_;
   std::vector<int> cnt_;

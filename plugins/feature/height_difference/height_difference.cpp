@@ -1,8 +1,5 @@
 // Height difference f_h (paper 000 §4.3, after Happold et al.): highest minus lowest point of a
 // cell. The main cue for obstacles, whose defining property is their height.
-#include <algorithm>
-#include <limits>
-
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -19,18 +16,10 @@ class HeightDifference final : public Stage {
 
   void process(FrameContext& ctx) override {
     TerrainGrid& g = *ctx.grid;
-    const float* Z = ctx.frame->points.z.data();
+    const TerrainGrid::ZRange& z = g.zRange(ctx.frame->points);
     Layer& out = g.add(layer_);
-    for (int c = 0, n = static_cast<int>(g.cells()); c < n; ++c) {
-      if (g.count(c) < static_cast<uint32_t>(min_points_)) continue;
-      float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
-      for (const uint32_t* it = g.pointsBegin(c); it != g.pointsEnd(c); ++it) {
-        const float z = Z[*it];
-        lo = std::min(lo, z);
-        hi = std::max(hi, z);
-      }
-      out[c] = hi - lo;
-    }
+    for (int c = 0, n = static_cast<int>(g.cells()); c < n; ++c)
+      if (g.count(c) >= static_cast<uint32_t>(min_points_)) out[c] = z.max[c] - z.min[c];
   }
 
  private:

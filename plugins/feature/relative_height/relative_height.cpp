@@ -37,16 +37,9 @@ class RelativeHeight final : public Stage {
 
   void process(FrameContext& ctx) override {
     TerrainGrid& g = *ctx.grid;
-    const float* Z = ctx.frame->points.z.data();
+    const std::vector<float>& zmin = g.zRange(ctx.frame->points).min;
     Layer& out = g.add(layer_);
     const int R = g.rows(), C = g.cols();
-    zmin_.assign(g.cells(), std::numeric_limits<float>::quiet_NaN());
-    for (int c = 0; c < static_cast<int>(g.cells()); ++c) {
-      if (!g.count(c)) continue;
-      float lo = std::numeric_limits<float>::max();
-      for (const uint32_t* it = g.pointsBegin(c); it != g.pointsEnd(c); ++it) lo = std::min(lo, Z[*it]);
-      zmin_[c] = lo;
-    }
     // The median of up to (2r+1)² − 1 values per cell by rank counting (rankSelect): counts of
     // smaller and not larger values vectorise, where a selection's comparisons are branches the
     // CPU cannot predict (nth_element 1.59 → 0.62 ms on KITTI object 000000, radius 3).
@@ -63,7 +56,7 @@ class RelativeHeight final : public Stage {
     valid_.assign(std::size_t(R + 1) * (C + 1), 0);
     for (int r = 0; r < R; ++r)
       for (int c = 0; c < C; ++c) {
-        const float z = zmin_[r * C + c];
+        const float z = zmin[r * C + c];
         if (!std::isnan(z)) bordered_[(r + rad) * BC + c + rad] = z;
         valid_[(r + 1) * (C + 1) + c + 1] = !std::isnan(z) + valid_[(r + 1) * (C + 1) + c] +
                                             valid_[r * (C + 1) + c + 1] - valid_[r * (C + 1) + c];
@@ -79,7 +72,7 @@ class RelativeHeight final : public Stage {
     keep_[stride + rad] = 0;
     for (int r = 0; r < R; ++r) {
       for (int c = 0; c < C; ++c) {
-        const float z = zmin_[r * C + c];
+        const float z = zmin[r * C + c];
         if (std::isnan(z)) continue;
         const int r0 = std::max(0, r - rad), r1 = std::min(R - 1, r + rad);
         const int c0 = std::max(0, c - rad), c1 = std::min(C - 1, c + rad);
@@ -277,7 +270,7 @@ class RelativeHeight final : public Stage {
   int radius_ = 3;
   int min_neighbours_ = 4;
   double quantile_ = 0.5;
-  std::vector<float> zmin_, window_, bordered_, ref_;
+  std::vector<float> window_, bordered_, ref_;
   std::vector<int> valid_;
   std::vector<uint32_t> keep_;
 };

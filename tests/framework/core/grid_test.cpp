@@ -1,8 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "terramrf/terrain_grid.hpp"
@@ -52,6 +55,61 @@ TEST(TerrainGrid, BinPointsBuildsCsr) {
   EXPECT_EQ(grid.cellOfPoint()[1], -1);
   EXPECT_EQ(grid.cellOfPoint()[4], -1);
   EXPECT_EQ(grid.cellOfPoint()[2], 820);
+}
+
+// The z ranges shared by the height features: each cell's lowest and highest point as a walk
+// over its points finds them, NaN for empty cells, recomputed after every binPoints.
+TEST(TerrainGrid, ZRangeIsEachCellsLowestAndHighestPoint) {
+  GridGeometry g;
+  g.size_m = 10;
+  g.cell_m = 1;
+  TerrainGrid grid(g);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> xy(-6.f, 6.f), z(-2.f, 3.f);
+  for (int round = 0; round < 2; ++round) {
+    PointCloud pc;
+    for (int i = 0; i < 300 + 50 * round; ++i) pc.push_back(xy(rng), xy(rng), z(rng), 0);
+    grid.binPoints(pc);
+    const TerrainGrid::ZRange& r = grid.zRange(pc);
+    ASSERT_EQ(r.min.size(), grid.cells());
+    int empty = 0;
+    for (int c = 0; c < static_cast<int>(grid.cells()); ++c) {
+      float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+      for (const uint32_t* it = grid.pointsBegin(c); it != grid.pointsEnd(c); ++it) {
+        lo = std::min(lo, pc.z[*it]);
+        hi = std::max(hi, pc.z[*it]);
+      }
+      if (grid.count(c) == 0) {
+        ++empty;
+        EXPECT_TRUE(std::isnan(r.min[c]) && std::isnan(r.max[c])) << "cell " << c;
+      } else {
+        EXPECT_EQ(r.min[c], lo) << "round " << round << " cell " << c;
+        EXPECT_EQ(r.max[c], hi) << "round " << round << " cell " << c;
+      }
+    }
+    EXPECT_EQ(empty, 0) << "every 1 m cell of the 10 m grid should hold points";
+  }
+  // A grid reset (no points binned) has no cells with points.
+  grid.reset(g);
+  PointCloud none;
+  grid.binPoints(none);
+  const auto& r = grid.zRange(none);
+  for (float v : r.min) EXPECT_TRUE(std::isnan(v));
+}
+
+TEST(TerrainGrid, ZRangeRejectsAnotherCloud) {
+  TerrainGrid grid{GridGeometry{}};
+  PointCloud pc, other;
+  pc.push_back(0.1f, 0.1f, 1.f, 0);
+  other = pc;
+  other.push_back(0.2f, 0.2f, 2.f, 0);
+  grid.binPoints(pc);
+  try {
+    grid.zRange(other);
+    FAIL() << "expected std::logic_error";
+  } catch (const std::logic_error& e) {
+    EXPECT_NE(std::string(e.what()).find("binPoints"), std::string::npos) << e.what();
+  }
 }
 
 // binPoints walks dense clouds (8+ points per cell: here from 800 points) in four blocks side
