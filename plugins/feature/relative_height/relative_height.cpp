@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -15,8 +16,25 @@
 #endif
 
 #include "terramrf/plugin.hpp"
+#include "terramrf/simd.hpp"
 
 namespace terramrf {
+
+#define TERRAMRF_RANK_WALK_NS sse2
+#define TERRAMRF_RANK_WALK_LANES 4
+#include "rank_walk.inc"
+#undef TERRAMRF_RANK_WALK_NS
+#undef TERRAMRF_RANK_WALK_LANES
+#if defined(TERRAMRF_SIMD_DISPATCH)
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#define TERRAMRF_RANK_WALK_NS avx2
+#define TERRAMRF_RANK_WALK_LANES 8
+#include "rank_walk.inc"
+#undef TERRAMRF_RANK_WALK_NS
+#undef TERRAMRF_RANK_WALK_LANES
+#pragma GCC pop_options
+#endif
 
 class RelativeHeight final : public Stage {
  public:
@@ -63,9 +81,23 @@ class RelativeHeight final : public Stage {
       }
     const int padded = side * stride;
     ref_.assign(g.cells(), std::numeric_limits<float>::quiet_NaN());
-    window_.resize(padded + 3);  // + 3: room to align
+    // + 3: room to align; the walk's AVX2 copy reads whole eight-float vectors, so the window
+    // ends in +inf up to the next multiple of 8.
+    const int padded8 = (padded + 7) / 8 * 8;
+    window_.assign(padded8 + 3, kInf);
     float* win = window_.data();
     while (reinterpret_cast<std::uintptr_t>(win) % 16) ++win;
+#if defined(TERRAMRF_SIMD_DISPATCH)
+    const bool wide = useAvx2();
+#else
+    const bool wide = false;
+#endif
+    auto walk = [&](int k, float guess, float& result) {
+#if defined(TERRAMRF_SIMD_DISPATCH)
+      if (wide) return avx2::rankWalk(win, padded8, k, guess, result);
+#endif
+      return sse2::rankWalk(win, padded, k, guess, result);
+    };
     // keep_[row kind][q]: all ones where a row's value q is in the window; kind 1 = centre row.
     keep_.assign(2 * stride, 0);
     for (int q = 0; q < side; ++q) keep_[q] = keep_[stride + q] = ~0u;
@@ -103,8 +135,7 @@ class RelativeHeight final : public Stage {
         const int guess_at = c > 0 && !std::isnan(ref_[r * C + c - 1])     ? r * C + c - 1
                              : r > 0 && !std::isnan(ref_[(r - 1) * C + c]) ? (r - 1) * C + c
                                                                            : -1;
-        if (guess_at < 0 || !rankWalk(win, padded, k, ref_[guess_at], ref))
-          ref = rankSelect(win, padded, k);
+        if (guess_at < 0 || !walk(k, ref_[guess_at], ref)) ref = rankSelect(win, padded, k);
 #else
         ref = rankSelect(win, padded, k);
 #endif
@@ -196,68 +227,6 @@ class RelativeHeight final : public Stage {
   }
 
 #if defined(__SSE2__)
-  /// rankSelect's value from a guess a few ranks away, or false (then rankSelect decides). The
-  /// value of rank k is unique as a number; as bits it is unique unless both +0 and −0 occur,
-  /// where rankSelect's candidate order picks one: windows holding a zero are left to it, and so
-  /// are walks that are long (a poor guess) or reach +inf (never a rankSelect candidate).
-  static bool rankWalk(const float* v, int padded, int k, float guess, float& result) {
-    constexpr float kInf = std::numeric_limits<float>::infinity();
-    const __m128 zero = _mm_setzero_ps(), inf = _mm_set1_ps(kInf), g = _mm_set1_ps(guess);
-    __m128 zeros = zero;
-    __m128i less4 = _mm_setzero_si128(), leq4 = less4;
-    for (int j = 0; j < padded; j += 4) {
-      const __m128 a = _mm_load_ps(v + j);
-      zeros = _mm_or_ps(zeros, _mm_cmpeq_ps(a, zero));
-      less4 = _mm_sub_epi32(less4, _mm_castps_si128(_mm_cmplt_ps(a, g)));
-      leq4 = _mm_sub_epi32(leq4, _mm_castps_si128(_mm_cmple_ps(a, g)));
-    }
-    if (_mm_movemask_ps(zeros)) return false;
-    alignas(16) int32_t c[4];
-    _mm_store_si128(reinterpret_cast<__m128i*>(c), hsum4(less4, leq4, less4, leq4));
-    const int less = c[0], leq = c[1];
-    if (less <= k && k < leq) {  // a value equal to the guess, with the same bits (not a zero)
-      result = guess;
-      return true;
-    }
-    // Up: the t-th (0-based) smallest value above the guess; down: the t-th largest below it.
-    const bool up = k >= leq;
-    int t = up ? k - leq : less - 1 - k;
-    // Each step costs two passes over the window, rankSelect about eight: on seq 00 frame 0
-    // (radius 3) walks of 1, 2, 3 and 4 steps are about equally common, and with 4 as the limit
-    // 27 % of the cells fell back to rankSelect (stage ~7 % slower than with 8).
-    constexpr int kMaxSteps = 8;
-    float bound = guess;
-    for (int step = 0; step < kMaxSteps; ++step) {
-      const __m128 b = _mm_set1_ps(bound);
-      __m128 best = up ? inf : _mm_set1_ps(-kInf);
-      for (int j = 0; j < padded; j += 4) {
-        const __m128 a = _mm_load_ps(v + j);
-        best =
-            up ? _mm_min_ps(best, _mm_or_ps(_mm_and_ps(_mm_cmpgt_ps(a, b), a),
-                                            _mm_andnot_ps(_mm_cmpgt_ps(a, b), inf)))
-               : _mm_max_ps(best, _mm_or_ps(_mm_and_ps(_mm_cmplt_ps(a, b), a),
-                                            _mm_andnot_ps(_mm_cmplt_ps(a, b), _mm_set1_ps(-kInf))));
-      }
-      alignas(16) float m[4];
-      _mm_store_ps(m, best);
-      const float x = up ? std::min(std::min(m[0], m[1]), std::min(m[2], m[3]))
-                         : std::max(std::max(m[0], m[1]), std::max(m[2], m[3]));
-      if (!(std::abs(x) < kInf)) return false;  // ran out of finite values
-      const __m128 vx = _mm_set1_ps(x);
-      __m128i eq4 = _mm_setzero_si128();
-      for (int j = 0; j < padded; j += 4)
-        eq4 = _mm_sub_epi32(eq4, _mm_castps_si128(_mm_cmpeq_ps(_mm_load_ps(v + j), vx)));
-      _mm_store_si128(reinterpret_cast<__m128i*>(c), hsum4(eq4, eq4, eq4, eq4));
-      if (t < c[0]) {
-        result = x;
-        return true;
-      }
-      t -= c[0];
-      bound = x;
-    }
-    return false;
-  }
-
   /// {Σ a, Σ b, Σ c, Σ d} over the lanes of each.
   static __m128i hsum4(__m128i a, __m128i b, __m128i c, __m128i d) {
     const __m128i ab = _mm_add_epi32(_mm_unpacklo_epi32(a, b), _mm_unpackhi_epi32(a, b));
