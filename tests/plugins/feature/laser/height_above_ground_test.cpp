@@ -1,8 +1,15 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
+#include <optional>
+#include <random>
+#include <vector>
 
 #include "plugin_harness.hpp"
+#include "test_support.hpp"
 
 namespace terramrf {
 
@@ -76,6 +83,121 @@ TEST(HeightAboveGround, EmptyCellsNaNAndBadThresholdsRejected) {
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("max_threshold_m"), std::string::npos) << e.what();
   }
+}
+
+}  // namespace terramrf
+
+namespace terramrf {
+
+namespace {
+// The filter as the plugin's doc states it, by brute force: openings with (2w+1)² windows
+// (w = 1, 2, 4, … up to w_max; +inf / −inf for cells without data), a cell is non-ground once
+// its lowest point rises more than the window's threshold above an opening, and the ground under
+// a cell is the mean lowest point of the ground cells within `radius` (grown ×2 until some are
+// found).
+std::vector<float> referenceHag(const TerrainGrid& g, const std::vector<float>& zmin,
+                                const std::vector<float>& zmax, int w_max, double cell, double dh0,
+                                double slope, double dh_max, int radius) {
+  const int R = g.rows(), C = g.cols(), N = R * C;
+  const float inf = std::numeric_limits<float>::infinity();
+  std::vector<float> surface(N), eroded(N), opened(N);
+  std::vector<char> nonground(N, 0);
+  for (int i = 0; i < N; ++i) surface[i] = std::isnan(zmin[i]) ? inf : zmin[i];
+  auto window = [&](const std::vector<float>& in, std::vector<float>& out, int w, bool lo) {
+    for (int r = 0; r < R; ++r)
+      for (int c = 0; c < C; ++c) {
+        float v = lo ? inf : -inf;
+        for (int rr = std::max(0, r - w); rr <= std::min(R - 1, r + w); ++rr)
+          for (int cc = std::max(0, c - w); cc <= std::min(C - 1, c + w); ++cc)
+            v = lo ? std::min(v, in[rr * C + cc]) : std::max(v, in[rr * C + cc]);
+        out[r * C + c] = v;
+      }
+  };
+  int prev_full = 1;
+  for (int w = 1;; w = std::min(2 * w, w_max)) {
+    window(surface, eroded, w, true);
+    for (float& v : eroded) v = v == inf ? -inf : v;
+    window(eroded, opened, w, false);
+    const float dh = static_cast<float>(
+        std::min(dh_max, dh0 + slope * (2 * w + 1 - prev_full) * static_cast<float>(cell)));
+    for (int i = 0; i < N; ++i) {
+      if (opened[i] != -inf && zmin[i] - opened[i] > dh) nonground[i] = 1;
+      surface[i] = opened[i] == -inf ? inf : opened[i];
+    }
+    prev_full = 2 * w + 1;
+    if (w == w_max) break;
+  }
+  std::vector<float> out(N, NAN);
+  for (int r = 0; r < R; ++r)
+    for (int c = 0; c < C; ++c) {
+      if (std::isnan(zmin[r * C + c])) continue;
+      for (int rad = radius; rad <= std::max(R, C); rad = std::max(1, 2 * rad)) {
+        double s = 0;
+        int n = 0;
+        for (int rr = std::max(0, r - rad); rr <= std::min(R - 1, r + rad); ++rr)
+          for (int cc = std::max(0, c - rad); cc <= std::min(C - 1, c + rad); ++cc) {
+            const int i = rr * C + cc;
+            if (!std::isnan(zmin[i]) && !nonground[i]) {
+              s += zmin[i];
+              ++n;
+            }
+          }
+        if (n > 0) {
+          out[r * C + c] = zmax[r * C + c] - static_cast<float>(s / n);
+          break;
+        }
+      }
+    }
+  return out;
+}
+}  // namespace
+
+// Rough ground with random boxes (cars, hedges, walls) and holes, on the default 40 m grid
+// (windows up to 15 cells): the stage equals the brute-force filter above, and its AVX2 copy
+// (where the CPU has it) gives the same bits as the SSE2 one.
+TEST(HeightAboveGround, EqualsBruteForceFilterOnBothVectorPaths) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  test::StageHarness h(40, 0.5);
+  struct Box {
+    float x0, y0, w, d, h;
+  };
+  std::vector<Box> boxes;
+  for (int b = 0; b < 25; ++b)
+    boxes.push_back({-20 + 38 * u(rng), -20 + 38 * u(rng), 0.5f + 6 * u(rng), 0.5f + 3 * u(rng),
+                     0.1f + 2 * u(rng)});
+  for (int i = 0; i < 60000; ++i) {
+    const float x = -20 + 40 * u(rng), y = -20 + 40 * u(rng);
+    if (std::hypot(x - 5.f, y + 5.f) < 3.f) continue;  // a hole without returns
+    float z = -1.7f + 0.02f * x + 0.05f * u(rng);
+    for (const Box& b : boxes)
+      if (x >= b.x0 && x < b.x0 + b.w && y >= b.y0 && y < b.y0 + b.d)
+        z = -1.7f + b.h * u(rng) + b.h;
+    h.frame.points.push_back(x, y, z, 0);
+  }
+  h.bin();
+  const auto& zr = h.grid.zRange(h.frame.points);
+  const std::vector<float> ref =
+      referenceHag(h.grid, zr.min, zr.max, 7, 0.5, 0.1, 0.05, 2.5, 1);  // the plugin's defaults
+  std::vector<float> got[2];
+  for (const bool sse2 : {false, true}) {
+    SCOPED_TRACE(sse2 ? "SSE2" : "widest vectors of this CPU");
+    std::optional<test::ScopedEnv> env;
+    if (sse2) env.emplace("TERRAMRF_SIMD", "sse2");
+    h.make("height_above_ground", "{}")->process(h.ctx);
+    got[sse2] = h.grid.layer("height_above_ground");
+    int valid = 0, raised = 0;
+    for (std::size_t i = 0; i < ref.size(); ++i) {
+      ASSERT_EQ(std::isnan(got[sse2][i]), std::isnan(ref[i])) << "cell " << i;
+      if (std::isnan(ref[i])) continue;
+      ++valid;
+      raised += ref[i] > 0.3f;
+      EXPECT_NEAR(got[sse2][i], ref[i], 1e-5) << "cell " << i;
+    }
+    EXPECT_GT(valid, 5500);
+    EXPECT_GT(raised, 200);  // the boxes stand out
+  }
+  EXPECT_EQ(0, std::memcmp(got[0].data(), got[1].data(), got[0].size() * sizeof(float)));
 }
 
 }  // namespace terramrf
