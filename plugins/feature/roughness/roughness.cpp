@@ -15,6 +15,8 @@
 // Cell value: RMS of its points' residuals [m].
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <utility>
 #include <vector>
 
@@ -25,6 +27,26 @@
 #include "terramrf/plugin.hpp"
 #include "terramrf/run_end.hpp"
 #include "terramrf/simd.hpp"
+
+namespace terramrf {
+#if defined(__SSE2__)
+#define TERRAMRF_RING_RESIDUALS_NS sse2
+#define TERRAMRF_RING_RESIDUALS_LANES 4
+#include "ring_residuals.inc"
+#undef TERRAMRF_RING_RESIDUALS_NS
+#undef TERRAMRF_RING_RESIDUALS_LANES
+#endif
+#if defined(TERRAMRF_SIMD_DISPATCH)
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#define TERRAMRF_RING_RESIDUALS_NS avx2
+#define TERRAMRF_RING_RESIDUALS_LANES 8
+#include "ring_residuals.inc"
+#undef TERRAMRF_RING_RESIDUALS_NS
+#undef TERRAMRF_RING_RESIDUALS_LANES
+#pragma GCC pop_options
+#endif
+}  // namespace terramrf
 
 namespace terramrf {
 
@@ -156,17 +178,17 @@ class Roughness final : public Stage {
 #if defined(TERRAMRF_SIMD_DISPATCH)
       if (avx2) {
         if (elev)
-          ringResidualsX8<true>(b, e, f, acc);
+          avx2::ringResiduals<true>(b, e, f, acc);
         else
-          ringResidualsX8<false>(b, e, f, acc);
+          avx2::ringResiduals<false>(b, e, f, acc);
         continue;
       }
 #endif
 #if defined(__SSE2__)
       if (elev)
-        ringResidualsX4<true>(b, e, f, acc);
+        sse2::ringResiduals<true>(b, e, f, acc);
       else
-        ringResidualsX4<false>(b, e, f, acc);
+        sse2::ringResiduals<false>(b, e, f, acc);
 #else
       ringResiduals(b, e, f, acc);
 #endif
@@ -255,173 +277,6 @@ class Roughness final : public Stage {
     }
     sums = acc;
   }
-
-#if defined(__SSE2__)
-  /// ringResiduals for four consecutive points at a time, one per lane. The window walks are
-  /// data-dependent loops (passed-over neighbours, edges, ring ends) whose branches the CPU
-  /// mispredicts; here each lane carries its walk's state as masks and the loop runs until every
-  /// lane is done. A lane adds the same neighbours in the same order as ringResiduals and the
-  /// squares reach CellSums in point order, so the result is bit-identical (tested against the
-  /// definition in roughness_test.cpp).
-  template <bool kElev>  // a compile-time constant: no test of it in the innermost loop
-  void ringResidualsX4(int b, int e, const Filter& filter, CellSums& sums) const {
-    // Local copies stay in registers (the stores into the cell sums could alias the originals).
-    const Filter f = filter;
-    CellSums acc = sums;
-    const __m128 sign = _mm_set1_ps(-0.f), max_dsin = _mm_set1_ps(f.max_dsin),
-                 jump = _mm_set1_ps(f.jump);
-    const __m128i window = _mm_set1_epi32(f.window), lane = _mm_setr_epi32(0, 1, 2, 3),
-                  one = _mm_set1_epi32(1), none = _mm_set1_epi32(-1);
-    __m128i passed = _mm_setzero_si128();  // per lane, summed at the end
-    for (int k0 = b; k0 < e; k0 += 4) {
-      const int32_t* cells = f.cell + k0;
-      const __m128i in_grid = _mm_and_si128(
-          _mm_cmpgt_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(cells)), none),
-          _mm_cmpgt_epi32(_mm_set1_epi32(e - k0), lane));  // lanes past the ring
-      if (!_mm_movemask_epi8(in_grid)) continue;
-      const __m128 rk = _mm_loadu_ps(f.range + k0);
-      const __m128 sk = f.sin_el ? _mm_loadu_ps(f.sin_el + k0) : _mm_setzero_ps();
-      __m128 s = _mm_setzero_ps();
-      __m128i m = _mm_setzero_si128();  // neighbours taken
-      // One side's walk; `room` = how many points the ring has on that side of each lane's point,
-      // `full` = m once the side has its window.
-      auto walk = [&](int dir, __m128i room, __m128i full) {
-        __m128i active = in_grid;
-        for (int d = 1; d <= f.span; ++d) {
-          room = _mm_sub_epi32(room, one);
-          active = _mm_and_si128(active, _mm_cmpgt_epi32(room, none));
-          if (!_mm_movemask_epi8(active)) break;
-          const int j = k0 + dir * d;
-          const __m128 rj = _mm_loadu_ps(f.range + j);
-          __m128 take = _mm_castsi128_ps(active);
-          if (kElev) {  // another laser: passed over
-            const __m128 other = _mm_cmpgt_ps(
-                _mm_andnot_ps(sign, _mm_sub_ps(_mm_loadu_ps(f.sin_el + j), sk)), max_dsin);
-            passed = _mm_sub_epi32(passed, _mm_castps_si128(_mm_and_ps(take, other)));
-            take = _mm_andnot_ps(other, take);
-          }
-          const __m128 edge = _mm_cmpgt_ps(_mm_andnot_ps(sign, _mm_sub_ps(rj, rk)), jump);
-          active = _mm_andnot_si128(_mm_castps_si128(_mm_and_ps(take, edge)), active);  // ends
-          take = _mm_andnot_ps(edge, take);
-          // Lanes not taking add +0, which leaves s alone: s is a sum of ranges, never −0.
-          s = _mm_add_ps(s, _mm_and_ps(take, rj));
-          m = _mm_sub_epi32(m, _mm_castps_si128(take));
-          active = _mm_andnot_si128(_mm_cmpeq_epi32(m, full), active);
-        }
-      };
-      walk(-1, _mm_add_epi32(_mm_set1_epi32(k0 - b), lane), window);
-      const __m128i left = m;
-      walk(+1, _mm_sub_epi32(_mm_set1_epi32(e - 1 - k0), lane), _mm_add_epi32(left, window));
-      // Neighbours on both sides.
-      const int valid = _mm_movemask_ps(_mm_castsi128_ps(
-          _mm_and_si128(_mm_cmpgt_epi32(left, _mm_setzero_si128()), _mm_cmpgt_epi32(m, left))));
-      if (!valid) continue;
-      __m128 res = _mm_sub_ps(rk, _mm_div_ps(s, _mm_cvtepi32_ps(m)));
-      if (f.vertical) res = _mm_mul_ps(res, _mm_andnot_ps(sign, sk));
-      alignas(16) float sq[4];
-      _mm_store_ps(sq, _mm_mul_ps(res, res));
-      const __m128i same = _mm_cmpeq_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(cells)),
-                                           _mm_set1_epi32(acc.cell));
-      if (valid == 0xF && _mm_movemask_epi8(same) == 0xFFFF) {
-        // Most groups: four residuals in the cell being summed (one branch, not eight).
-        acc.s = (((acc.s + sq[0]) + sq[1]) + sq[2]) + sq[3];
-        acc.n += 4;
-        continue;
-      }
-      for (int l = 0; l < 4; ++l)
-        if (valid >> l & 1) acc.add(cells[l], sq[l]);
-    }
-    alignas(16) int32_t p[4];
-    _mm_store_si128(reinterpret_cast<__m128i*>(p), passed);
-    acc.passed_over += static_cast<std::size_t>(p[0]) + p[1] + p[2] + p[3];
-    sums = acc;
-  }
-#endif
-
-#if defined(TERRAMRF_SIMD_DISPATCH)
-  /// One side's window walk of ringResidualsX8 (the walk lambda of ringResidualsX4 on eight
-  /// lanes; a lambda would not inherit the AVX2 target).
-  template <bool kElev>
-  TERRAMRF_TARGET_AVX2 static void walkX8(const Filter& f, int k0, int dir, __m256i room,
-                                          __m256i full, __m256i in_grid, __m256 rk, __m256 sk,
-                                          __m256& s, __m256i& m, __m256i& passed) {
-    const __m256 sign = _mm256_set1_ps(-0.f), max_dsin = _mm256_set1_ps(f.max_dsin),
-                 jump = _mm256_set1_ps(f.jump);
-    const __m256i one = _mm256_set1_epi32(1), none = _mm256_set1_epi32(-1);
-    __m256i active = in_grid;
-    for (int d = 1; d <= f.span; ++d) {
-      room = _mm256_sub_epi32(room, one);
-      active = _mm256_and_si256(active, _mm256_cmpgt_epi32(room, none));
-      if (!_mm256_movemask_epi8(active)) break;
-      const int j = k0 + dir * d;
-      const __m256 rj = _mm256_loadu_ps(f.range + j);
-      __m256 take = _mm256_castsi256_ps(active);
-      if (kElev) {  // another laser: passed over
-        const __m256 other =
-            _mm256_cmp_ps(_mm256_andnot_ps(sign, _mm256_sub_ps(_mm256_loadu_ps(f.sin_el + j), sk)),
-                          max_dsin, _CMP_GT_OS);
-        passed = _mm256_sub_epi32(passed, _mm256_castps_si256(_mm256_and_ps(take, other)));
-        take = _mm256_andnot_ps(other, take);
-      }
-      const __m256 edge =
-          _mm256_cmp_ps(_mm256_andnot_ps(sign, _mm256_sub_ps(rj, rk)), jump, _CMP_GT_OS);
-      active = _mm256_andnot_si256(_mm256_castps_si256(_mm256_and_ps(take, edge)), active);
-      take = _mm256_andnot_ps(edge, take);
-      s = _mm256_add_ps(s, _mm256_and_ps(take, rj));
-      m = _mm256_sub_epi32(m, _mm256_castps_si256(take));
-      active = _mm256_andnot_si256(_mm256_cmpeq_epi32(m, full), active);
-    }
-  }
-
-  /// ringResidualsX4 on eight lanes (AVX2): the same operations per lane in the same order, and
-  /// the squares reach CellSums in point order, so the result is the same bits.
-  template <bool kElev>
-  TERRAMRF_TARGET_AVX2 void ringResidualsX8(int b, int e, const Filter& filter,
-                                            CellSums& sums) const {
-    const Filter f = filter;
-    CellSums acc = sums;
-    const __m256 sign = _mm256_set1_ps(-0.f);
-    const __m256i window = _mm256_set1_epi32(f.window),
-                  lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), none = _mm256_set1_epi32(-1),
-                  zero = _mm256_setzero_si256();
-    __m256i passed = zero;
-    for (int k0 = b; k0 < e; k0 += 8) {
-      const int32_t* cells = f.cell + k0;
-      const __m256i cell8 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cells));
-      const __m256i in_grid = _mm256_and_si256(_mm256_cmpgt_epi32(cell8, none),
-                                               _mm256_cmpgt_epi32(_mm256_set1_epi32(e - k0), lane));
-      if (!_mm256_movemask_epi8(in_grid)) continue;
-      const __m256 rk = _mm256_loadu_ps(f.range + k0);
-      const __m256 sk = f.sin_el ? _mm256_loadu_ps(f.sin_el + k0) : _mm256_setzero_ps();
-      __m256 s = _mm256_setzero_ps();
-      __m256i m = zero;
-      walkX8<kElev>(f, k0, -1, _mm256_add_epi32(_mm256_set1_epi32(k0 - b), lane), window, in_grid,
-                    rk, sk, s, m, passed);
-      const __m256i left = m;
-      walkX8<kElev>(f, k0, +1, _mm256_sub_epi32(_mm256_set1_epi32(e - 1 - k0), lane),
-                    _mm256_add_epi32(left, window), in_grid, rk, sk, s, m, passed);
-      const int valid = _mm256_movemask_ps(_mm256_castsi256_ps(
-          _mm256_and_si256(_mm256_cmpgt_epi32(left, zero), _mm256_cmpgt_epi32(m, left))));
-      if (!valid) continue;
-      __m256 res = _mm256_sub_ps(rk, _mm256_div_ps(s, _mm256_cvtepi32_ps(m)));
-      if (f.vertical) res = _mm256_mul_ps(res, _mm256_andnot_ps(sign, sk));
-      alignas(32) float sq[8];
-      _mm256_store_ps(sq, _mm256_mul_ps(res, res));
-      if (valid == 0xFF &&
-          _mm256_movemask_epi8(_mm256_cmpeq_epi32(cell8, _mm256_set1_epi32(acc.cell))) == -1) {
-        acc.s = (((((((acc.s + sq[0]) + sq[1]) + sq[2]) + sq[3]) + sq[4]) + sq[5]) + sq[6]) + sq[7];
-        acc.n += 8;
-        continue;
-      }
-      for (int l = 0; l < 8; ++l)
-        if (valid >> l & 1) acc.add(cells[l], sq[l]);
-    }
-    alignas(32) int32_t p[8];
-    _mm256_store_si256(reinterpret_cast<__m256i*>(p), passed);
-    for (int l = 0; l < 8; ++l) acc.passed_over += static_cast<std::size_t>(p[l]);
-    sums = acc;
-  }
-#endif
 
   /// range_[pad + k] (and sin_el_[pad + k] = z / range when `with_sin`) and cell_[k] of the
   /// point order_[k].
