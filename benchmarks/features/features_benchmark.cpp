@@ -8,6 +8,7 @@
 //   BM_HeightAboveGround, BM_RelativeHeight, BM_EigenPreclass, BM_HeightDifference, BM_Roughness
 //                     one stage alone on an already binned grid
 //   BM_Img_*          the image part alone (camera_fusion + the feature) on an already binned grid
+//                     (…HomogeneityLocalMean: homogeneity with definition: local_mean)
 //   BM_RoughnessColumnOrder  roughness alone on a simulator scan (seed 1, HDL-64E-like, ~226k
 //                     points) stored in firing order, column after column, as drivers deliver
 //                     them: each ring's points lie 64 apart in the cloud
@@ -35,7 +36,8 @@ struct FeatureFixture {
   PluginContext pctx;
   std::vector<std::unique_ptr<Plugin>> laser;
   std::vector<std::unique_ptr<Plugin>> ground;  // the G of L+G
-  std::unique_ptr<Plugin> fusion, haralick, homogeneity, colour_rgb, colour_hsv, colour_lab;
+  std::unique_ptr<Plugin> fusion, haralick, homogeneity, homogeneity_local_mean, colour_rgb,
+      colour_hsv, colour_lab;
 
   FeatureFixture() {
     cv::setNumThreads(1);  // one thread, as the per-scan budget assumes
@@ -56,6 +58,7 @@ struct FeatureFixture {
     fusion = make("camera_fusion", "{}");
     haralick = make("haralick", "{}");
     homogeneity = make("homogeneity", "{}");
+    homogeneity_local_mean = make("homogeneity", "{definition: local_mean}");
     colour_rgb = make("colour", "{space: rgb}");
     colour_hsv = make("colour", "{space: hsv}");
     colour_lab = make("colour", "{space: lab}");
@@ -139,6 +142,9 @@ void BM_L_C(benchmark::State& s) { bench(s, true, fixture().colour_rgb.get()); }
 void BM_Img_Fusion(benchmark::State& s) { bench(s, false, nullptr); }
 void BM_Img_FusionHaralick(benchmark::State& s) { bench(s, false, fixture().haralick.get()); }
 void BM_Img_FusionHomogeneity(benchmark::State& s) { bench(s, false, fixture().homogeneity.get()); }
+void BM_Img_FusionHomogeneityLocalMean(benchmark::State& s) {
+  bench(s, false, fixture().homogeneity_local_mean.get());
+}
 void BM_Img_FusionColourRgb(benchmark::State& s) { bench(s, false, fixture().colour_rgb.get()); }
 void BM_Img_FusionColourHsv(benchmark::State& s) { bench(s, false, fixture().colour_hsv.get()); }
 void BM_Img_FusionColourLab(benchmark::State& s) { bench(s, false, fixture().colour_lab.get()); }
@@ -159,6 +165,7 @@ TERRAMRF_BENCH(BM_L_C);
 TERRAMRF_BENCH(BM_Img_Fusion);
 TERRAMRF_BENCH(BM_Img_FusionHaralick);
 TERRAMRF_BENCH(BM_Img_FusionHomogeneity);
+TERRAMRF_BENCH(BM_Img_FusionHomogeneityLocalMean);
 TERRAMRF_BENCH(BM_Img_FusionColourRgb);
 TERRAMRF_BENCH(BM_Img_FusionColourHsv);
 TERRAMRF_BENCH(BM_Img_FusionColourLab);

@@ -1,20 +1,35 @@
 // Texture homogeneity f_th of each cell's pixels (paper 000 §4.3, "after Knauer et al."): rough
 // terrain looks inhomogeneous, even terrain homogeneous.
 //
-// Definition implemented (Knauer et al.'s own formula was not available to us, so this is the
-// standard local-homogeneity measure, stated exactly):
-//   h(p)   = 1 / (1 + |I(p) − Ī(p)| / s)
-//   f_th   = mean of h(p) over the cell's pixels p
-// I = 8-bit grey (OpenCV luma 0.299 R + 0.587 G + 0.114 B), Ī(p) = mean of I over the 3 × 3
-// neighbourhood of p in the image (p included; border reflected, OpenCV BORDER_REFLECT_101), s =
-// `contrast_scale` [grey levels]. Range (0, 1]; exactly 1 for a flat patch; lower the more each
-// pixel stands out from its immediate surroundings.
-// Why this one: it is local (texture at the pixel scale, which is what separates gravel and grass
-// from asphalt), bounded, independent of the cell's size and overall brightness gradient, and
-// costs one box filter per image plus one table look-up per pixel — "fast to compute", as the
-// paper describes the feature.
+// Knauer et al.'s own text was not available to us beyond its abstract, which says it computes "an
+// existing homogeneity feature" fast over regions. Two per-pixel definitions are offered, each
+// stated exactly, and the cell's value is the mean over its pixels:
+//
+// `cheng_sun` (Cheng & Sun, IEEE TIP 9(12), 2000; a widely used per-pixel homogeneity of that
+// time; whether it is the one Knauer et al. start from could not be checked):
+//   v(p) = standard deviation of I over the d × d window centred at p   (d = `window`)
+//   e(p) = |∇I(p)|, 3 × 3 Sobel
+//   H(p) = 1 − (e(p) / e_max) · (v(p) / v_max)
+// e_max, v_max: the largest values 8-bit grey can reach (`normalise: fixed`, the default: 1020·√2
+// and 127.5), or the image's maxima (`normalise: image`, as published), with which one strong
+// edge anywhere in the image rescales every cell of it. Range [0, 1]; 1 where either factor is
+// zero. The default was chosen on the simulator's validation world
+// (docs/plugins/camera_features.md).
+//
+// `local_mean` (this project's earlier stand-in):
+//   h(p) = 1 / (1 + |I(p) − Ī(p)| / s),  Ī = mean of I over the 3 × 3 neighbourhood, s =
+//   `contrast_scale` [grey levels]. Range (0, 1]; exactly 1 on a flat patch and on linear shading.
+//
+// I = 8-bit grey (OpenCV luma 0.299 R + 0.587 G + 0.114 B); at the image border OpenCV's
+// BORDER_REFLECT_101. Both cost a few image filters plus one read per cell pixel, "fast to
+// compute" as the paper describes the feature.
+#include <emmintrin.h>
+
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -26,9 +41,23 @@ namespace terramrf {
 class Homogeneity final : public Stage {
  public:
   void declare(ParamDecl& d) override {
-    d.add("layer", layer_, "name of the output layer: mean local homogeneity, (0, 1]");
+    d.add("layer", layer_,
+          "name of the output layer: mean pixel homogeneity over the cell, [0, 1]");
+    d.add("definition", definition_,
+          "per-pixel homogeneity: cheng_sun (1 − normalised Sobel magnitude × normalised local "
+          "standard deviation, Cheng & Sun 2000) or local_mean (1/(1+|I − 3×3 mean|/s))")
+        .choices({"cheng_sun", "local_mean"});
+    d.add("window", window_,
+          "cheng_sun: side of the square window of the local standard deviation (odd)")
+        .unit("px")
+        .range(3, 15);
+    d.add("normalise", normalise_,
+          "cheng_sun: divide gradient and standard deviation by the largest values 8-bit grey "
+          "allows (fixed: a cell's value does not depend on the rest of the image) or by the "
+          "image's maxima (image, as published)")
+        .choices({"image", "fixed"});
     d.add("contrast_scale", scale_,
-          "grey-level difference to the 3×3 mean at which a pixel's homogeneity is 1/2")
+          "local_mean: grey-level difference to the 3×3 mean at which a pixel's homogeneity is 1/2")
         .unit("grey levels")
         .range(0.01, 255);
     fusion::declareCameraChoice(d, camera_, min_pixels_, 1);
@@ -36,6 +65,9 @@ class Homogeneity final : public Stage {
 
   void configure(const PluginContext&) override {
     if (layer_.empty()) throw ParamError("layer", "is empty; expected e.g. 'homogeneity'");
+    if (window_ % 2 == 0)
+      throw ParamError("window", "is " + std::to_string(window_) +
+                                     "; expected an odd number of pixels (the window is centred)");
     // d = |9·I − ΣI| ∈ [0, 9·255] in integer units of 1/9 grey level.
     for (int d = 0; d < kTable; ++d) weight_[d] = float(1.0 / (1.0 + d / (9.0 * scale_)));
   }
@@ -46,12 +78,16 @@ class Homogeneity final : public Stage {
   void process(FrameContext& ctx) override {
     TerrainGrid& g = *ctx.grid;
     const auto cams = fusion::fusedCameras(ctx, camera_, "homogeneity");
+    const bool cheng_sun = definition_ == "cheng_sun";
     grey_.resize(cams.size());
-    sum_.resize(cams.size());
+    maps_.resize(cams.size());
     for (std::size_t k = 0; k < cams.size(); ++k) {
       fusion::toGrey(*cams[k].image, grey_[k]);
-      cv::boxFilter(grey_[k], sum_[k], CV_16U, cv::Size(3, 3), cv::Point(-1, -1), false,
-                    cv::BORDER_REFLECT_101);
+      if (cheng_sun)
+        chengSun(grey_[k], *cams[k].pixels, maps_[k]);
+      else
+        cv::boxFilter(grey_[k], maps_[k].h, CV_16U, cv::Size(3, 3), cv::Point(-1, -1), false,
+                      cv::BORDER_REFLECT_101);
     }
     Layer& out = g.add(layer_);
     for (int c = 0, n = int(g.cells()); c < n; ++c) {
@@ -59,11 +95,16 @@ class Homogeneity final : public Stage {
       if (k < 0) continue;
       const CellPixels& cp = *cams[k].pixels;
       if (cp.count(c) < uint32_t(min_pixels_)) continue;
-      const uint8_t* gi = grey_[k].ptr<uint8_t>(0);
-      const uint16_t* si = sum_[k].ptr<uint16_t>(0);
       double s = 0;
-      for (const uint32_t* it = cp.begin(c); it != cp.end(c); ++it)
-        s += weight_[std::abs(9 * int(gi[*it]) - int(si[*it]))];
+      if (cheng_sun) {
+        const float* h = maps_[k].h.ptr<float>(0) - maps_[k].first_pixel;
+        for (const uint32_t* it = cp.begin(c); it != cp.end(c); ++it) s += h[*it];
+      } else {
+        const uint8_t* gi = grey_[k].ptr<uint8_t>(0);
+        const uint16_t* si = maps_[k].h.ptr<uint16_t>(0);
+        for (const uint32_t* it = cp.begin(c); it != cp.end(c); ++it)
+          s += weight_[std::abs(9 * int(gi[*it]) - int(si[*it]))];
+      }
       out[c] = float(s / cp.count(c));
     }
   }
@@ -71,17 +112,107 @@ class Homogeneity final : public Stage {
  private:
   static constexpr int kTable = 9 * 255 + 1;
 
+  /// Per image. Cheng & Sun: H over the rows that hold cell pixels (or the whole image when its
+  /// maxima normalise), from `first_pixel` (v·width) on; local_mean: the 3 × 3 sums (CV_16U).
+  struct Maps {
+    cv::Mat h, sum, sqsum, gx, gy;
+    std::size_t first_pixel = 0;
+  };
+
+  void chengSun(const cv::Mat& grey, const CellPixels& cp, Maps& m) const {
+    // Only the rows the cells use need H, unless the image's maxima normalise it. The filters run
+    // on those rows plus the window's reach above and below (clipped to the image, where the
+    // border rule applies as on the whole image), and H is kept for the rows inside.
+    int v0 = 0, v1 = grey.rows;
+    if (normalise_ == "fixed") {
+      if (cp.pixels.empty()) {
+        m.h.release();
+        return;
+      }
+      const auto [lo, hi] = std::minmax_element(cp.pixels.begin(), cp.pixels.end());
+      v0 = int(*lo / uint32_t(grey.cols));
+      v1 = int(*hi / uint32_t(grey.cols)) + 1;
+    }
+    const int reach = std::max(window_ / 2, 1);
+    const int p0 = std::max(0, v0 - reach), p1 = std::min(grey.rows, v1 + reach);
+    const cv::Mat band = grey.rowRange(p0, p1).clone();  // a whole image of its own to OpenCV
+    m.first_pixel = std::size_t(v0) * grey.cols;
+    const cv::Size win(window_, window_);
+    cv::boxFilter(band, m.sum, CV_32S, win, cv::Point(-1, -1), false, cv::BORDER_REFLECT_101);
+    cv::sqrBoxFilter(band, m.sqsum, CV_32S, win, cv::Point(-1, -1), false, cv::BORDER_REFLECT_101);
+    cv::spatialGradient(band, m.gx, m.gy, 3, cv::BORDER_REFLECT_101);  // 3 × 3 Sobel
+    m.h.create(v1 - v0, grey.cols, CV_32F);
+    const std::size_t n = m.h.total(), skip = std::size_t(v0 - p0) * grey.cols;
+    const int32_t* s1 = m.sum.ptr<int32_t>(0) + skip;
+    const int32_t* s2 = m.sqsum.ptr<int32_t>(0) + skip;
+    const int16_t* gx = m.gx.ptr<int16_t>(0) + skip;
+    const int16_t* gy = m.gy.ptr<int16_t>(0) + skip;
+    float* h = m.h.ptr<float>(0);
+    const uint32_t area = uint32_t(window_) * uint32_t(window_);
+    std::vector<float>& e2f = e2_;
+    e2f.resize(n);
+    // N²v² = N·ΣI² − (ΣI)², exact in uint32: both terms are below 2^32 for windows up to
+    // 15 × 15 and the difference is never negative. e² = Gx² + Gy² < 2^21. Kept in h's memory as
+    // floats (0 stays exactly 0) until the normalisation is known.
+    auto spreadAndGradient = [&](std::size_t i) {
+      h[i] = float(area * uint32_t(s2[i]) - uint32_t(s1[i]) * uint32_t(s1[i]));
+      e2f[i] = float(gx[i] * gx[i] + gy[i] * gy[i]);
+    };
+    // E·V = √(e²·N²v²) / (e_max·N·v_max), with 8-bit grey's bounds (|Gx|, |Gy| ≤ 4·255; v ≤
+    // 127.5, half black, half white) or the image's maxima.
+    if (normalise_ == "fixed") {
+      for (std::size_t i = 0; i < n; ++i) spreadAndGradient(i);
+      finish(h, n, float(1.0 / (1020 * M_SQRT2 * area * 127.5)), false);
+      return;
+    }
+    float v2_max = 0, e2_max = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      spreadAndGradient(i);
+      // Comparisons, not std::max, so that GCC vectorises the reductions (maxps).
+      v2_max = h[i] > v2_max ? h[i] : v2_max;
+      e2_max = e2f[i] > e2_max ? e2f[i] : e2_max;
+    }
+    // A flat image has no pixel with both spread and gradient: H = 1 everywhere.
+    if (v2_max == 0 || e2_max == 0) {
+      m.h.setTo(1.0f);
+      return;
+    }
+    // Formed as each pixel's product is, and divided by: the pixel holding both maxima reads 0.
+    finish(h, n, std::sqrt(e2_max * v2_max), true);
+  }
+
+  /// h[i] = 1 − √(e²[i]·h[i]) · k (or / k with `divide`), four at a time: std::sqrt keeps errno,
+  /// which stops GCC from vectorising the loop.
+  void finish(float* h, std::size_t n, float k, bool divide) const {
+    const float* e2f = e2_.data();
+    const __m128 one = _mm_set1_ps(1.0f), kk = _mm_set1_ps(k);
+    std::size_t i = 0;
+    for (; i + 4 <= n; i += 4) {
+      const __m128 r = _mm_sqrt_ps(_mm_mul_ps(_mm_loadu_ps(e2f + i), _mm_loadu_ps(h + i)));
+      _mm_storeu_ps(h + i, _mm_sub_ps(one, divide ? _mm_div_ps(r, kk) : _mm_mul_ps(r, kk)));
+    }
+    for (; i < n; ++i) {
+      const float r = std::sqrt(e2f[i] * h[i]);
+      h[i] = 1.0f - (divide ? r / k : r * k);
+    }
+  }
+
   std::string layer_ = "homogeneity";
+  std::string definition_ = "cheng_sun";
+  int window_ = 5;
+  std::string normalise_ = "fixed";
   double scale_ = 1.0;
   int camera_ = -1;
   int min_pixels_ = 1;
 
   float weight_[kTable] = {};
-  std::vector<cv::Mat> grey_, sum_;
+  std::vector<cv::Mat> grey_;
+  std::vector<Maps> maps_;
+  mutable std::vector<float> e2_;
 };
 
 }  // namespace terramrf
 
 TERRAMRF_PLUGIN(terramrf::Homogeneity, terramrf::PluginKind::kFeature, "homogeneity",
-                "texture homogeneity f_th: mean of 1/(1+|I−mean3x3(I)|/s) over the cell's pixels "
-                "(paper 000 §4.3)")
+                "texture homogeneity f_th: mean over the cell's pixels of Cheng & Sun's "
+                "1 − E·V (or 1/(1+|I−mean3x3(I)|/s)) (paper 000 §4.3)")
