@@ -147,10 +147,20 @@ std::vector<std::map<std::string, std::string>> readCsv(const std::string& path)
   std::string line;
   std::vector<std::string> head;
   std::vector<std::map<std::string, std::string>> rows;
-  auto split = [](const std::string& s) {
-    std::vector<std::string> v;
-    std::stringstream ss(s);
-    for (std::string x; std::getline(ss, x, ',');) v.push_back(x);
+  auto split = [](const std::string& s) {  // RFC 4180: a quoted field may hold commas and ""
+    std::vector<std::string> v(1);
+    bool quoted = false;
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      const char c = s[i];
+      if (quoted && c == '"' && i + 1 < s.size() && s[i + 1] == '"')
+        v.back() += '"', ++i;
+      else if (c == '"')
+        quoted = !quoted;
+      else if (c == ',' && !quoted)
+        v.emplace_back();
+      else
+        v.back() += c;
+    }
     return v;
   };
   if (std::getline(in, line)) head = split(line);
@@ -263,9 +273,10 @@ TEST(SweepsE2E, Open3dMl750AndRellisAgainstPatchwork) {
 }
 
 // The simulator sweep (paper 000 Tables 1–3 on our own data): with the Gaussians per class
-// chosen on the validation world (select:; chosen L 2, L+H 4, L+FH 2, L+C 4) every feature set
-// meets the issue's obstacle target 0.96 / 0.96 with every optimiser (measured: L 0.991 / 0.967,
-// L+H 0.971 / 0.967, L+FH 0.976 / 0.967, L+C 0.991 / 0.966), road ≥ 0.90 / 0.90 and rough recall
+// chosen on the validation world (select:; chosen L 2, L+H 4, L+FH 4 with Cheng & Sun's
+// homogeneity, L+C 4) every feature set meets the issue's obstacle target 0.96 / 0.96 with every
+// optimiser (measured with α-expansion: L 0.991 / 0.967, L+H 0.976 / 0.964, L+FH 0.994 / 0.966,
+// L+C 0.991 / 0.966), road ≥ 0.90 / 0.90 and rough recall
 // ≥ 0.60; α-expansion has the lowest energy on all 20 (set, scan) pairs (docs/compare.md).
 TEST(SweepsE2E, SimulatorSweepMeetsTheTargets) {
   test::TempDir out;
@@ -290,6 +301,15 @@ TEST(SweepsE2E, SimulatorSweepMeetsTheTargets) {
   for (const auto& row : readCsv(out.str() + "/selection.csv"))
     chosen[row.at("feature_set")] += std::stoi(row.at("chosen"));
   EXPECT_EQ(chosen, (std::map<std::string, int>{{"L", 1}, {"L+C", 1}, {"L+FH", 1}, {"L+H", 1}}));
+  // L+FH's candidates include the homogeneity definition (a stage parameter).
+  int fh_candidates = 0;
+  for (const auto& row : readCsv(out.str() + "/selection.csv"))
+    if (row.at("feature_set") == "L+FH") {
+      ++fh_candidates;
+      EXPECT_NE(row.at("candidate").find("homog.definition="), std::string::npos)
+          << row.at("candidate");
+    }
+  EXPECT_EQ(fh_candidates, 8);
 }
 
 // docs/own_data.md's example, as shipped, on three simulated drives made as its header says.
