@@ -119,7 +119,7 @@ class Homogeneity final : public Stage {
     std::size_t first_pixel = 0;
   };
 
-  void chengSun(const cv::Mat& grey, const CellPixels& cp, Maps& m) const {
+  void chengSun(const cv::Mat& grey, const CellPixels& cp, Maps& m) {
     // Only the rows the cells use need H, unless the image's maxima normalise it. The filters run
     // on those rows plus the window's reach above and below (clipped to the image, where the
     // border rule applies as on the whole image), and H is kept for the rows inside.
@@ -162,15 +162,14 @@ class Homogeneity final : public Stage {
     // 127.5, half black, half white) or the image's maxima.
     if (normalise_ == "fixed") {
       for (std::size_t i = 0; i < n; ++i) spreadAndGradient(i);
-      finish(h, n, float(1.0 / (1020 * M_SQRT2 * area * 127.5)), false);
+      finish(h, e2f.data(), n, float(1.0 / (1020 * M_SQRT2 * area * 127.5)), false);
       return;
     }
     float v2_max = 0, e2_max = 0;
     for (std::size_t i = 0; i < n; ++i) {
       spreadAndGradient(i);
-      // Comparisons, not std::max, so that GCC vectorises the reductions (maxps).
-      v2_max = h[i] > v2_max ? h[i] : v2_max;
-      e2_max = e2f[i] > e2_max ? e2f[i] : e2_max;
+      v2_max = std::max(v2_max, h[i]);
+      e2_max = std::max(e2_max, e2f[i]);
     }
     // A flat image has no pixel with both spread and gradient: H = 1 everywhere.
     if (v2_max == 0 || e2_max == 0) {
@@ -178,13 +177,12 @@ class Homogeneity final : public Stage {
       return;
     }
     // Formed as each pixel's product is, and divided by: the pixel holding both maxima reads 0.
-    finish(h, n, std::sqrt(e2_max * v2_max), true);
+    finish(h, e2f.data(), n, std::sqrt(e2_max * v2_max), true);
   }
 
-  /// h[i] = 1 − √(e²[i]·h[i]) · k (or / k with `divide`), four at a time: std::sqrt keeps errno,
+  /// h[i] = 1 − √(e2f[i]·h[i]) · k (or / k with `divide`), four at a time: std::sqrt keeps errno,
   /// which stops GCC from vectorising the loop.
-  void finish(float* h, std::size_t n, float k, bool divide) const {
-    const float* e2f = e2_.data();
+  static void finish(float* h, const float* e2f, std::size_t n, float k, bool divide) {
     const __m128 one = _mm_set1_ps(1.0f), kk = _mm_set1_ps(k);
     std::size_t i = 0;
     for (; i + 4 <= n; i += 4) {
@@ -208,7 +206,7 @@ class Homogeneity final : public Stage {
   float weight_[kTable] = {};
   std::vector<cv::Mat> grey_;
   std::vector<Maps> maps_;
-  mutable std::vector<float> e2_;
+  std::vector<float> e2_;  // e² per pixel of the band, scratch
 };
 
 }  // namespace terramrf
