@@ -23,8 +23,6 @@
 // I = 8-bit grey (OpenCV luma 0.299 R + 0.587 G + 0.114 B); at the image border OpenCV's
 // BORDER_REFLECT_101. Both cost a few image filters plus one read per cell pixel, "fast to
 // compute" as the paper describes the feature.
-#include <emmintrin.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -149,27 +147,25 @@ class Homogeneity final : public Stage {
     const int16_t* gy = m.gy.ptr<int16_t>(0) + skip;
     float* h = m.h.ptr<float>(0);
     const uint32_t area = uint32_t(window_) * uint32_t(window_);
-    std::vector<float>& e2f = e2_;
-    e2f.resize(n);
     // N²v² = N·ΣI² − (ΣI)², exact in uint32: both terms are below 2^32 for windows up to
-    // 15 × 15 and the difference is never negative. e² = Gx² + Gy² < 2^21. Kept in h's memory as
-    // floats (0 stays exactly 0) until the normalisation is known.
-    auto spreadAndGradient = [&](std::size_t i) {
-      h[i] = float(area * uint32_t(s2[i]) - uint32_t(s1[i]) * uint32_t(s1[i]));
-      e2f[i] = float(gx[i] * gx[i] + gy[i] * gy[i]);
+    // 15 × 15 and the difference is never negative. e² = Gx² + Gy² < 2^21.
+    auto spread2 = [&](std::size_t i) {
+      return area * uint32_t(s2[i]) - uint32_t(s1[i]) * uint32_t(s1[i]);
     };
+    auto gradient2 = [&](std::size_t i) { return uint32_t(gx[i] * gx[i] + gy[i] * gy[i]); };
     // E·V = √(e²·N²v²) / (e_max·N·v_max), with 8-bit grey's bounds (|Gx|, |Gy| ≤ 4·255; v ≤
-    // 127.5, half black, half white) or the image's maxima.
+    // 127.5, half black, half white) or the image's maxima. One pass each; the file is built
+    // with -fno-math-errno, so these loops vectorise.
     if (normalise_ == "fixed") {
-      for (std::size_t i = 0; i < n; ++i) spreadAndGradient(i);
-      finish(h, e2f.data(), n, float(1.0 / (1020 * M_SQRT2 * area * 127.5)), false);
+      const float k = float(1.0 / (1020 * M_SQRT2 * area * 127.5));
+      for (std::size_t i = 0; i < n; ++i)
+        h[i] = 1.0f - std::sqrt(float(gradient2(i)) * float(spread2(i))) * k;
       return;
     }
-    float v2_max = 0, e2_max = 0;
+    uint32_t v2_max = 0, e2_max = 0;
     for (std::size_t i = 0; i < n; ++i) {
-      spreadAndGradient(i);
-      v2_max = std::max(v2_max, h[i]);
-      e2_max = std::max(e2_max, e2f[i]);
+      v2_max = std::max(v2_max, spread2(i));
+      e2_max = std::max(e2_max, gradient2(i));
     }
     // A flat image has no pixel with both spread and gradient: H = 1 everywhere.
     if (v2_max == 0 || e2_max == 0) {
@@ -177,22 +173,9 @@ class Homogeneity final : public Stage {
       return;
     }
     // Formed as each pixel's product is, and divided by: the pixel holding both maxima reads 0.
-    finish(h, e2f.data(), n, std::sqrt(e2_max * v2_max), true);
-  }
-
-  /// h[i] = 1 − √(e2f[i]·h[i]) · k (or / k with `divide`), four at a time: std::sqrt keeps errno,
-  /// which stops GCC from vectorising the loop.
-  static void finish(float* h, const float* e2f, std::size_t n, float k, bool divide) {
-    const __m128 one = _mm_set1_ps(1.0f), kk = _mm_set1_ps(k);
-    std::size_t i = 0;
-    for (; i + 4 <= n; i += 4) {
-      const __m128 r = _mm_sqrt_ps(_mm_mul_ps(_mm_loadu_ps(e2f + i), _mm_loadu_ps(h + i)));
-      _mm_storeu_ps(h + i, _mm_sub_ps(one, divide ? _mm_div_ps(r, kk) : _mm_mul_ps(r, kk)));
-    }
-    for (; i < n; ++i) {
-      const float r = std::sqrt(e2f[i] * h[i]);
-      h[i] = 1.0f - (divide ? r / k : r * k);
-    }
+    const float ev_max = std::sqrt(float(e2_max) * float(v2_max));
+    for (std::size_t i = 0; i < n; ++i)
+      h[i] = 1.0f - std::sqrt(float(gradient2(i)) * float(spread2(i))) / ev_max;
   }
 
   std::string layer_ = "homogeneity";
@@ -206,7 +189,6 @@ class Homogeneity final : public Stage {
   float weight_[kTable] = {};
   std::vector<cv::Mat> grey_;
   std::vector<Maps> maps_;
-  std::vector<float> e2_;  // e² per pixel of the band, scratch
 };
 
 }  // namespace terramrf
