@@ -4,6 +4,12 @@
 //   BM_L              laser part: grid binning + eigen_preclass + height_difference + roughness
 //   BM_L_H / _FH / _C laser part + camera_fusion + haralick / homogeneity / colour (the paper's
 //                     feature sets: H = Haralick, FH = homogeneity, C = colour)
+//   BM_L_Icm, BM_L_H_Icm / _FH_Icm / _C_Icm
+//                     the same + Potts/Gaussian energy (eq. 10–12) + ICM: a whole classification,
+//                     the quantity of paper 000's Table 3 and of the targets. The model is
+//                     fitted in the fixture to this frame's eq. 1 pre-classification (flat cells
+//                     split into road and rough at their median roughness): it sets what the
+//                     optimiser has to do, not an accuracy (the sweeps measure that)
 //   BM_L_G            laser part + relative_height + height_above_ground (sweep feature set L+G)
 //   BM_HeightAboveGround, BM_RelativeHeight, BM_EigenPreclass, BM_HeightDifference, BM_Roughness
 //                     one stage alone on an already binned grid
@@ -15,9 +21,15 @@
 // Run: build/bin/terramrf_bench_features
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
 #include <memory>
 #include <opencv2/core.hpp>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -38,6 +50,9 @@ struct FeatureFixture {
   std::vector<std::unique_ptr<Plugin>> ground;  // the G of L+G
   std::unique_ptr<Plugin> fusion, haralick, homogeneity, homogeneity_local_mean, colour_rgb,
       colour_hsv, colour_lab;
+  /// Energy + ICM per feature set ("L", "L+H", "L+FH", "L+C").
+  std::map<std::string, std::vector<std::unique_ptr<Plugin>>> mrf;
+  std::filesystem::path model_path;
 
   FeatureFixture() {
     cv::setNumThreads(1);  // one thread, as the per-scan budget assumes
@@ -62,6 +77,72 @@ struct FeatureFixture {
     colour_rgb = make("colour", "{space: rgb}");
     colour_hsv = make("colour", "{space: hsv}");
     colour_lab = make("colour", "{space: lab}");
+    fitModel();
+    const std::map<std::string, std::string> sets = {
+        {"L", ""},
+        {"L+H", ", haralick_asm, haralick_variance, haralick_idm"},
+        {"L+FH", ", homogeneity"},
+        {"L+C", ", colour_r, colour_g, colour_b"}};
+    for (const auto& [set, extra] : sets) {
+      mrf[set].push_back(make("potts_gaussian", "{model: " + model_path.string() +
+                                                    ", features: [height_diff, roughness" + extra +
+                                                    "], preclass_layer: preclass}"));
+      mrf[set].push_back(make("icm", "{report_energy: false}"));
+    }
+  }
+  ~FeatureFixture() {
+    std::error_code ec;
+    if (!model_path.empty()) std::filesystem::remove(model_path, ec);
+  }
+  /// Per class the mean and standard deviation of every feature layer over this frame's cells,
+  /// classes from the eq. 1 pre-classification (flat cells below their median roughness road,
+  /// the others rough), written as a model file in the temp directory.
+  void fitModel() {
+    FrameContext ctx;
+    ctx.frame = &frame;
+    ctx.grid = &grid;
+    ctx.labels = &labels;
+    grid.reset(geom);
+    grid.binPoints(frame.points);
+    for (auto& s : laser) static_cast<Stage&>(*s).process(ctx);
+    for (Plugin* s : {fusion.get(), haralick.get(), homogeneity.get(), colour_rgb.get()})
+      static_cast<Stage&>(*s).process(ctx);
+    const Layer& pre = grid.layer("preclass");
+    const Layer& rough = grid.layer("roughness");
+    std::vector<float> flat_rough;
+    for (std::size_t c = 0; c < grid.cells(); ++c)
+      if (pre[c] == 1.f && !std::isnan(rough[c])) flat_rough.push_back(rough[c]);
+    std::nth_element(flat_rough.begin(), flat_rough.begin() + flat_rough.size() / 2,
+                     flat_rough.end());
+    const float median = flat_rough.empty() ? 0.f : flat_rough[flat_rough.size() / 2];
+    auto class_of = [&](std::size_t c) -> const char* {
+      if (pre[c] == 2.f) return "obstacle";
+      if (pre[c] != 1.f || std::isnan(rough[c])) return nullptr;
+      return rough[c] < median ? "road" : "rough";
+    };
+    model_path = std::filesystem::temp_directory_path() /
+                 ("terramrf_bench_model_" + std::to_string(std::random_device{}()) + ".yaml");
+    std::ofstream out(model_path);
+    out << "provenance: \"terramrf_bench_features: eq. 1 pre-classes of KITTI object 000000\"\n"
+        << "classes:\n";
+    const char* features[] = {"height_diff",       "roughness",    "haralick_asm",
+                              "haralick_variance", "haralick_idm", "homogeneity",
+                              "colour_r",          "colour_g",     "colour_b"};
+    for (const char* cls : {"road", "rough", "obstacle"}) {
+      out << "  " << cls << ":\n";
+      for (const char* f : features) {
+        const Layer& l = grid.layer(f);
+        double n = 0, s = 0, s2 = 0;
+        for (std::size_t c = 0; c < grid.cells(); ++c) {
+          const char* k = class_of(c);
+          if (!k || std::string(k) != cls || std::isnan(l[c])) continue;
+          n += 1, s += l[c], s2 += double(l[c]) * l[c];
+        }
+        const double mean = n > 0 ? s / n : 0;
+        const double sd = n > 1 ? std::sqrt(std::max(0.0, s2 / n - mean * mean)) : 1;
+        out << "    " << f << ": {mean: " << mean << ", sigma: " << std::max(sd, 1e-3) << "}\n";
+      }
+    }
   }
   std::unique_ptr<Plugin> make(const char* type, const std::string& params) {
     auto p = reg.create(type);
@@ -78,8 +159,9 @@ FeatureFixture& fixture() {
 void run(Plugin& p, FrameContext& ctx) { static_cast<Stage&>(p).process(ctx); }
 
 /// Laser part (optional) then fusion and `feature` (optional), per iteration.
+/// With `mrf` (a feature set of FeatureFixture::mrf), then its energy and ICM.
 void bench(benchmark::State& state, bool with_laser, Plugin* feature, bool with_fusion = true,
-           bool with_ground = false) {
+           bool with_ground = false, const char* mrf = nullptr) {
   FeatureFixture& f = fixture();
   FrameContext ctx;
   ctx.frame = &f.frame;
@@ -97,6 +179,8 @@ void bench(benchmark::State& state, bool with_laser, Plugin* feature, bool with_
     }
     if (with_fusion) run(*f.fusion, ctx);
     if (feature) run(*feature, ctx);
+    if (mrf)
+      for (auto& s : f.mrf.at(mrf)) run(*s, ctx);
     benchmark::ClobberMemory();
   }
   state.counters["points"] = double(f.frame.points.size());
@@ -139,6 +223,16 @@ void BM_Roughness(benchmark::State& s) { bench(s, false, fixture().laser[2].get(
 void BM_L_H(benchmark::State& s) { bench(s, true, fixture().haralick.get()); }
 void BM_L_FH(benchmark::State& s) { bench(s, true, fixture().homogeneity.get()); }
 void BM_L_C(benchmark::State& s) { bench(s, true, fixture().colour_rgb.get()); }
+void BM_L_Icm(benchmark::State& s) { bench(s, true, nullptr, false, false, "L"); }
+void BM_L_H_Icm(benchmark::State& s) {
+  bench(s, true, fixture().haralick.get(), true, false, "L+H");
+}
+void BM_L_FH_Icm(benchmark::State& s) {
+  bench(s, true, fixture().homogeneity.get(), true, false, "L+FH");
+}
+void BM_L_C_Icm(benchmark::State& s) {
+  bench(s, true, fixture().colour_rgb.get(), true, false, "L+C");
+}
 void BM_Img_Fusion(benchmark::State& s) { bench(s, false, nullptr); }
 void BM_Img_FusionHaralick(benchmark::State& s) { bench(s, false, fixture().haralick.get()); }
 void BM_Img_FusionHomogeneity(benchmark::State& s) { bench(s, false, fixture().homogeneity.get()); }
@@ -162,6 +256,10 @@ TERRAMRF_BENCH(BM_RoughnessColumnOrder);
 TERRAMRF_BENCH(BM_L_H);
 TERRAMRF_BENCH(BM_L_FH);
 TERRAMRF_BENCH(BM_L_C);
+TERRAMRF_BENCH(BM_L_Icm);
+TERRAMRF_BENCH(BM_L_H_Icm);
+TERRAMRF_BENCH(BM_L_FH_Icm);
+TERRAMRF_BENCH(BM_L_C_Icm);
 TERRAMRF_BENCH(BM_Img_Fusion);
 TERRAMRF_BENCH(BM_Img_FusionHaralick);
 TERRAMRF_BENCH(BM_Img_FusionHomogeneity);
