@@ -34,6 +34,7 @@ const TerrainGrid::ZRange& TerrainGrid::zRange(const PointCloud& cloud) {
   const std::size_t n = cells();
   z_range_.min.assign(n, kNoData);
   z_range_.max.assign(n, kNoData);
+  z_range_.mean.assign(n, std::numeric_limits<double>::quiet_NaN());
   const float* Z = cloud.z.data();
   for (std::size_t c = 0; c < n; ++c) {
     const uint32_t* it = indices_.data() + offsets_[c];
@@ -41,13 +42,16 @@ const TerrainGrid::ZRange& TerrainGrid::zRange(const PointCloud& cloud) {
     if (it == end) continue;
     // min(lo, z) keeps lo for a NaN z (readers drop non-finite points; others are skipped).
     float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
+    double sum = 0;
     for (; it != end; ++it) {
       const float z = Z[*it];
       lo = std::min(lo, z);
       hi = std::max(hi, z);
+      sum += z;
     }
     z_range_.min[c] = lo;
     z_range_.max[c] = hi;
+    z_range_.mean[c] = sum / (offsets_[c + 1] - offsets_[c]);
   }
   z_range_valid_ = true;
   return z_range_;

@@ -168,7 +168,7 @@ class CameraFusion final : public Stage {
 
   CellPixels fuse(FrameContext& ctx, int cam_index) {
     const Frame& f = *ctx.frame;
-    const TerrainGrid& g = *ctx.grid;
+    TerrainGrid& g = *ctx.grid;
     const CameraImage& cam = f.cameras[cam_index];
     const CameraModel& m = cam.model;
     const std::string file = cam.source_path.empty() ? "frame " + f.id : cam.source_path;
@@ -235,13 +235,18 @@ class CameraFusion final : public Stage {
     std::size_t footprint_cells = 0, fallback_cells = 0, capped_cells = 0;
     const bool use_min = footprint_height_ == "min";
     const std::size_t cap = std::size_t(max_pixels_);
+    // Shared with the height features (computed once per binning), and which cells hold a point
+    // the camera sees: the points' own pixels are looked for only there, so the cells behind the
+    // camera (most of a 360° scan) cost no walk over their points.
+    const TerrainGrid::ZRange& zr = g.zRange(pc);
+    const std::vector<int32_t>& cell_of_point = g.cellOfPoint();
+    seen_.assign(std::size_t(cells), 0);
+    for (std::size_t i = 0; i < n; ++i)
+      if (out.pixel_of_point[i] >= 0 && cell_of_point[i] >= 0) seen_[cell_of_point[i]] = 1;
     for (int c = 0; c < cells; ++c) {
       out.offsets[c] = uint32_t(out.pixels.size());
       if (g.count(c) < uint32_t(min_points_) || g.count(c) == 0) continue;
-      double h = use_min ? std::numeric_limits<double>::max() : 0.0;
-      for (const uint32_t* it = g.pointsBegin(c); it != g.pointsEnd(c); ++it)
-        h = use_min ? std::min(h, double(pc.z[*it])) : h + pc.z[*it];
-      if (!use_min) h /= g.count(c);
+      const double h = use_min ? double(zr.min[c]) : zr.mean[c];
       const int r = c / g.cols(), col = c % g.cols();
       const double x0 = o.x() + r * cell_m, y0 = o.y() + col * cell_m;
       // Corners in order around the square, so the projected polygon is simple.
@@ -264,11 +269,19 @@ class CameraFusion final : public Stage {
           const Eigen::Vector3d inv =
               pinhole ? planeInverseDepth(M, h) : fitInverseDepth(M, corners);
           std::size_t kept = begin;
+          // The pixels come row by row: one division per row for (u, v), not two per pixel.
+          uint32_t row_begin = 1, row_end = 0;
+          double row_v = 0;  // inv(1)·v on the current row
           for (std::size_t k = begin; k < out.pixels.size(); ++k) {
             const uint32_t p = out.pixels[k];
             float z;
             if (zbuf_.occluder(p, c, &z)) {
-              const double inv_depth = inv(0) * double(p % W) + inv(1) * double(p / W) + inv(2);
+              if (p < row_begin || p >= row_end) {
+                const uint32_t v = p / W;
+                row_begin = v * W, row_end = row_begin + W;
+                row_v = inv(1) * double(v);
+              }
+              const double inv_depth = inv(0) * double(p - row_begin) + row_v + inv(2);
               if (inv_depth > 0 && double(z) * inv_depth < keep_ratio) continue;
             }
             out.pixels[kept++] = p;
@@ -278,8 +291,8 @@ class CameraFusion final : public Stage {
         }
       }
       const bool footprint_empty = out.pixels.size() == begin;
-      const bool add_points =
-          point_pixels_ == "combine" || (point_pixels_ == "fallback" && footprint_empty);
+      const bool add_points = seen_[c] && (point_pixels_ == "combine" ||
+                                           (point_pixels_ == "fallback" && footprint_empty));
       bool had_point_pixels = false;
       if (add_points) {
         std::size_t before = out.pixels.size();
@@ -381,6 +394,7 @@ class CameraFusion final : public Stage {
   FootprintRaster raster_;
   OcclusionBuffer zbuf_;
   std::vector<float> depth_;  // per point [m]; set where visible
+  std::vector<uint8_t> seen_;  // per cell: 1 if one of its points has a pixel
   std::size_t last_pixels_ = 0;
   std::vector<Eigen::Vector2d> poly_;
 };

@@ -57,9 +57,10 @@ TEST(TerrainGrid, BinPointsBuildsCsr) {
   EXPECT_EQ(grid.cellOfPoint()[2], 820);
 }
 
-// The z ranges shared by the height features: each cell's lowest and highest point as a walk
-// over its points finds them, NaN for empty cells, recomputed after every binPoints.
-TEST(TerrainGrid, ZRangeIsEachCellsLowestAndHighestPoint) {
+// The z ranges shared by the height features and camera fusion: each cell's lowest, highest and
+// mean point as a walk over its points finds them (the mean to the bit, summed in the same order),
+// NaN for empty cells, recomputed after every binPoints.
+TEST(TerrainGrid, ZRangeIsEachCellsLowestHighestAndMeanPoint) {
   GridGeometry g;
   g.size_m = 10;
   g.cell_m = 1;
@@ -75,16 +76,20 @@ TEST(TerrainGrid, ZRangeIsEachCellsLowestAndHighestPoint) {
     int empty = 0;
     for (int c = 0; c < static_cast<int>(grid.cells()); ++c) {
       float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+      double sum = 0;
       for (const uint32_t* it = grid.pointsBegin(c); it != grid.pointsEnd(c); ++it) {
         lo = std::min(lo, pc.z[*it]);
         hi = std::max(hi, pc.z[*it]);
+        sum += pc.z[*it];
       }
       if (grid.count(c) == 0) {
         ++empty;
-        EXPECT_TRUE(std::isnan(r.min[c]) && std::isnan(r.max[c])) << "cell " << c;
+        EXPECT_TRUE(std::isnan(r.min[c]) && std::isnan(r.max[c]) && std::isnan(r.mean[c]))
+            << "cell " << c;
       } else {
         EXPECT_EQ(r.min[c], lo) << "round " << round << " cell " << c;
         EXPECT_EQ(r.max[c], hi) << "round " << round << " cell " << c;
+        EXPECT_EQ(r.mean[c], sum / grid.count(c)) << "round " << round << " cell " << c;
       }
     }
     EXPECT_GT(empty, 0) << "round " << round << ": some cells should be empty";
@@ -96,6 +101,7 @@ TEST(TerrainGrid, ZRangeIsEachCellsLowestAndHighestPoint) {
   grid.binPoints(none);
   const auto& r = grid.zRange(none);
   for (float v : r.min) EXPECT_TRUE(std::isnan(v));
+  for (double v : r.mean) EXPECT_TRUE(std::isnan(v));
 }
 
 TEST(TerrainGrid, ZRangeRejectsAnotherCloud) {
