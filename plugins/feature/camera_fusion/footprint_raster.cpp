@@ -62,10 +62,17 @@ std::size_t FootprintRaster::rasterise(const std::vector<Eigen::Vector2d>& poly,
       count = spans(scaled_, width, height, nullptr);
     }
   }
-  std::size_t written = 0;
+  // Sized once and written span by span (a push_back per pixel cost a third of the fusion's
+  // cell loop).
+  const std::size_t written = max_pixels == 0 ? count : std::min(count, max_pixels);
+  const std::size_t at = out.size();
+  out.resize(at + written);
+  uint32_t* o = out.data() + at;
+  uint32_t* const end = o + written;
   for (const Span& s : spans_) {
-    for (int u = s.u0; u < s.u1 && (max_pixels == 0 || written < max_pixels); ++u, ++written)
-      out.push_back(uint32_t(s.v) * uint32_t(width) + uint32_t(u));
+    const uint32_t row = uint32_t(s.v) * uint32_t(width);
+    for (int u = s.u0; u < s.u1 && o != end; ++u) *o++ = row + uint32_t(u);
+    if (o == end) break;
   }
   return written;
 }

@@ -26,7 +26,8 @@ class OcclusionBuffer {
   /// depth goes to `*depth`. False where no point reaches or the cell itself is nearest: then
   /// nothing is known to stand in front of the cell there.
   bool occluder(uint32_t pixel, int cell, float* depth) const {
-    const uint64_t key = keys_[pixel];
+    if (pixel - first_ >= keys_.size()) return false;  // a row no splat reaches (unsigned wrap)
+    const uint64_t key = keys_[pixel - first_];
     if (key == kEmpty || uint32_t(key) == uint32_t(cell)) return false;
     const uint32_t bits = uint32_t(key >> 32);
     std::memcpy(depth, &bits, sizeof *depth);
@@ -35,7 +36,8 @@ class OcclusionBuffer {
 
  private:
   static constexpr uint64_t kEmpty = ~uint64_t(0);
-  std::vector<uint64_t> keys_;
+  std::vector<uint64_t> keys_;  // rows the splats reach, from pixel first_ on
+  uint32_t first_ = 0;
 };
 
 }  // namespace terramrf
