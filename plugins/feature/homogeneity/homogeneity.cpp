@@ -32,8 +32,40 @@
 
 #include "terramrf/camera_fusion/fused_cameras.hpp"
 #include "terramrf/plugin.hpp"
+#include "terramrf/simd.hpp"
 
 namespace terramrf {
+
+namespace {
+
+/// Cheng & Sun's H = 1 − √(e²·N²v²)·k over n pixels, from the window sums ΣI (s1) and ΣI² (s2)
+/// over `area` pixels and the Sobel derivatives. N²v² = N·ΣI² − (ΣI)² is exact in uint32: both
+/// terms are below 2^32 for windows up to 15 × 15 and the difference is never negative; e² =
+/// Gx² + Gy² < 2^21. One body, inlined into a plain (SSE2) and an AVX2 copy: the same IEEE
+/// operations either way (no FMA), so the same bits.
+__attribute__((always_inline)) inline void fixedBody(const int32_t* s1, const int32_t* s2,
+                                                     const int16_t* gx, const int16_t* gy,
+                                                     std::size_t n, uint32_t area, float k,
+                                                     float* h) {
+  for (std::size_t i = 0; i < n; ++i) {
+    const uint32_t spread2 = area * uint32_t(s2[i]) - uint32_t(s1[i]) * uint32_t(s1[i]);
+    const uint32_t gradient2 = uint32_t(gx[i] * gx[i] + gy[i] * gy[i]);
+    h[i] = 1.0f - std::sqrt(float(gradient2) * float(spread2)) * k;
+  }
+}
+void fixedSse2(const int32_t* s1, const int32_t* s2, const int16_t* gx, const int16_t* gy,
+               std::size_t n, uint32_t area, float k, float* h) {
+  fixedBody(s1, s2, gx, gy, n, area, k, h);
+}
+#if defined(TERRAMRF_SIMD_DISPATCH)
+TERRAMRF_TARGET_AVX2 void fixedAvx2(const int32_t* s1, const int32_t* s2, const int16_t* gx,
+                                    const int16_t* gy, std::size_t n, uint32_t area, float k,
+                                    float* h) {
+  fixedBody(s1, s2, gx, gy, n, area, k, h);
+}
+#endif
+
+}  // namespace
 
 class Homogeneity final : public Stage {
  public:
@@ -157,9 +189,10 @@ class Homogeneity final : public Stage {
     // with -fno-math-errno, so these loops vectorise.
     if (normalise_ == "fixed") {
       const float k = float(1.0 / (1020 * M_SQRT2 * area * 127.5));
-      for (std::size_t i = 0; i < n; ++i)
-        h[i] = 1.0f - std::sqrt(float(gradient2(i)) * float(spread2(i))) * k;
-      return;
+#if defined(TERRAMRF_SIMD_DISPATCH)
+      if (useAvx2()) return fixedAvx2(s1, s2, gx, gy, n, area, k, h);
+#endif
+      return fixedSse2(s1, s2, gx, gy, n, area, k, h);
     }
     uint32_t v2_max = 0, e2_max = 0;
     for (std::size_t i = 0; i < n; ++i) {
