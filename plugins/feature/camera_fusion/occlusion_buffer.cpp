@@ -1,7 +1,10 @@
 #include "occlusion_buffer.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <limits>
+
+#include "terramrf/simd.hpp"
 
 namespace terramrf {
 
@@ -28,21 +31,75 @@ void OcclusionBuffer::build(int width, int height, int splat_px,
   const int row0 = std::max(0, lo / width - r), row1 = std::min(height - 1, hi / width + r);
   first_ = uint32_t(row0) * uint32_t(width);
   keys_.assign(std::size_t(row1 - row0 + 1) * std::size_t(width), kEmpty);
-  uint64_t* const base = keys_.data() - first_;  // indexed by the image's own pixel numbers
-  for (std::size_t i = 0; i < n; ++i) {
+  const Splat sp{keys_.data(), width, height, row0, r};
+#if defined(TERRAMRF_SIMD_DISPATCH)
+  if (useAvx2()) return splatAvx2(sp, pixel_of_point, depth, cell_of_point);
+#endif
+  splatScalar(sp, pixel_of_point, depth, cell_of_point);
+}
+
+namespace {
+
+/// Point i's key: depth bits high, cell low (see the header).
+inline uint64_t keyOf(float depth, int32_t cell) {
+  uint32_t bits;
+  std::memcpy(&bits, &depth, sizeof bits);
+  return (uint64_t(bits) << 32) | uint32_t(cell);
+}
+
+/// Every visible point's key into the (2r + 1)² square around its pixel, keeping the least;
+/// `row_min(row, x0, x1, key)` does one row of it.
+template <class RowMin>
+__attribute__((always_inline)) inline void splatBody(const OcclusionBuffer::Splat& s,
+                                                     const std::vector<int32_t>& pixel_of_point,
+                                                     const std::vector<float>& depth,
+                                                     const std::vector<int32_t>& cell_of_point,
+                                                     RowMin row_min) {
+  for (std::size_t i = 0, n = pixel_of_point.size(); i < n; ++i) {
     const int32_t px = pixel_of_point[i];
     if (px < 0) continue;
-    uint32_t bits;
-    std::memcpy(&bits, &depth[i], sizeof bits);
-    const uint64_t key = (uint64_t(bits) << 32) | uint32_t(cell_of_point[i]);
-    const int u = px % width, v = px / width;
-    const int u0 = std::max(0, u - r), u1 = std::min(width - 1, u + r);
-    const int v0 = std::max(0, v - r), v1 = std::min(height - 1, v + r);
-    for (int y = v0; y <= v1; ++y) {
-      uint64_t* row = base + std::size_t(y) * width;
-      for (int x = u0; x <= u1; ++x) row[x] = std::min(row[x], key);
-    }
+    const uint64_t key = keyOf(depth[i], cell_of_point[i]);
+    const int u = px % s.width, v = px / s.width;
+    const int u0 = std::max(0, u - s.r), u1 = std::min(s.width - 1, u + s.r);
+    const int v0 = std::max(0, v - s.r), v1 = std::min(s.height - 1, v + s.r);
+    for (int y = v0; y <= v1; ++y)
+      row_min(s.keys + std::size_t(y - s.row0) * std::size_t(s.width), u0, u1, key);
   }
 }
+
+}  // namespace
+
+void OcclusionBuffer::splatScalar(const Splat& s, const std::vector<int32_t>& pixel_of_point,
+                                  const std::vector<float>& depth,
+                                  const std::vector<int32_t>& cell_of_point) {
+  splatBody(s, pixel_of_point, depth, cell_of_point,
+            [](uint64_t* row, int x0, int x1, uint64_t key) {
+              for (int x = x0; x <= x1; ++x) row[x] = std::min(row[x], key);
+            });
+}
+
+#if defined(TERRAMRF_SIMD_DISPATCH)
+namespace {
+/// min over four keys at once: every key is below 2^63 (a positive float's bits high), so the
+/// signed comparison AVX2 has orders them as the unsigned one would.
+TERRAMRF_TARGET_AVX2 inline void rowMinAvx2(uint64_t* row, int x0, int x1, uint64_t key) {
+  const __m256i k = _mm256_set1_epi64x(int64_t(key));
+  int x = x0;
+  for (; x + 3 <= x1; x += 4) {
+    __m256i* at = reinterpret_cast<__m256i*>(row + x);
+    const __m256i cur = _mm256_loadu_si256(at);
+    _mm256_storeu_si256(at, _mm256_blendv_epi8(cur, k, _mm256_cmpgt_epi64(cur, k)));
+  }
+  for (; x <= x1; ++x) row[x] = std::min(row[x], key);
+}
+}  // namespace
+
+TERRAMRF_TARGET_AVX2 void OcclusionBuffer::splatAvx2(const Splat& s,
+                                                     const std::vector<int32_t>& pixel_of_point,
+                                                     const std::vector<float>& depth,
+                                                     const std::vector<int32_t>& cell_of_point) {
+  splatBody(s, pixel_of_point, depth, cell_of_point, rowMinAvx2);
+}
+#endif
 
 }  // namespace terramrf

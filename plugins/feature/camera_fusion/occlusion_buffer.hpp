@@ -34,8 +34,21 @@ class OcclusionBuffer {
     return true;
   }
 
+  /// Where build() splats: the stored rows from image row `row0` on, half-width r.
+  struct Splat {
+    uint64_t* keys;
+    int width, height, row0, r;
+  };
+
  private:
-  static constexpr uint64_t kEmpty = ~uint64_t(0);
+  void splatScalar(const Splat& s, const std::vector<int32_t>& pixel_of_point,
+                   const std::vector<float>& depth, const std::vector<int32_t>& cell_of_point);
+  void splatAvx2(const Splat& s, const std::vector<int32_t>& pixel_of_point,
+                 const std::vector<float>& depth, const std::vector<int32_t>& cell_of_point);
+
+  /// Above every key (a finite depth's bits are below 0x7f800000) and below 2^63, so signed and
+  /// unsigned comparisons order keys alike.
+  static constexpr uint64_t kEmpty = ~uint64_t(0) >> 1;
   std::vector<uint64_t> keys_;  // rows the splats reach, from pixel first_ on
   uint32_t first_ = 0;
 };
