@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <set>
 
 #include "../../../../plugins/feature/camera_fusion/ring_gap.hpp"
 #include "plugins/feature/camera_fusion/fusion_test_frame.hpp"
+#include "test_support.hpp"
 
 namespace terramrf {
 namespace {
@@ -213,6 +215,35 @@ TEST(CameraFusionOcclusion, SplatBridgesTheGapsBetweenRings) {
     }
     if (splat == 1) EXPECT_GT(fell_back, 0);  // e.g. row 6 (x ∈ [8, 9]): its points at v = 61
     if (splat == 2) EXPECT_EQ(fell_back, 0);
+  }
+}
+
+// The splat has a plain and an AVX2 version (four keys per instruction, the rest one by one):
+// both give the same pixels, for splats narrower and wider than four keys, and the wide ones hide
+// more than the narrow ones.
+TEST(CameraFusionOcclusion, SplatIsTheSameOnEveryInstructionSet) {
+  Frame f = groundFrame(forwardCamera(), noFill);
+  addFace(f, 2.2, -0.4, 0.4, 0.005, -0.98, -0.1, 0.088);
+  std::size_t previous = std::numeric_limits<std::size_t>::max();
+  for (int splat : {1, 3, 7, 16}) {
+    const std::string params =
+        "{occlusion: depth_test, max_pixels_per_cell: 100000, "
+        "occlusion_splat: fixed, occlusion_splat_px: " +
+        std::to_string(splat) + "}";
+    StageRunner wide, plain;
+    wide.add("camera_fusion", params);
+    plain.add("camera_fusion", params);
+    wide.run(f);
+    {
+      test::ScopedEnv sse2("TERRAMRF_SIMD", "sse2");
+      plain.run(f);
+    }
+    const CellPixels& a = wide.grid.cellPixels()[0];
+    const CellPixels& b = plain.grid.cellPixels()[0];
+    EXPECT_EQ(a.offsets, b.offsets) << "splat " << splat;
+    EXPECT_EQ(a.pixels, b.pixels) << "splat " << splat;
+    EXPECT_LT(a.pixels.size(), previous) << "splat " << splat;
+    previous = a.pixels.size();
   }
 }
 
