@@ -6,6 +6,7 @@
 #include <random>
 
 #include "plugins/feature/camera_fusion/fusion_test_frame.hpp"
+#include "test_support.hpp"
 
 namespace terramrf {
 namespace {
@@ -173,6 +174,22 @@ TEST(HomogeneityChengSun, MatchesDefinitionOnNoise) {
             << w << " at " << u << "," << v;
       }
   }
+}
+
+// With fixed bounds H is computed by a plain and, where the CPU has it, an AVX2 loop: the same
+// bits at every pixel, inside and at the border, for the smallest and largest windows.
+TEST(HomogeneityChengSun, SameBitsOnEveryInstructionSet) {
+  std::mt19937 rng(11);
+  std::vector<uint8_t> img(200 * 100);
+  for (auto& x : img) x = uint8_t(std::uniform_int_distribution<int>(0, 255)(rng));
+  auto fill = [&](int u, int v, uint8_t* p) { grey(p, img[v * 200 + u]); };
+  for (const char* w : {"{window: 3}", "{window: 15}"})
+    for (int u : {0, 3, 57, 120, 199})
+      for (int v : {0, 1, 50, 98, 99}) {
+        const float wide = run(w, fill, u, u + 1, v, v + 1);
+        test::ScopedEnv sse2("TERRAMRF_SIMD", "sse2");
+        EXPECT_EQ(run(w, fill, u, u + 1, v, v + 1), wide) << w << " at " << u << "," << v;
+      }
 }
 
 TEST(HomogeneityBadInput, EvenWindow) {
