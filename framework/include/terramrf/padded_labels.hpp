@@ -6,6 +6,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <vector>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "terramrf/energy_model.hpp"
 
@@ -54,6 +57,31 @@ inline void localScores(const EnergyModel& em, const uint8_t* p, std::size_t cel
   const int K = KK > 0 ? KK : em.numLabels();
   const float we = 2.f * em.beta, wd = 2.f * em.beta_diagonal;
   const float* u = &em.unary[cell * K];
+#if defined(__SSE2__)
+  if constexpr (KK == 3 || KK == 4) {
+    // Labels 0..3 in the four lanes: each neighbour subtracts its weight in its label's lane and
+    // 0 (exact) in the others, in the same order as below, so the same bits. Scattering into s[]
+    // instead chains each neighbour's update through memory when neighbours share a label, as
+    // most do; here the lanes' chains run side by side. s gets 4 floats (KK + 1 ≥ 4).
+    const __m128i lanes = _mm_setr_epi32(0, 1, 2, 3);
+    const __m128 e4 = _mm_set1_ps(we), d4 = _mm_set1_ps(wd);
+    __m128 v = _mm_setr_ps(u[0], u[1], u[2], KK == 4 ? u[KK - 1] : 0.f);
+    auto sub = [&](uint8_t label, __m128 w) {
+      const __m128 hit = _mm_castsi128_ps(_mm_cmpeq_epi32(lanes, _mm_set1_epi32(label)));
+      v = _mm_sub_ps(v, _mm_and_ps(hit, w));
+    };
+    sub(p[-W - 1], d4);
+    sub(p[-W], e4);
+    sub(p[-W + 1], d4);
+    sub(p[-1], e4);
+    sub(p[1], e4);
+    sub(p[W - 1], d4);
+    sub(p[W], e4);
+    sub(p[W + 1], d4);
+    _mm_storeu_ps(s, v);
+    return;
+  }
+#endif
   for (int k = 0; k < K; ++k) s[k] = u[k];
   s[p[-W - 1]] -= wd;
   s[p[-W]] -= we;
