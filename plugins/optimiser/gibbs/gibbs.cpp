@@ -209,10 +209,14 @@ class GibbsSampler final : public Stage {
         if (*p == K) continue;  // fixed cell
         const std::size_t i = std::size_t(r) * C + c;
         localScores<KK>(em, p, i, W, s);
+        // First least score, without branches: which label wins is a coin toss to a predictor.
         int arg = 0;
-        for (int k = 1; k < K; ++k)
-          if (s[k] < s[arg]) arg = k;
-        const float m = s[arg];
+        float m = s[0];
+        for (int k = 1; k < K; ++k) {
+          const bool lower = s[k] < m;
+          m = lower ? s[k] : m;
+          arg = lower ? k : arg;
+        }
         // Peaked conditional (every other label beyond the table's e^−32): the draw is certain,
         // so it costs neither exponentials nor a random number.
         float sum = 0.f;
