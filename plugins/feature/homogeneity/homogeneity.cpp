@@ -111,12 +111,13 @@ class Homogeneity final : public Stage {
     grey_.resize(cams.size());
     maps_.resize(cams.size());
     for (std::size_t k = 0; k < cams.size(); ++k) {
+      if (cheng_sun) {
+        chengSun(*cams[k].image, *cams[k].pixels, maps_[k]);
+        continue;
+      }
       fusion::toGrey(*cams[k].image, grey_[k]);
-      if (cheng_sun)
-        chengSun(grey_[k], *cams[k].pixels, maps_[k]);
-      else
-        cv::boxFilter(grey_[k], maps_[k].h, CV_16U, cv::Size(3, 3), cv::Point(-1, -1), false,
-                      cv::BORDER_REFLECT_101);
+      cv::boxFilter(grey_[k], maps_[k].h, CV_16U, cv::Size(3, 3), cv::Point(-1, -1), false,
+                    cv::BORDER_REFLECT_101);
     }
     Layer& out = g.add(layer_);
     for (int c = 0, n = int(g.cells()); c < n; ++c) {
@@ -144,34 +145,37 @@ class Homogeneity final : public Stage {
   /// Per image. Cheng & Sun: H over the rows that hold cell pixels (or the whole image when its
   /// maxima normalise), from `first_pixel` (v·width) on; local_mean: the 3 × 3 sums (CV_16U).
   struct Maps {
-    cv::Mat h, sum, sqsum, gx, gy;
+    cv::Mat h, band, sum, sqsum, gx, gy;
     std::size_t first_pixel = 0;
   };
 
-  void chengSun(const cv::Mat& grey, const CellPixels& cp, Maps& m) {
-    // Only the rows the cells use need H, unless the image's maxima normalise it. The filters run
-    // on those rows plus the window's reach above and below (clipped to the image, where the
-    // border rule applies as on the whole image), and H is kept for the rows inside.
-    int v0 = 0, v1 = grey.rows;
+  void chengSun(const Image& img, const CellPixels& cp, Maps& m) {
+    // Only the rows the cells use need H, unless the image's maxima normalise it. The grey
+    // conversion and the filters run on those rows plus the window's reach above and below
+    // (clipped to the image, where the border rule applies as on the whole image), and H is kept
+    // for the rows inside.
+    const int rows = img.height, cols = img.width;
+    int v0 = 0, v1 = rows;
     if (normalise_ == "fixed") {
       if (cp.pixels.empty()) {
         m.h.release();
         return;
       }
       const auto [lo, hi] = std::minmax_element(cp.pixels.begin(), cp.pixels.end());
-      v0 = int(*lo / uint32_t(grey.cols));
-      v1 = int(*hi / uint32_t(grey.cols)) + 1;
+      v0 = int(*lo / uint32_t(cols));
+      v1 = int(*hi / uint32_t(cols)) + 1;
     }
     const int reach = std::max(window_ / 2, 1);
-    const int p0 = std::max(0, v0 - reach), p1 = std::min(grey.rows, v1 + reach);
-    const cv::Mat band = grey.rowRange(p0, p1).clone();  // a whole image of its own to OpenCV
-    m.first_pixel = std::size_t(v0) * grey.cols;
+    const int p0 = std::max(0, v0 - reach), p1 = std::min(rows, v1 + reach);
+    fusion::toGrey(img, m.band, p0, p1);  // a whole image of its own to OpenCV
+    const cv::Mat& band = m.band;
+    m.first_pixel = std::size_t(v0) * cols;
     const cv::Size win(window_, window_);
     cv::boxFilter(band, m.sum, CV_32S, win, cv::Point(-1, -1), false, cv::BORDER_REFLECT_101);
     cv::sqrBoxFilter(band, m.sqsum, CV_32S, win, cv::Point(-1, -1), false, cv::BORDER_REFLECT_101);
     cv::spatialGradient(band, m.gx, m.gy, 3, cv::BORDER_REFLECT_101);  // 3 × 3 Sobel
-    m.h.create(v1 - v0, grey.cols, CV_32F);
-    const std::size_t n = m.h.total(), skip = std::size_t(v0 - p0) * grey.cols;
+    m.h.create(v1 - v0, cols, CV_32F);
+    const std::size_t n = m.h.total(), skip = std::size_t(v0 - p0) * cols;
     const int32_t* s1 = m.sum.ptr<int32_t>(0) + skip;
     const int32_t* s2 = m.sqsum.ptr<int32_t>(0) + skip;
     const int16_t* gx = m.gx.ptr<int16_t>(0) + skip;

@@ -87,9 +87,10 @@ inline cv::Mat matView(const Image& img) {
 }
 
 /// 8-bit grey: OpenCV's luma Y = 0.299 R + 0.587 G + 0.114 B (rounded); 1-channel images as they
-/// are. `out` is reused between frames.
-inline void toGrey(const Image& img, cv::Mat& out) {
-  const cv::Mat in = matView(img);
+/// are. Rows [row0, row1) only when given (each pixel converts alone, so the same values as
+/// those rows of the whole image). `out` is reused between frames.
+inline void toGrey(const Image& img, cv::Mat& out, int row0 = 0, int row1 = -1) {
+  const cv::Mat in = matView(img).rowRange(row0, row1 < 0 ? img.height : row1);
   if (img.channels == 3)
     cv::cvtColor(in, out, cv::COLOR_RGB2GRAY);
   else
