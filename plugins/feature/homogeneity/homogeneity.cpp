@@ -38,20 +38,27 @@ namespace terramrf {
 
 namespace {
 
-/// Cheng & Sun's H = 1 − √(e²·N²v²)·k over n pixels, from the window sums ΣI (s1) and ΣI² (s2)
-/// over `area` pixels and the Sobel derivatives. N²v² = N·ΣI² − (ΣI)² is exact in uint32: both
-/// terms are below 2^32 for windows up to 15 × 15 and the difference is never negative; e² =
-/// Gx² + Gy² < 2^21. One body, inlined into a plain (SSE2) and an AVX2 copy: the same IEEE
-/// operations either way (no FMA), so the same bits.
+/// N²v² = N·ΣI² − (ΣI)² at pixel i from the window sums ΣI (s1) and ΣI² (s2) over `area`
+/// pixels: exact in uint32, as both terms are below 2^32 for windows up to 15 × 15 and the
+/// difference is never negative.
+__attribute__((always_inline)) inline uint32_t spread2(const int32_t* s1, const int32_t* s2,
+                                                       std::size_t i, uint32_t area) {
+  return area * uint32_t(s2[i]) - uint32_t(s1[i]) * uint32_t(s1[i]);
+}
+/// e² = Gx² + Gy² < 2^21 at pixel i from the Sobel derivatives.
+__attribute__((always_inline)) inline uint32_t gradient2(const int16_t* gx, const int16_t* gy,
+                                                         std::size_t i) {
+  return uint32_t(gx[i] * gx[i] + gy[i] * gy[i]);
+}
+
+/// Cheng & Sun's H = 1 − √(e²·N²v²)·k over n pixels. One body, inlined into a plain (SSE2) and
+/// an AVX2 copy: the same IEEE operations either way (no FMA), so the same bits.
 __attribute__((always_inline)) inline void fixedBody(const int32_t* s1, const int32_t* s2,
                                                      const int16_t* gx, const int16_t* gy,
                                                      std::size_t n, uint32_t area, float k,
                                                      float* h) {
-  for (std::size_t i = 0; i < n; ++i) {
-    const uint32_t spread2 = area * uint32_t(s2[i]) - uint32_t(s1[i]) * uint32_t(s1[i]);
-    const uint32_t gradient2 = uint32_t(gx[i] * gx[i] + gy[i] * gy[i]);
-    h[i] = 1.0f - std::sqrt(float(gradient2) * float(spread2)) * k;
-  }
+  for (std::size_t i = 0; i < n; ++i)
+    h[i] = 1.0f - std::sqrt(float(gradient2(gx, gy, i)) * float(spread2(s1, s2, i, area))) * k;
 }
 void fixedSse2(const int32_t* s1, const int32_t* s2, const int16_t* gx, const int16_t* gy,
                std::size_t n, uint32_t area, float k, float* h) {
@@ -182,12 +189,6 @@ class Homogeneity final : public Stage {
     const int16_t* gy = m.gy.ptr<int16_t>(0) + skip;
     float* h = m.h.ptr<float>(0);
     const uint32_t area = uint32_t(window_) * uint32_t(window_);
-    // N²v² = N·ΣI² − (ΣI)², exact in uint32: both terms are below 2^32 for windows up to
-    // 15 × 15 and the difference is never negative. e² = Gx² + Gy² < 2^21.
-    auto spread2 = [&](std::size_t i) {
-      return area * uint32_t(s2[i]) - uint32_t(s1[i]) * uint32_t(s1[i]);
-    };
-    auto gradient2 = [&](std::size_t i) { return uint32_t(gx[i] * gx[i] + gy[i] * gy[i]); };
     // E·V = √(e²·N²v²) / (e_max·N·v_max), with 8-bit grey's bounds (|Gx|, |Gy| ≤ 4·255; v ≤
     // 127.5, half black, half white) or the image's maxima. One pass each; the file is built
     // with -fno-math-errno, so these loops vectorise.
@@ -200,8 +201,8 @@ class Homogeneity final : public Stage {
     }
     uint32_t v2_max = 0, e2_max = 0;
     for (std::size_t i = 0; i < n; ++i) {
-      v2_max = std::max(v2_max, spread2(i));
-      e2_max = std::max(e2_max, gradient2(i));
+      v2_max = std::max(v2_max, spread2(s1, s2, i, area));
+      e2_max = std::max(e2_max, gradient2(gx, gy, i));
     }
     // A flat image has no pixel with both spread and gradient: H = 1 everywhere.
     if (v2_max == 0 || e2_max == 0) {
@@ -211,7 +212,8 @@ class Homogeneity final : public Stage {
     // Formed as each pixel's product is, and divided by: the pixel holding both maxima reads 0.
     const float ev_max = std::sqrt(float(e2_max) * float(v2_max));
     for (std::size_t i = 0; i < n; ++i)
-      h[i] = 1.0f - std::sqrt(float(gradient2(i)) * float(spread2(i))) / ev_max;
+      h[i] =
+          1.0f - std::sqrt(float(gradient2(gx, gy, i)) * float(spread2(s1, s2, i, area))) / ev_max;
   }
 
   std::string layer_ = "homogeneity";
