@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "terramrf/errors.hpp"
+#include "terramrf/padded_labels.hpp"
 #include "terramrf/plugin.hpp"
 #include "terramrf/text_format.hpp"
 
@@ -71,40 +72,80 @@ std::vector<const Layer*> scoreLayers(const TerrainGrid& grid, const LabelSet& l
   return out;
 }
 
+namespace {
+
+/// localEnergyScores' margins from padded label indices (see there); KK > 0 fixes K.
+template <int KK>
+void marginScores(const EnergyModel& em, const PaddedLabels& pad, std::size_t num_classes,
+                  std::vector<Layer>& out) {
+  const int K = KK > 0 ? KK : em.numLabels();
+  const int W = pad.stride();
+  const std::ptrdiff_t off[8] = {-W - 1, -W, -W + 1, -1, 1, W - 1, W, W + 1};
+  const double wd = em.beta_diagonal, wb = em.beta;
+  const double w[8] = {wd, wb, wd, wb, wb, wd, wb, wd};
+  // A local array for a fixed K stays in registers; through a pointer to the heap every update
+  // goes through memory, where narrow stores followed by wide loads stall store forwarding.
+  double e_fixed[KK > 0 ? KK : 1];
+  std::vector<double> e_store(KK > 0 ? 0 : K);
+  double* e = KK > 0 ? e_fixed : e_store.data();
+  for (int r = 0; r < em.rows; ++r) {
+    const uint8_t* p = pad.at(r, 0);
+    for (int c = 0; c < em.cols; ++c, ++p) {
+      if (*p >= K) continue;  // fixed, or a label that is not active
+      const std::size_t i = std::size_t(r) * em.cols + c;
+      // EnergyModel::localEnergy for every k at once, each sum in the same order.
+      for (int k = 0; k < K; ++k) e[k] = em.unary[i * K + k];
+      for (int d = 0; d < 8; ++d) {
+        const int l = p[off[d]];
+        if (l == K) continue;
+        for (int k = 0; k < K; ++k) e[k] += l == k ? -w[d] : w[d];
+      }
+      for (int k = 0; k < K; ++k) {
+        if (em.active[k] >= num_classes) continue;
+        double other = std::numeric_limits<double>::infinity();
+        for (int j = 0; j < K; ++j)
+          if (j != k) other = std::min(other, e[j]);
+        out[em.active[k]][i] = K == 1 ? 0.f : static_cast<float>(other - e[k]);
+      }
+    }
+  }
+}
+
+}  // namespace
+
 std::vector<Layer> localEnergyScores(const EnergyModel& em, const std::vector<LabelId>& labels,
                                      std::size_t num_classes) {
   const int K = em.numLabels();
-  if (K == 0 || em.cells() != labels.size() || em.unary.size() != em.cells() * K) return {};
-  // Grid labels → active label indices; a cell whose label is not active keeps no score.
+  if (K == 0 || K > 254 || em.cells() != labels.size() || em.unary.size() != em.cells() * K)
+    return {};
+  // Grid labels → active label indices; a cell whose label is not active keeps no score, and as
+  // a neighbour it counts as "different" for every k: it gets K + 1, which no k equals. The pad
+  // and the fixed cells hold K and are skipped.
   std::vector<int> index_of(256, -1);
   for (int k = 0; k < K; ++k) index_of[em.active[k]] = k;
   std::vector<uint8_t> lab(em.cells(), 0);
-  std::vector<uint8_t> usable(em.cells(), 0);
   for (std::size_t i = 0; i < em.cells(); ++i) {
-    if (em.fixed[i]) continue;
-    const int k = index_of[labels[i]];
-    if (k < 0) continue;
-    lab[i] = static_cast<uint8_t>(k);
-    usable[i] = 1;
+    const int k = em.fixed[i] ? K : index_of[labels[i]];
+    lab[i] = static_cast<uint8_t>(k < 0 ? K + 1 : k);
   }
-  // A neighbour whose label is not active still counts as "different" for every k, which is
-  // what localEnergy computes with any index that no k equals; mark it with K.
-  for (std::size_t i = 0; i < em.cells(); ++i)
-    if (!em.fixed[i] && !usable[i]) lab[i] = static_cast<uint8_t>(K);
+  PaddedLabels pad;
+  pad.assign(em, lab);
   std::vector<Layer> out(num_classes);
   for (int k = 0; k < K; ++k)
     if (em.active[k] < num_classes) out[em.active[k]].assign(em.cells(), kNoData);
-  std::vector<double> e(K);
-  for (std::size_t i = 0; i < em.cells(); ++i) {
-    if (!usable[i]) continue;
-    for (int k = 0; k < K; ++k) e[k] = em.localEnergy(lab, static_cast<int>(i), k);
-    for (int k = 0; k < K; ++k) {
-      if (em.active[k] >= num_classes) continue;
-      double other = std::numeric_limits<double>::infinity();
-      for (int j = 0; j < K; ++j)
-        if (j != k) other = std::min(other, e[j]);
-      out[em.active[k]][i] = K == 1 ? 0.f : static_cast<float>(other - e[k]);
-    }
+  switch (K) {  // K known at compile time for the usual label counts: the loops unroll
+    case 2:
+      marginScores<2>(em, pad, num_classes, out);
+      break;
+    case 3:
+      marginScores<3>(em, pad, num_classes, out);
+      break;
+    case 4:
+      marginScores<4>(em, pad, num_classes, out);
+      break;
+    default:
+      marginScores<0>(em, pad, num_classes, out);
+      break;
   }
   return out;
 }

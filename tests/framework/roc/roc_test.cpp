@@ -222,6 +222,50 @@ TEST(LocalEnergyScores, MarginIsPositiveForTheBestLabel) {
   EXPECT_TRUE(std::isnan(s[labels::kRoad][2]));
 }
 
+// The scores are the margins of EnergyModel::localEnergy, to the bit, on grids with fixed cells
+// (skipped as neighbours), cells whose label is not active (unscored) and unequal edge and
+// diagonal weights.
+TEST(LocalEnergyScores, SameBitsAsLocalEnergy) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int R = 3 + trial % 5, C = 2 + trial % 7, K = 1 + trial % 4;
+    EnergyModel em;
+    em.resize(R, C, K);
+    for (int k = 0; k < K; ++k) em.active[k] = static_cast<LabelId>(k + 1);
+    em.beta = 0.3f + 0.1f * (trial % 3);
+    em.beta_diagonal = 0.7f * em.beta;
+    std::uniform_real_distribution<float> u(-2.f, 2.f);
+    for (float& x : em.unary) x = u(rng);
+    std::vector<LabelId> labels(em.cells());
+    for (std::size_t i = 0; i < em.cells(); ++i) {
+      em.fixed[i] = rng() % 5 == 0;
+      // Class 4 is not active when K < 4.
+      labels[i] = em.fixed[i] ? labels::kUnknown : static_cast<LabelId>(1 + rng() % 4);
+    }
+    const auto s = localEnergyScores(em, labels, 5);
+    ASSERT_EQ(s.size(), 5u);
+    std::vector<uint8_t> lab(em.cells(), static_cast<uint8_t>(K));  // K: differs from every k
+    for (std::size_t i = 0; i < em.cells(); ++i)
+      if (labels[i] >= 1 && labels[i] <= K) lab[i] = static_cast<uint8_t>(labels[i] - 1);
+    for (std::size_t i = 0; i < em.cells(); ++i) {
+      const bool scored = !em.fixed[i] && labels[i] <= K;
+      for (int k = 0; k < K; ++k) {
+        const float got = s[k + 1][i];
+        if (!scored) {
+          EXPECT_TRUE(std::isnan(got)) << "trial " << trial << " cell " << i;
+          continue;
+        }
+        double other = INFINITY;
+        for (int j = 0; j < K; ++j)
+          if (j != k) other = std::min(other, em.localEnergy(lab, static_cast<int>(i), j));
+        const float want =
+            K == 1 ? 0.f : static_cast<float>(other - em.localEnergy(lab, static_cast<int>(i), k));
+        EXPECT_EQ(got, want) << "trial " << trial << " cell " << i << " k " << k;
+      }
+    }
+  }
+}
+
 TEST(RocWriters, CsvSvgJson) {
   RocAccumulator acc(LabelSet::defaults());
   acc.add(labels::kRoad, 0.9f, true, true);
