@@ -55,6 +55,7 @@ struct FrameGraph {
   std::vector<int> node_of;  ///< per cell: node id, −1 if fixed
   std::vector<int> pair_p,
       pair_q;                   ///< unordered neighbour pairs (cells), p before q in raster order
+  std::vector<int> pair_np, pair_nq;  ///< their node ids
   std::vector<float> pair_w;    ///< their Potts weight w
   std::vector<int64_t> pair_v;  ///< V = 2w in capacity units (set once the scale is known)
   std::vector<int> pairs_off, pairs_of;  ///< per node n: its pairs pairs_of[pairs_off[n] …)
@@ -80,6 +81,12 @@ struct FrameGraph {
         pair_q.push_back(rr * C + cc);
         pair_w.push_back(isDiagonal(d) ? em.beta_diagonal : em.beta);
       }
+    }
+    pair_np.resize(pair_p.size());
+    pair_nq.resize(pair_p.size());
+    for (std::size_t k = 0; k < pair_p.size(); ++k) {
+      pair_np[k] = node_of[pair_p[k]];
+      pair_nq[k] = node_of[pair_q[k]];
     }
     pairs_off.assign(cells.size() + 1, 0);
     for (std::size_t k = 0; k < pair_p.size(); ++k) {
@@ -240,7 +247,9 @@ class AlphaExpansion final : public Stage {
   struct WarmStart {
     bool cold = true;                 ///< no cut yet in this frame
     std::unique_ptr<CutGraph> g;      ///< kept across frames for its memory (reset per frame)
-    CutGraph::arc_id arcs = nullptr;  ///< pair k: arcs[2k] = p→q, arcs[2k + 1] = q→p
+    CutGraph::arc_id arcs = nullptr;  ///< the graph's first arc
+    /// Per pair k: its p→q arc is arcs[arc_of[k]], q→p the next; −1 while the pair has no arcs.
+    std::vector<int> arc_of;
     std::vector<int64_t> model_t;     ///< per node: cost(x=1) − cost(x=0)
     std::vector<int64_t> model_n;     ///< per pair: c01 (p→q), c10 (q→p)
     std::vector<uint8_t> lab_at;      ///< per node: its label at that cut
@@ -270,29 +279,38 @@ class AlphaExpansion final : public Stage {
     const double wb = em.beta, wd = em.beta_diagonal;
     // nsum_[i·K + k]: eq. 12 for cell i under k given all its current neighbours; a block's cells
     // then need only their three inner pairs taken back out, and a taken move updates the sums of
-    // its cells' neighbours.
+    // its cells' neighbours. Computed when a searched block first needs the cell (a pass after
+    // the first searches only the blocks around what changed since).
     nsum_.resize(em.cells() * std::size_t(K));
-    for (int i = 0; i < R * C; ++i) {
-      if (em.fixed[i]) continue;
+    nsum_valid_.assign(em.cells(), 0);
+    pad_.assign(em, lab);
+    const int W = pad_.stride();
+    const std::ptrdiff_t off[8] = {-W - 1, -W, -W + 1, -1, 1, W - 1, W, W + 1};
+    auto sums = [&](int i) -> const double* {
       double* s = &nsum_[std::size_t(i) * K];
-      const float* u = &em.unary[std::size_t(i) * K];
-      for (int k = 0; k < K; ++k) s[k] = u[k];
-      const int ri = i / C, ci = i % C;
+      if (nsum_valid_[i]) return s;
+      nsum_valid_[i] = 1;
+      // w·δ(k, l_n) summed over the neighbours: +w for every k, −2w more for the neighbour's
+      // own label. The pad and fixed cells hold K, whose slot t[K] is scratch.
+      const uint8_t* p = pad_.at(i / C, i % C);
+      double t[kMaxBlockLabels + 1] = {}, all = 0;
       for (int d = 0; d < 8; ++d) {
-        const int rr = ri + kDr[d], cc = ci + kDc[d];
-        if (rr < 0 || rr >= R || cc < 0 || cc >= C || em.fixed[rr * C + cc]) continue;
-        // w·δ(k, lab[n]) for every k: +w, and −2w for the neighbour's own label.
         const double w = isDiagonal(d) ? wd : wb;
-        for (int k = 0; k < K; ++k) s[k] += w;
-        s[lab[rr * C + cc]] -= 2 * w;
+        all += p[off[d]] < K ? w : 0.0;
+        t[p[off[d]]] -= 2 * w;
       }
-    }
+      const float* u = &em.unary[std::size_t(i) * K];
+      for (int k = 0; k < K; ++k) s[k] = u[k] + all + t[k];
+      return s;
+    };
     auto relabel = [&](int i, int to) {
       const int from = lab[i], ri = i / C, ci = i % C;
       lab[i] = static_cast<uint8_t>(to);
+      *pad_.at(ri, ci) = static_cast<uint8_t>(to);  // the sums computed later read it
       for (int d = 0; d < 8; ++d) {
         const int rr = ri + kDr[d], cc = ci + kDc[d];
         if (rr < 0 || rr >= R || cc < 0 || cc >= C || em.fixed[rr * C + cc]) continue;
+        if (!nsum_valid_[rr * C + cc]) continue;  // computed from the new labels when needed
         const double w = isDiagonal(d) ? wd : wb;
         double* s = &nsum_[std::size_t(rr * C + cc) * K];
         s[from] += 2 * w;
@@ -307,6 +325,10 @@ class AlphaExpansion final : public Stage {
         2 * wb + wd;  // Σ w_inner: every cell has two inner edges, one diagonal
     // Cells 0 1 / 2 3; inner pairs 0–1, 2–3, 0–2, 1–3 (edges) and 0–3, 1–2 (diagonals).
     const double inner_min = -4 * std::max(0.0, wb) - 2 * std::max(0.0, wd);
+    // With non-negative weights, a block whose labels are not all equal pays at least the
+    // cheapest cut of its six pairs over inner_min: one cell against three (2wb + wd), or
+    // top/bottom or left/right (2wb + 2wd), or the diagonals apart (4wb), each pair 2w.
+    const double split_extra = wb >= 0 && wd >= 0 ? 2 * std::min(2 * wb + wd, 4 * wb) : 0.0;
     auto dl = [](int a, int b) { return a == b ? -1.0 : 1.0; };
     double total = 0;
     double local[4][kMaxBlockLabels], f2[kMaxBlockLabels], f3[kMaxBlockLabels];
@@ -318,20 +340,26 @@ class AlphaExpansion final : public Stage {
         if (em.fixed[cell[0]] || em.fixed[cell[1]] || em.fixed[cell[2]] || em.fixed[cell[3]])
           continue;
         // local[j][k]: unary of cell j under k plus its pairs with non-fixed cells outside.
-        double bound = inner_min, now = 0;
+        double each_min = 0, now = 0;
         int cur[4];
         for (int j = 0; j < 4; ++j) cur[j] = lab[cell[j]];
         for (int j = 0; j < 4; ++j) {
-          const double* s = &nsum_[std::size_t(cell[j]) * K];
+          const double* s = sums(cell[j]);
           for (int k = 0; k < K; ++k) local[j][k] = s[k] - inner_all;
           for (int m = 0; m < 3; ++m) local[j][cur[kInner[j][m]]] += 2 * w_inner[m];
-          bound += *std::min_element(local[j], local[j] + K);
+          each_min += *std::min_element(local[j], local[j] + K);
           now += local[j][cur[j]];
         }
         now += wb * (dl(cur[0], cur[1]) + dl(cur[2], cur[3]) + dl(cur[0], cur[2]) +
                      dl(cur[1], cur[3])) +
                wd * (dl(cur[0], cur[3]) + dl(cur[1], cur[2]));
         const double eps = 1e-9 * (1.0 + std::abs(now));
+        // A lower bound of the block's best energy: the best labelling with all four equal, or
+        // one that splits the block and so pays split_extra, each cell at its best label.
+        double uniform = INFINITY;
+        for (int k = 0; k < K; ++k)
+          uniform = std::min(uniform, local[0][k] + local[1][k] + local[2][k] + local[3][k]);
+        const double bound = inner_min + std::min(uniform, each_min + split_extra);
         if (now - bound <= eps) continue;
         double best_e = now - eps;
         int best[4] = {-1, -1, -1, -1};
@@ -461,8 +489,13 @@ class AlphaExpansion final : public Stage {
     w.model_n[2 * k] = m.c01;
     w.model_n[2 * k + 1] = m.c10;
     CutGraph& g = *w.g;
-    const int np = fg_.node_of[fg_.pair_p[k]], nq = fg_.node_of[fg_.pair_q[k]];
-    const CutGraph::arc_id pq = w.arcs + 2 * k;  // cut when p keeps its label and q takes α
+    const int np = fg_.pair_np[k], nq = fg_.pair_nq[k];
+    if (w.arc_of[k] < 0) {  // a pair without arcs gets them now (the search trees allow it)
+      w.arc_of[k] = g.get_arc_num();
+      g.add_edge(np, nq, 0, 0);
+      w.arcs = g.get_first_arc();  // the arc array may have moved
+    }
+    const CutGraph::arc_id pq = w.arcs + w.arc_of[k];  // cut when p keeps its label, q takes α
     const CutGraph::arc_id qp = pq + 1;          // cut when p takes α and q keeps its label
     int64_t r01 = g.get_rcap(pq) + d01, r10 = g.get_rcap(qp) + d10;
     // r01 + r10 = c01 + c10 ≥ 0, so at most one is negative; move its deficit to the t-links:
@@ -533,32 +566,45 @@ class AlphaExpansion final : public Stage {
     shift_t_.resize(N);
     if (w.cold) {
       w.cold = false;
+      w.model_t.resize(N);
+      w.model_n.resize(2 * P);
+      w.lab_at.resize(N);
+      // The move energy and a first flow are computed on compact arrays (16 bytes a pair instead
+      // of the library's 64), and the graph is written once, with the residual capacities.
+      for (int n = 0; n < N; ++n) {
+        w.model_t[n] = unaryModel(em, lab, alpha, n);
+        w.lab_at[n] = lab[fg_.cells[n]];
+      }
+      for (std::size_t k = 0; k < P; ++k) {
+        const PairTerm m = pairTerm(lab[fg_.pair_p[k]], lab[fg_.pair_q[k]], alpha, fg_.pair_v[k]);
+        w.model_n[2 * k] = m.c01;
+        w.model_n[2 * k + 1] = m.c10;
+        w.model_t[fg_.pair_np[k]] += m.s;
+        w.model_t[fg_.pair_nq[k]] += m.t;
+      }
+      res_t_ = w.model_t;
+      res_n_ = w.model_n;
+      greedyFlow();
       if (!w.g)
         w.g = std::make_unique<CutGraph>(N, static_cast<int>(P), &maxflowError);
       else
         w.g->reset();
       w.g->add_node(N);
-      for (std::size_t k = 0; k < P; ++k)
-        w.g->add_edge(fg_.node_of[fg_.pair_p[k]], fg_.node_of[fg_.pair_q[k]], 0, 0);
-      w.arcs = w.g->get_first_arc();  // add_edge appends each pair's two arcs in that order
-      w.model_t.assign(N, 0);
-      w.model_n.assign(2 * P, 0);
-      w.lab_at.resize(N);
-      std::fill(shift_t_.begin(), shift_t_.end(), 0);
-      // Every t-link is written, so each pair's share is added here instead of by nodeModel.
-      cold_t_.resize(N);
-      for (int n = 0; n < N; ++n) cold_t_[n] = unaryModel(em, lab, alpha, n);
+      // A pair without capacity either way (one cell labelled α: no n-link) gets no arcs: the
+      // max-flow then scans fewer, and the graph is smaller (by the share of α's pairs). Its arcs
+      // are added if a later cut needs them.
+      w.arc_of.resize(P);
       for (std::size_t k = 0; k < P; ++k) {
-        const PairTerm m = pairTerm(lab[fg_.pair_p[k]], lab[fg_.pair_q[k]], alpha, fg_.pair_v[k]);
-        updatePair(w, k, m, false);
-        cold_t_[fg_.node_of[fg_.pair_p[k]]] += m.s;
-        cold_t_[fg_.node_of[fg_.pair_q[k]]] += m.t;
+        if (w.model_n[2 * k] == 0 && w.model_n[2 * k + 1] == 0) {
+          w.arc_of[k] = -1;
+          continue;
+        }
+        w.arc_of[k] = w.g->get_arc_num();  // add_edge appends p→q, then q→p
+        w.g->add_edge(fg_.pair_np[k], fg_.pair_nq[k], res_n_[2 * k], res_n_[2 * k + 1]);
       }
-      for (int n = 0; n < N; ++n) {
-        w.lab_at[n] = lab[fg_.cells[n]];
-        updateNode(w, n, cold_t_[n], false);
-      }
-      greedyPush(w);
+      w.arcs = w.g->get_first_arc();
+      for (int n = 0; n < N; ++n) w.g->set_trcap(n, res_t_[n]);
+      std::fill(shift_t_.begin(), shift_t_.end(), 0);
       w.g->maxflow(false);
     } else {
       // The cells whose label changed since α's last cut. shift_t_ is 0 outside touched_ nodes
@@ -601,25 +647,55 @@ class AlphaExpansion final : public Stage {
     return !move_.empty();
   }
 
-  /// Before a cold cut: most of the flow runs s → q → p → t between neighbours. Pushing it
-  /// greedily, in one pass over the pairs without search trees, leaves the max-flow a residual
-  /// network with much less to do (its cuts are those of the original network).
-  void greedyPush(WarmStart& w) {
-    CutGraph& g = *w.g;
-    for (std::size_t k = 0; k < fg_.pair_p.size(); ++k) {
-      const int np = fg_.node_of[fg_.pair_p[k]], nq = fg_.node_of[fg_.pair_q[k]];
-      const int64_t tp = g.get_trcap(np), tq = g.get_trcap(nq);
+  /// Before a cold cut, on res_t_ / res_n_: most of the flow runs s → q → p → t between
+  /// neighbours, and much of the rest through one cell between them. Pushing it greedily, in a
+  /// pass over the pairs and one over the cells that still send to the sink, leaves the max-flow
+  /// a residual network with much less to augment and fewer orphans to adopt (its cuts are those
+  /// of the original network, and its what_segment the same, as the nodes reachable from s in
+  /// the residual network of any maximum flow are the same).
+  void greedyFlow() {
+    const std::size_t P = fg_.pair_np.size();
+    // Pair k's arcs: 2k = p→q, 2k + 1 = q→p.
+    auto push = [&](int from, int to, std::size_t arc, int64_t f) {
+      res_t_[from] -= f;
+      res_t_[to] += f;
+      res_n_[arc] -= f;
+      res_n_[arc ^ 1] += f;
+    };
+    for (std::size_t k = 0; k < P; ++k) {
+      const int np = fg_.pair_np[k], nq = fg_.pair_nq[k];
+      const int64_t tp = res_t_[np], tq = res_t_[nq];
       if (tp == 0 || tq == 0 || (tp > 0) == (tq > 0)) continue;
       // From the node with source capacity over its arc to the node with sink capacity.
       const bool q_to_p = tq > 0;
       const int from = q_to_p ? nq : np, to = q_to_p ? np : nq;
-      const CutGraph::arc_id a = w.arcs + 2 * k + (q_to_p ? 1 : 0), back = q_to_p ? a - 1 : a + 1;
-      const int64_t f = std::min({g.get_trcap(from), -g.get_trcap(to), g.get_rcap(a)});
-      if (f <= 0) continue;
-      g.set_trcap(from, g.get_trcap(from) - f);
-      g.set_trcap(to, g.get_trcap(to) + f);
-      g.set_rcap(a, g.get_rcap(a) - f);
-      g.set_rcap(back, g.get_rcap(back) + f);
+      const std::size_t arc = 2 * k + (q_to_p ? 1 : 0);
+      const int64_t f = std::min({res_t_[from], -res_t_[to], res_n_[arc]});
+      if (f > 0) push(from, to, arc, f);
+    }
+    // Two hops, s → p → q → r → t, for each r still sending to the sink, through a neighbour q
+    // without source capacity (with some, the first pass would have used it).
+    const int N = static_cast<int>(res_t_.size());
+    for (int r = 0; r < N; ++r) {
+      for (int j = fg_.pairs_off[r]; j < fg_.pairs_off[r + 1] && res_t_[r] < 0; ++j) {
+        const int k = fg_.pairs_of[j];
+        const bool r_is_p = fg_.pair_np[k] == r;
+        const int q = r_is_p ? fg_.pair_nq[k] : fg_.pair_np[k];
+        const std::size_t qr = 2 * std::size_t(k) + (r_is_p ? 1 : 0);
+        if (res_n_[qr] <= 0 || res_t_[q] > 0) continue;
+        for (int j2 = fg_.pairs_off[q]; j2 < fg_.pairs_off[q + 1]; ++j2) {
+          const int k2 = fg_.pairs_of[j2];
+          const bool q_is_p = fg_.pair_np[k2] == q;
+          const int p = q_is_p ? fg_.pair_nq[k2] : fg_.pair_np[k2];
+          if (res_t_[p] <= 0) continue;  // also excludes r
+          const std::size_t pq = 2 * std::size_t(k2) + (q_is_p ? 1 : 0);
+          const int64_t f = std::min({res_t_[p], res_n_[pq], res_n_[qr], -res_t_[r]});
+          if (f <= 0) continue;
+          push(p, q, pq, f);
+          push(q, r, qr, f);
+          if (res_t_[r] == 0 || res_n_[qr] == 0) break;
+        }
+      }
     }
   }
 
@@ -652,12 +728,14 @@ class AlphaExpansion final : public Stage {
   double scale_ = 1;  ///< capacity units per energy unit
   std::vector<WarmStart> warm_;
   std::vector<int64_t> shift_t_;  ///< per node: deficits moved off n-links, not yet written
-  std::vector<int64_t> cold_t_;   ///< per node: the model t-link of a cold cut
+  std::vector<int64_t> res_t_;    ///< per node: residual t-link of a cold cut's first flow
+  std::vector<int64_t> res_n_;    ///< per pair: residual n-links (p→q, q→p) of that flow
   std::vector<int> touched_;      ///< nodes whose t-link is rewritten in this cut
   std::vector<uint8_t> node_seen_, pair_seen_;
   std::vector<uint8_t> lab_, dirty_, in_move_;
   std::vector<uint8_t> block_dirty_;  ///< per block (top-left cell): its best move may have changed
   std::vector<double> nsum_;          ///< per cell and label: eq. 12 given the current neighbours
+  std::vector<uint8_t> nsum_valid_;   ///< per cell: nsum_ computed in this pass
   PaddedLabels pad_;
   std::vector<int> move_;
 };
