@@ -217,15 +217,20 @@ class GibbsSampler final : public Stage {
           m = lower ? s[k] : m;
           arg = lower ? k : arg;
         }
-        // Peaked conditional (every other label beyond the table's e^−32): the draw is certain,
-        // so it costs neither exponentials nor a random number.
-        float sum = 0.f;
+        // Peaked conditional (every other label beyond the table's e^−32, where it gives 0): the
+        // draw is certain, so it costs neither exponentials nor a random number. That is known
+        // from the exponents alone, and most cells of the colder sweeps are certain.
+        float sum = 0.f, x[KK > 0 ? KK : 255];
         bool certain = true;
         for (int k = 0; k < K; ++k) {
-          const float x = (s[k] - m) * inv_t;
-          q[k] = k == arg ? 1.f : exp_(x);
-          sum += q[k];
-          certain = certain && (k == arg || q[k] == 0.f);
+          x[k] = (s[k] - m) * inv_t;
+          certain = certain && (k == arg || !(x[k] < NegExpTable::kMax));
+        }
+        if (!certain) {
+          for (int k = 0; k < K; ++k) {
+            q[k] = k == arg ? 1.f : exp_(x[k]);
+            sum += q[k];
+          }
         }
         int pick = arg;
         if (!certain) {
