@@ -176,6 +176,7 @@ class AlphaExpansion final : public Stage {
 
     double e = em.energy(lab);
     block_dirty_.assign(em.cells(), 1);
+    changes_.clear();
     int cycle = 0, expansions = 0, accepted = 0, block_passes = 0;
     block_moves_taken_ = 0;
     // An expansion that changed nothing need not be repeated until another one changes the
@@ -196,6 +197,7 @@ class AlphaExpansion final : public Stage {
           if (de < -1e-9 * (1.0 + std::abs(e))) {
             for (int i : move_) {
               lab[i] = static_cast<uint8_t>(alpha);
+              changes_.push_back(fg_.node_of[i]);
               if (block_moves_) touchBlocks(i, em.rows, em.cols);
             }
             e += de;
@@ -253,6 +255,7 @@ class AlphaExpansion final : public Stage {
     std::vector<int64_t> model_t;     ///< per node: cost(x=1) − cost(x=0)
     std::vector<int64_t> model_n;     ///< per pair: c01 (p→q), c10 (q→p)
     std::vector<uint8_t> lab_at;      ///< per node: its label at that cut
+    std::size_t changes_at = 0;       ///< changes_ up to here are in that cut's capacities
   };
 
   /// Labels up to which 2×2 block moves are searched.
@@ -307,6 +310,7 @@ class AlphaExpansion final : public Stage {
       const int from = lab[i], ri = i / C, ci = i % C;
       lab[i] = static_cast<uint8_t>(to);
       *pad_.at(ri, ci) = static_cast<uint8_t>(to);  // the sums computed later read it
+      changes_.push_back(fg_.node_of[i]);
       for (int d = 0; d < 8; ++d) {
         const int rr = ri + kDr[d], cc = ci + kDc[d];
         if (rr < 0 || rr >= R || cc < 0 || cc >= C || em.fixed[rr * C + cc]) continue;
@@ -605,12 +609,15 @@ class AlphaExpansion final : public Stage {
       w.arcs = w.g->get_first_arc();
       for (int n = 0; n < N; ++n) w.g->set_trcap(n, res_t_[n]);
       std::fill(shift_t_.begin(), shift_t_.end(), 0);
+      w.changes_at = changes_.size();
       w.g->maxflow(false);
     } else {
-      // The cells whose label changed since α's last cut. shift_t_ is 0 outside touched_ nodes
+      // The cells whose label changed since α's last cut, from the log of changes (a cell may be
+      // logged more than once, or be back at its label). shift_t_ is 0 outside touched_ nodes
       // (updateNode clears what it writes).
       touched_.clear();
-      for (int n = 0; n < N; ++n) {
+      for (std::size_t at = w.changes_at; at < changes_.size(); ++at) {
+        const int n = changes_[at];
         const uint8_t l = lab[fg_.cells[n]];
         if (l == w.lab_at[n]) continue;
         w.lab_at[n] = l;
@@ -627,6 +634,7 @@ class AlphaExpansion final : public Stage {
         }
         if (!node_seen_[n]) node_seen_[n] = 1, touched_.push_back(n);
       }
+      w.changes_at = changes_.size();
       if (touched_.empty()) return false;  // the problem of α's last cut, which did not improve
       for (const int n : touched_) {
         updateNode(w, n, nodeModel(em, lab, alpha, n), true);
@@ -731,6 +739,7 @@ class AlphaExpansion final : public Stage {
   std::vector<int64_t> res_t_;    ///< per node: residual t-link of a cold cut's first flow
   std::vector<int64_t> res_n_;    ///< per pair: residual n-links (p→q, q→p) of that flow
   std::vector<int> touched_;      ///< nodes whose t-link is rewritten in this cut
+  std::vector<int> changes_;      ///< nodes, each time its cell's label changed in this frame
   std::vector<uint8_t> node_seen_, pair_seen_;
   std::vector<uint8_t> lab_, dirty_, in_move_;
   std::vector<uint8_t> block_dirty_;  ///< per block (top-left cell): its best move may have changed

@@ -350,6 +350,15 @@ TEST(AlphaExpansion, BlockMovesMatchEnumeratingEveryBlock) {
         float* u = &em.unary[std::size_t(cell) * K];
         if (l != em.initial[cell]) u[l] = u[em.initial[cell]] - static_cast<float>(gain);
       }
+      // A follower left of a horizontal pair's A: it prefers A's label by just less than it
+      // pays alone or together with A (an expansion), and by more than it pays once the pair
+      // has moved. Expansions that must see the block moves' changes follow.
+      if (d == 0 && a % 32 >= 1) {
+        const int f = a - 1;
+        em.fixed[f] = 0;
+        float* u = &em.unary[std::size_t(f) * K];
+        if (la != em.initial[f]) u[la] = u[em.initial[f]] - static_cast<float>(4.05 * wb + 8 * wd);
+      }
     }
     int ref_cycles = 0, ref_moves = 0;
     const auto ref = textbookExpansion(em, &ref_cycles, true, &ref_moves);
