@@ -727,6 +727,37 @@ class AlphaExpansion final : public Stage {
         }
       }
     }
+    // Three hops, s → p → m → q → r → t, through two cells without source capacity.
+    for (int r = 0; r < N; ++r) {
+      for (int j = fg_.pairs_off[r]; j < fg_.pairs_off[r + 1] && res_t_[r] < 0; ++j) {
+        const int k = fg_.pairs_of[j];
+        const bool r_is_p = fg_.pair_np[k] == r;
+        const int q = r_is_p ? fg_.pair_nq[k] : fg_.pair_np[k];
+        const std::size_t qr = 2 * std::size_t(k) + (r_is_p ? 1 : 0);
+        if (res_n_[qr] <= 0 || res_t_[q] > 0) continue;
+        for (int j2 = fg_.pairs_off[q]; j2 < fg_.pairs_off[q + 1] && res_n_[qr] > 0; ++j2) {
+          const int k2 = fg_.pairs_of[j2];
+          const bool q_is_p = fg_.pair_np[k2] == q;
+          const int m = q_is_p ? fg_.pair_nq[k2] : fg_.pair_np[k2];
+          const std::size_t mq = 2 * std::size_t(k2) + (q_is_p ? 1 : 0);
+          if (m == r || res_n_[mq] <= 0 || res_t_[m] > 0) continue;
+          for (int j3 = fg_.pairs_off[m]; j3 < fg_.pairs_off[m + 1]; ++j3) {
+            const int k3 = fg_.pairs_of[j3];
+            const bool m_is_p = fg_.pair_np[k3] == m;
+            const int p = m_is_p ? fg_.pair_nq[k3] : fg_.pair_np[k3];
+            if (res_t_[p] <= 0) continue;  // also excludes r, q
+            const std::size_t pm = 2 * std::size_t(k3) + (m_is_p ? 1 : 0);
+            const int64_t f = std::min({res_t_[p], res_n_[pm], res_n_[mq], res_n_[qr], -res_t_[r]});
+            if (f <= 0) continue;
+            push(p, m, pm, f);
+            push(m, q, mq, f);
+            push(q, r, qr, f);
+            if (res_t_[r] == 0 || res_n_[qr] == 0 || res_n_[mq] == 0) break;
+          }
+          if (res_t_[r] == 0) break;
+        }
+      }
+    }
   }
 
   /// Grid labels (fixed → unknown) and score layers: the local energy margin
