@@ -703,58 +703,39 @@ class AlphaExpansion final : public Stage {
       const int64_t f = std::min({res_t_[from], -res_t_[to], res_n_[arc]});
       if (f > 0) push(from, to, arc, f);
     }
-    // Two hops, s → p → q → r → t, for each r still sending to the sink, through a neighbour q
-    // without source capacity (with some, the first pass would have used it).
+    // Then paths through one or two cells without source capacity (with some, a shorter path
+    // would have used it), s → m → q → r → t and s → p → m → q → r → t, for each r still
+    // sending to the sink. `other` gives pair k's other node and the arc from it into x.
+    auto other = [&](int k, int x, std::size_t& into_x) {
+      const bool x_is_p = fg_.pair_np[k] == x;
+      into_x = 2 * std::size_t(k) + (x_is_p ? 1 : 0);
+      return x_is_p ? fg_.pair_nq[k] : fg_.pair_np[k];
+    };
     const int N = static_cast<int>(res_t_.size());
     for (int r = 0; r < N; ++r) {
       for (int j = fg_.pairs_off[r]; j < fg_.pairs_off[r + 1] && res_t_[r] < 0; ++j) {
-        const int k = fg_.pairs_of[j];
-        const bool r_is_p = fg_.pair_np[k] == r;
-        const int q = r_is_p ? fg_.pair_nq[k] : fg_.pair_np[k];
-        const std::size_t qr = 2 * std::size_t(k) + (r_is_p ? 1 : 0);
-        if (res_n_[qr] <= 0 || res_t_[q] > 0) continue;
+        std::size_t qr, mq, pm;
+        const int q = other(fg_.pairs_of[j], r, qr);
+        if (res_t_[q] > 0) continue;
         for (int j2 = fg_.pairs_off[q]; j2 < fg_.pairs_off[q + 1]; ++j2) {
-          const int k2 = fg_.pairs_of[j2];
-          const bool q_is_p = fg_.pair_np[k2] == q;
-          const int p = q_is_p ? fg_.pair_nq[k2] : fg_.pair_np[k2];
-          if (res_t_[p] <= 0) continue;  // also excludes r
-          const std::size_t pq = 2 * std::size_t(k2) + (q_is_p ? 1 : 0);
-          const int64_t f = std::min({res_t_[p], res_n_[pq], res_n_[qr], -res_t_[r]});
-          if (f <= 0) continue;
-          push(p, q, pq, f);
-          push(q, r, qr, f);
           if (res_t_[r] == 0 || res_n_[qr] == 0) break;
-        }
-      }
-    }
-    // Three hops, s → p → m → q → r → t, through two cells without source capacity.
-    for (int r = 0; r < N; ++r) {
-      for (int j = fg_.pairs_off[r]; j < fg_.pairs_off[r + 1] && res_t_[r] < 0; ++j) {
-        const int k = fg_.pairs_of[j];
-        const bool r_is_p = fg_.pair_np[k] == r;
-        const int q = r_is_p ? fg_.pair_nq[k] : fg_.pair_np[k];
-        const std::size_t qr = 2 * std::size_t(k) + (r_is_p ? 1 : 0);
-        if (res_n_[qr] <= 0 || res_t_[q] > 0) continue;
-        for (int j2 = fg_.pairs_off[q]; j2 < fg_.pairs_off[q + 1] && res_n_[qr] > 0; ++j2) {
-          const int k2 = fg_.pairs_of[j2];
-          const bool q_is_p = fg_.pair_np[k2] == q;
-          const int m = q_is_p ? fg_.pair_nq[k2] : fg_.pair_np[k2];
-          const std::size_t mq = 2 * std::size_t(k2) + (q_is_p ? 1 : 0);
-          if (m == r || res_n_[mq] <= 0 || res_t_[m] > 0) continue;
+          const int m = other(fg_.pairs_of[j2], q, mq);
+          if (m == r || res_n_[mq] == 0) continue;
+          if (res_t_[m] > 0) {
+            const int64_t f = std::min({res_t_[m], res_n_[mq], res_n_[qr], -res_t_[r]});
+            push(m, q, mq, f);
+            push(q, r, qr, f);
+            continue;
+          }
           for (int j3 = fg_.pairs_off[m]; j3 < fg_.pairs_off[m + 1]; ++j3) {
-            const int k3 = fg_.pairs_of[j3];
-            const bool m_is_p = fg_.pair_np[k3] == m;
-            const int p = m_is_p ? fg_.pair_nq[k3] : fg_.pair_np[k3];
-            if (res_t_[p] <= 0) continue;  // also excludes r, q
-            const std::size_t pm = 2 * std::size_t(k3) + (m_is_p ? 1 : 0);
+            if (res_t_[r] == 0 || res_n_[qr] == 0 || res_n_[mq] == 0) break;
+            const int p = other(fg_.pairs_of[j3], m, pm);
+            if (res_t_[p] <= 0 || res_n_[pm] == 0) continue;  // also excludes r and q
             const int64_t f = std::min({res_t_[p], res_n_[pm], res_n_[mq], res_n_[qr], -res_t_[r]});
-            if (f <= 0) continue;
             push(p, m, pm, f);
             push(m, q, mq, f);
             push(q, r, qr, f);
-            if (res_t_[r] == 0 || res_n_[qr] == 0 || res_n_[mq] == 0) break;
           }
-          if (res_t_[r] == 0) break;
         }
       }
     }
