@@ -371,37 +371,52 @@ TEST(AlphaExpansion, BlockMovesMatchEnumeratingEveryBlock) {
   EXPECT_GE(total_moves, 25) << "too few block moves to compare";
 }
 
+/// A 4 × 4 grid with 3 labels, all at label 0, which costs 0; labels 1 and 2 cost `other`.
+EnergyModel labelZeroGrid(float other) {
+  EnergyModel em;
+  em.resize(4, 4, 3);
+  for (int k = 0; k < 3; ++k) em.active[k] = static_cast<LabelId>(k + 1);
+  for (std::size_t i = 0; i < em.cells(); ++i) {
+    em.unary[i * 3] = 0.f;
+    em.unary[i * 3 + 1] = em.unary[i * 3 + 2] = other;
+    em.initial[i] = 0;
+  }
+  return em;
+}
+
+/// Runs α-expansion on `em` without block moves, which must stay at the initial labelling, and
+/// with them, which must reach `want` and lower the energy by `gain`; returns the second run.
+test::OptimiserRun expectOnlyBlockMovesReach(const EnergyModel& em,
+                                             const std::vector<uint8_t>& want, double gain,
+                                             const std::string& what) {
+  const double e0 = em.energy(em.initial);
+  OptimiserHarness h;
+  const auto stuck = h.run("alpha_expansion", "{block_moves: false}", em);
+  EXPECT_NEAR(stuck.report.final_energy, e0, 1e-9) << what;
+  const auto r = h.run("alpha_expansion", "{}", em);
+  test::expectValidResult(r, em, what);
+  EXPECT_EQ(OptimiserHarness::labelling(r, em), want) << what;
+  EXPECT_NEAR(r.report.final_energy, e0 - gain, 1e-5) << what;
+  return r;
+}
+
 // Two labels that must enter together: a 4×4 grid of label 0 (strong Potts, w = 1) in which cell
 // A = (1, 1) prefers label 1 and its neighbour B = (1, 2) label 2 by 15.5 each. Alone, either
 // change pays its eight boundaries (+16) and loses 0.5; together they share the A–B boundary,
 // paid once, and gain 1. No expansion (one label enters) and no swap (cells trade two labels)
 // contains that move: only the 2×2 block moves find it.
 TEST(AlphaExpansion, BlockMovesLetTwoLabelsEnterAtOnce) {
-  EnergyModel em;
-  em.resize(4, 4, 3);
-  for (int k = 0; k < 3; ++k) em.active[k] = static_cast<LabelId>(k + 1);
-  for (std::size_t i = 0; i < em.cells(); ++i) {
-    em.unary[i * 3] = 0.f;
-    em.unary[i * 3 + 1] = em.unary[i * 3 + 2] = 1.f;
-    em.initial[i] = 0;
-  }
+  EnergyModel em = labelZeroGrid(1.f);
   const int a = 1 * 4 + 1, b = 1 * 4 + 2;
   em.unary[a * 3 + 1] = -15.5f;
   em.unary[a * 3 + 2] = 5.f;
   em.unary[b * 3 + 1] = 5.f;
   em.unary[b * 3 + 2] = -15.5f;
   em.beta = em.beta_diagonal = 1.f;
-  const double e0 = em.energy(em.initial);
-  OptimiserHarness h;
-  const auto stuck = h.run("alpha_expansion", "{block_moves: false}", em);
-  EXPECT_NEAR(stuck.report.final_energy, e0, 1e-9);
-  const auto r = h.run("alpha_expansion", "{}", em);
-  test::expectValidResult(r, em, "block moves");
   std::vector<uint8_t> want = em.initial;
   want[a] = 1;
   want[b] = 2;
-  EXPECT_EQ(OptimiserHarness::labelling(r, em), want);
-  EXPECT_NEAR(r.report.final_energy, e0 - 1.0, 1e-6);
+  const auto r = expectOnlyBlockMovesReach(em, want, 1.0, "two labels entering");
   EXPECT_EQ(r.metrics.at("alpha_expansion.block_moves"), 1.0);
 }
 
@@ -412,30 +427,17 @@ TEST(AlphaExpansion, BlockMovesLetTwoLabelsEnterAtOnce) {
 // gains 0.4 and each cell's best label given the outside gains 0.6, so only a bound that uses
 // the diagonal cut lets the block be searched.
 TEST(AlphaExpansion, BlockMovesSplitAlongStrongDiagonals) {
-  EnergyModel em;
-  em.resize(4, 4, 3);
-  for (int k = 0; k < 3; ++k) em.active[k] = static_cast<LabelId>(k + 1);
-  for (std::size_t i = 0; i < em.cells(); ++i) {  // (strong: no diagonal pattern pays here)
-    em.unary[i * 3] = 0.f;
-    em.unary[i * 3 + 1] = em.unary[i * 3 + 2] = 10.f;
-    em.initial[i] = 0;
-  }
+  // Labels 1 and 2 cost 10 elsewhere: no diagonal pattern pays outside the middle block.
+  EnergyModel em = labelZeroGrid(10.f);
   const int a = 1 * 4 + 1, b = 1 * 4 + 2, c = 2 * 4 + 1, d = 2 * 4 + 2;
   for (int i : {a, d}) em.unary[i * 3 + 1] = -7.6f;
   for (int i : {b, c}) em.unary[i * 3 + 2] = -7.6f;
   em.beta = 0.25f;
   em.beta_diagonal = 1.f;
-  const double e0 = em.energy(em.initial);
-  OptimiserHarness h;
-  const auto stuck = h.run("alpha_expansion", "{block_moves: false}", em);
-  EXPECT_NEAR(stuck.report.final_energy, e0, 1e-9);
-  const auto r = h.run("alpha_expansion", "{}", em);
-  test::expectValidResult(r, em, "diagonal split");
   std::vector<uint8_t> want = em.initial;
   want[a] = want[d] = 1;
   want[b] = want[c] = 2;
-  EXPECT_EQ(OptimiserHarness::labelling(r, em), want);
-  EXPECT_NEAR(r.report.final_energy, e0 - 0.4, 1e-5);
+  expectOnlyBlockMovesReach(em, want, 0.4, "diagonal split");
 }
 
 /// A grid of label 0 (unaries 0 for it, 1 + U(0, 0.3) for the others; w = 1) with `pairs`
