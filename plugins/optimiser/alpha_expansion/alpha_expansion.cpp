@@ -678,11 +678,11 @@ class AlphaExpansion final : public Stage {
   }
 
   /// Before a cold cut, on res_t_ / res_n_: most of the flow runs s → q → p → t between
-  /// neighbours, and much of the rest through one cell between them. Pushing it greedily, in a
-  /// pass over the pairs and one over the cells that still send to the sink, leaves the max-flow
-  /// a residual network with much less to augment and fewer orphans to adopt (its cuts are those
-  /// of the original network, and its what_segment the same, as the nodes reachable from s in
-  /// the residual network of any maximum flow are the same).
+  /// neighbours, and much of the rest through one or two cells between them. Pushing it
+  /// greedily, in a pass over the pairs and one over the cells that still send to the sink,
+  /// leaves the max-flow a residual network with much less to augment and fewer orphans to
+  /// adopt (its cuts are those of the original network, and its what_segment the same, as the
+  /// nodes reachable from s in the residual network of any maximum flow are the same).
   void greedyFlow() {
     const std::size_t P = fg_.pair_np.size();
     // Pair k's arcs: 2k = p→q, 2k + 1 = q→p.
