@@ -90,15 +90,15 @@ struct FrameGraph {
     }
     pairs_off.assign(cells.size() + 1, 0);
     for (std::size_t k = 0; k < pair_p.size(); ++k) {
-      ++pairs_off[node_of[pair_p[k]] + 1];
-      ++pairs_off[node_of[pair_q[k]] + 1];
+      ++pairs_off[pair_np[k] + 1];
+      ++pairs_off[pair_nq[k] + 1];
     }
     for (std::size_t n = 0; n < cells.size(); ++n) pairs_off[n + 1] += pairs_off[n];
     pairs_of.resize(2 * pair_p.size());
     std::vector<int> fill(pairs_off.begin(), pairs_off.end() - 1);
     for (std::size_t k = 0; k < pair_p.size(); ++k) {
-      pairs_of[fill[node_of[pair_p[k]]]++] = static_cast<int>(k);
-      pairs_of[fill[node_of[pair_q[k]]]++] = static_cast<int>(k);
+      pairs_of[fill[pair_np[k]]++] = static_cast<int>(k);
+      pairs_of[fill[pair_nq[k]]++] = static_cast<int>(k);
     }
   }
 };
@@ -649,10 +649,8 @@ class AlphaExpansion final : public Stage {
           pair_seen_[k] = 1;
           updatePair(w, k, pairTerm(lab[fg_.pair_p[k]], lab[fg_.pair_q[k]], alpha, fg_.pair_v[k]),
                      true);
-          for (const int c : {fg_.pair_p[k], fg_.pair_q[k]}) {
-            const int m = fg_.node_of[c];
+          for (const int m : {fg_.pair_np[k], fg_.pair_nq[k]})
             if (!node_seen_[m]) node_seen_[m] = 1, touched_.push_back(m);
-          }
         }
         if (!node_seen_[n]) node_seen_[n] = 1, touched_.push_back(n);
       }

@@ -220,26 +220,25 @@ class GibbsSampler final : public Stage {
         // Peaked conditional (every other label beyond the table's e^−32, where it gives 0): the
         // draw is certain, so it costs neither exponentials nor a random number. That is known
         // from the exponents alone, and most cells of the colder sweeps are certain.
-        float sum = 0.f, x[KK > 0 ? KK : 255];
+        float x[KK > 0 ? KK : 255];
         bool certain = true;
         for (int k = 0; k < K; ++k) {
           x[k] = (s[k] - m) * inv_t;
-          certain = certain && (k == arg || !(x[k] < NegExpTable::kMax));
+          certain = certain && (k == arg || NegExpTable::zero(x[k]));
         }
+        float sum = 0.f;
+        int pick = arg;
         if (!certain) {
           for (int k = 0; k < K; ++k) {
             q[k] = k == arg ? 1.f : exp_(x[k]);
             sum += q[k];
           }
-        }
-        int pick = arg;
-        if (!certain) {
           // Inverse CDF; the last label absorbs rounding so a draw always lands somewhere.
-          float x = rng.uniform() * sum;
+          float u = rng.uniform() * sum;
           pick = K - 1;
           for (int k = 0; k < K - 1; ++k) {
-            x -= q[k];
-            if (x < 0.f) {
+            u -= q[k];
+            if (u < 0.f) {
               pick = k;
               break;
             }

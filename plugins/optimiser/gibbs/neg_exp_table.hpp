@@ -20,8 +20,10 @@ class NegExpTable {
     for (int i = 0; i < kSize + 2; ++i)
       tab_[i] = static_cast<float>(std::exp(-double(i) / kPerUnit));
   }
+  /// Whether the table gives exactly 0 for x (beyond kMax, or NaN).
+  static bool zero(float x) { return !(x < kMax); }
   float operator()(float x) const {
-    if (!(x < kMax)) return 0.f;
+    if (zero(x)) return 0.f;
     const float f = x * kPerUnit;
     const int i = static_cast<int>(f);
     const float t = f - static_cast<float>(i);
