@@ -1,50 +1,24 @@
 // Gibbs sampler with simulated annealing (Geman & Geman 1984), the optimiser of papers 000/001.
-// Each sweep visits the cells in raster order and draws a cell's label from its conditional
-// P(k | neighbours) ∝ exp(−E_c(k) / T), E_c the eq. 12 local energy; the temperature T follows an
-// annealing schedule over the sweeps. The returned labelling is the lowest-energy one seen at the
-// end of an annealing sweep (or the initial labelling), so the energy never rises above the start.
+// Each sweep draws every cell's label from its conditional P(k | neighbours) ∝ exp(−E_c(k) / T),
+// E_c the eq. 12 local energy, colour by colour: the four parity classes of (row, column), none
+// of which holds two 8-neighbours, so a colour's cells are conditionally independent and are
+// drawn eight at a time (ColourPlanes, colourSweep). The temperature T follows an annealing
+// schedule over the sweeps. The returned labelling is the lowest-energy one seen at the end of an
+// annealing sweep (or the initial labelling), so the energy never rises above the start.
 // The label marginals (the score layers) come from extra sweeps at one fixed temperature after the
 // annealing: averages over a schedule's changing temperatures are marginals of no distribution.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <string>
 #include <vector>
 
-#include "neg_exp_table.hpp"
-#include "terramrf/padded_labels.hpp"
+#include "colour_planes.hpp"
+#include "colour_sweep.hpp"
 #include "terramrf/plugin.hpp"
+#include "terramrf/simd.hpp"
 
 namespace terramrf {
-namespace {
-
-/// PCG32 (O'Neill 2014, XSH-RR): one 64-bit multiply per draw, several times faster than
-/// std::mt19937 for the one draw per cell update, and fully determined by the seed.
-class Pcg32 {
- public:
-  explicit Pcg32(uint64_t seed) {
-    state_ = 0;
-    next();
-    state_ += seed;
-    next();
-  }
-  uint32_t next() {
-    const uint64_t old = state_;
-    state_ = old * 6364136223846793005ULL + kIncrement;
-    const uint32_t xorshifted = static_cast<uint32_t>(((old >> 18u) ^ old) >> 27u);
-    const uint32_t rot = static_cast<uint32_t>(old >> 59u);
-    return (xorshifted >> rot) | (xorshifted << ((32u - rot) & 31u));
-  }
-  /// Uniform in [0, 1) with 24 bits (a float's mantissa).
-  float uniform() { return static_cast<float>(next() >> 8) * (1.0f / 16777216.0f); }
-
- private:
-  static constexpr uint64_t kIncrement = 1442695040888963407ULL;
-  uint64_t state_;
-};
-
-}  // namespace
 
 class GibbsSampler final : public Stage {
  public:
@@ -113,52 +87,65 @@ class GibbsSampler final : public Stage {
     }
     if (K > 255)
       throw InputError("", name() + ": " + std::to_string(K) + " labels; at most 255 supported");
-    pad_.assign(em, em.initial);
-    best_ = pad_;
+    planes_.assign(em, em.initial);
     const double e_initial = em.energy(em.initial);
     double e = e_initial, e_best = e_initial;
     int best_sweep = -1;  // -1 = the initial labelling
-    marg_.assign(em.cells() * K, 0.f);
-    Pcg32 rng(static_cast<uint64_t>(seed_));
+    sums_.assign(4 * std::size_t(K) * planes_.planeSize(), 0.f);
+    ColourSweepParams sp;
+    sp.we = 2.f * em.beta;
+    sp.wd = 2.f * em.beta_diagonal;
+    sp.avx2 = useAvx2();
     const bool average_annealing = marg_sweeps_ == 0;
+    // Sweeps are numbered across the annealing and the marginal chain: each has its own draws.
+    uint64_t sweep_id = 0;
+    auto run = [&](float inv_t, bool average, double& energy) {
+      sp.inv_t = inv_t;
+      sp.sums = average ? sums_.data() : nullptr;
+      sp.keys = SweepKeys(static_cast<uint64_t>(seed_), sweep_id++);
+      return colourSweep(planes_, sp, energy);
+    };
     int changed = 0, sweep = 0;
     for (; sweep < sweeps_; ++sweep) {
-      const float inv_t = static_cast<float>(1.0 / temperatureAt(sweep));
-      changed = runSweep(em, inv_t, average_annealing && sweep >= burn_in_, rng, e);
+      changed = run(static_cast<float>(1.0 / temperatureAt(sweep)),
+                    average_annealing && sweep >= burn_in_, e);
       if (e < e_best) {
         e_best = e;
         best_sweep = sweep;
-        std::memcpy(best_.data().data(), pad_.data().data(), pad_.data().size());
+        best_ = planes_.data();
       }
     }
     // Where the annealing itself ended (the chain, not the best state it passed through).
     end_.assign(em.initial.begin(), em.initial.end());
-    pad_.extract(em, end_);
+    planes_.extract(em, end_);
     const double e_annealed = em.energy(end_);
 
-    // The marginal chain continues from the annealed state on pad_ only; best_ keeps the result,
-    // and its energy is not tracked.
+    // The marginal chain continues from the annealed state; best_ keeps the result, and the
+    // chain's energy is not tracked.
     int averaged = sweeps_ - burn_in_;
     if (!average_annealing) {
       const float inv_t = static_cast<float>(1.0 / t_marg_);
       double e_chain = e_annealed;
       for (int s = 0; s < marg_burn_in_ + marg_sweeps_; ++s)
-        runSweep(em, inv_t, s >= marg_burn_in_, rng, e_chain);
+        run(inv_t, s >= marg_burn_in_, e_chain);
       averaged = marg_sweeps_;
     }
 
     // The running energy is a float sum; the decision that keeps the promise "never above the
     // initial energy" is taken on exact totals.
     std::vector<uint8_t> lab = em.initial;
-    if (best_sweep >= 0) best_.extract(em, lab);
+    if (best_sweep >= 0) {
+      planes_.data() = best_;
+      planes_.extract(em, lab);
+    }
     double e_final = em.energy(lab);
     if (e_final > e_initial) {
       lab = em.initial;
       e_final = e_initial;
       best_sweep = -1;
     }
-    const float inv_n = 1.f / static_cast<float>(averaged);
-    for (float& v : marg_) v *= inv_n;
+    marg_.assign(em.cells() * K, 0.f);
+    planes_.gatherLabelSums(em, sums_, 1.f / static_cast<float>(averaged), marg_);
 
     rep.initial_energy = e_initial;
     rep.final_energy = e_final;
@@ -175,97 +162,6 @@ class GibbsSampler final : public Stage {
   }
 
  private:
-  /// One sweep with the compile-time K for the usual label counts, which lets the compiler keep
-  /// the K scores in registers.
-  int runSweep(const EnergyModel& em, float inv_t, bool average, Pcg32& rng, double& e) {
-    switch (em.numLabels()) {
-      case 2:
-        return sweepGrid<2>(em, inv_t, average, rng, e);
-      case 3:
-        return sweepGrid<3>(em, inv_t, average, rng, e);
-      case 4:
-        return sweepGrid<4>(em, inv_t, average, rng, e);
-      case 5:
-        return sweepGrid<5>(em, inv_t, average, rng, e);
-      case 6:
-        return sweepGrid<6>(em, inv_t, average, rng, e);
-      default:
-        return sweepGrid<0>(em, inv_t, average, rng, e);
-    }
-  }
-
-  /// One Gibbs sweep in raster order over pad_ (KK = K, or 0 for any K); returns the number of
-  /// labels changed and keeps `e` equal to the energy of the current labelling.
-  template <int KK>
-  int sweepGrid(const EnergyModel& em, float inv_t, bool average, Pcg32& rng, double& e) {
-    const int R = em.rows, C = em.cols, K = KK > 0 ? KK : em.numLabels(), W = pad_.stride();
-    // E_c(k) = u_k + Σ_n w_n − 2 Σ_{n: l_n = k} w_n; the middle sum is the same for every k and
-    // cancels in the conditional, so localScores keeps only u_k − 2 Σ w_n.
-    float s[KK > 0 ? KK + 1 : 256], q[KK > 0 ? KK : 255];
-    int changed = 0;
-    for (int r = 0; r < R; ++r) {
-      uint8_t* p = pad_.at(r, 0);
-      for (int c = 0; c < C; ++c, ++p) {
-        if (*p == K) continue;  // fixed cell
-        const std::size_t i = std::size_t(r) * C + c;
-        localScores<KK>(em, p, i, W, s);
-        // First least score, without branches: which label wins is a coin toss to a predictor.
-        int arg = 0;
-        float m = s[0];
-        for (int k = 1; k < K; ++k) {
-          const bool lower = s[k] < m;
-          m = lower ? s[k] : m;
-          arg = lower ? k : arg;
-        }
-        // Peaked conditional (every other label beyond the table's e^−32, where it gives 0): the
-        // draw is certain, so it costs neither exponentials nor a random number. That is known
-        // from the exponents alone, and most cells of the colder sweeps are certain.
-        float x[KK > 0 ? KK : 255];
-        bool certain = true;
-        for (int k = 0; k < K; ++k) {
-          x[k] = (s[k] - m) * inv_t;
-          certain = certain && (k == arg || NegExpTable::zero(x[k]));
-        }
-        float sum = 0.f;
-        int pick = arg;
-        if (!certain) {
-          for (int k = 0; k < K; ++k) {
-            q[k] = k == arg ? 1.f : exp_(x[k]);
-            sum += q[k];
-          }
-          // Inverse CDF; the last label absorbs rounding so a draw always lands somewhere.
-          float u = rng.uniform() * sum;
-          pick = K - 1;
-          for (int k = 0; k < K - 1; ++k) {
-            u -= q[k];
-            if (u < 0.f) {
-              pick = k;
-              break;
-            }
-          }
-        }
-        const int old = *p;
-        if (pick != old) {
-          e += double(s[pick]) - double(s[old]);
-          *p = static_cast<uint8_t>(pick);
-          ++changed;
-        }
-        if (average) {
-          // Rao-Blackwellised: averaging the conditionals instead of the drawn indicators gives
-          // the same expectation with lower variance (smoother scores for ROC curves).
-          float* acc = &marg_[i * K];
-          if (certain) {
-            acc[arg] += 1.f;
-          } else {
-            const float inv = 1.f / sum;
-            for (int k = 0; k < K; ++k) acc[k] += q[k] * inv;
-          }
-        }
-      }
-    }
-    return changed;
-  }
-
   double temperatureAt(int s) const {
     const double f = sweeps_ > 1 ? double(s) / (sweeps_ - 1) : 1.0;
     if (schedule_ == "geometric") return t0_ * std::pow(t_end_ / t0_, f);
@@ -303,10 +199,9 @@ class GibbsSampler final : public Stage {
   int burn_in_ = 20;
   int64_t seed_ = 1;
 
-  NegExpTable exp_;
-  PaddedLabels pad_, best_;
-  std::vector<float> marg_;
-  std::vector<uint8_t> end_;
+  ColourPlanes planes_;
+  std::vector<uint8_t> best_, end_;
+  std::vector<float> sums_, marg_;
 };
 
 }  // namespace terramrf

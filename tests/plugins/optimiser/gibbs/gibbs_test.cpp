@@ -1,13 +1,15 @@
 // The "gibbs" optimiser: known marginals (independent cells, brute-forced 3×3 fields at the
 // marginal temperature after annealing, and at a constant temperature), marginals summing to 1,
-// the marginal sweeps leaving the result alone, fixed cells, determinism, parameter checks, and
-// the accuracy of its e^−x table.
+// the marginal sweeps leaving the result alone, fixed cells, determinism, parameter checks, the
+// accuracy of its e^−x, and the vector sweep against the one-cell one.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 
-#include "neg_exp_table.hpp"
+#include "neg_exp.hpp"
 #include "optimiser_test_support.hpp"
 
 namespace terramrf {
@@ -256,20 +258,49 @@ TEST(Gibbs, RejectsInconsistentParameters) {
       h.make("gibbs", "{schedule: constant, temperature: 1.0, final_temperature: 2.0}", em));
 }
 
-TEST(Gibbs, NegExpTableErrorIsTheDocumentedOne) {
-  // Linear interpolation of e^−x on steps of h = 1/64 has a relative error of up to h²/8 =
-  // 3.05e-5 in the middle of every step: below the documented 3.1e-5, and not below 1e-5.
-  const NegExpTable table;
+TEST(Gibbs, NegExpErrorIsTheDocumentedOne) {
+  // Below 1.5e-6 relative on [0, 17), and not below 5e-7 (the polynomial's own error shows, so a
+  // wrong coefficient would too); exactly 1 at 0 and exactly 0 from kMax on.
   double worst = 0;
-  for (int i = 0; i < 32 * 64 * 16; ++i) {
-    const float x = static_cast<float>((i + 0.5) / (64 * 16));
-    worst = std::max(worst, std::abs(table(x) / std::exp(-double(x)) - 1.0));
+  for (int i = 0; i < 17 * 4096; ++i) {
+    const float x = static_cast<float>((i + 0.37) / 4096);
+    if (!(x < NegExp::kMax)) break;
+    worst = std::max(worst, std::abs(NegExp::eval(x) / std::exp(-double(x)) - 1.0));
   }
-  EXPECT_LT(worst, 3.1e-5);
-  EXPECT_GT(worst, 2.9e-5);
-  EXPECT_EQ(table(32.f), 0.f);
-  EXPECT_EQ(table(1e9f), 0.f);
-  EXPECT_EQ(table(0.f), 1.f);
+  EXPECT_LT(worst, 1.5e-6);
+  EXPECT_GT(worst, 5e-7);
+  EXPECT_EQ(NegExp::eval(0.f), 1.f);
+  EXPECT_EQ(NegExp::eval(17.f), 0.f);
+  EXPECT_EQ(NegExp::eval(1e9f), 0.f);
+  EXPECT_EQ(NegExp::eval(std::nanf("")), 0.f);
+  // Dropped weights are below the 2^−24 resolution of the uniform draw.
+  EXPECT_LT(std::exp(-double(NegExp::kMax)), std::ldexp(1.0, -24));
+}
+
+TEST(Gibbs, VectorSweepsGiveTheSameResultAsOneCellAtATime) {
+  // The whole plugin, default annealing and marginal chain (colder, then warmer again), with the
+  // AVX2 sweep and with TERRAMRF_SIMD=sse2: labels, report and scores bit for bit.
+  RandomModelSpec s;
+  s.size = 37;
+  s.labels = 4;
+  s.fixed_fraction = 0.1;
+  const EnergyModel em = test::randomModel(21, s);
+  OptimiserHarness h;
+  const std::string p = "{sweeps: 60, marginal_sweeps: 10, marginal_burn_in: 2, seed: 4}";
+  const auto vec = h.run("gibbs", p, em);
+  setenv("TERRAMRF_SIMD", "sse2", 1);
+  const auto one = h.run("gibbs", p, em);
+  unsetenv("TERRAMRF_SIMD");
+  EXPECT_EQ(vec.grid_labels, one.grid_labels);
+  EXPECT_EQ(vec.report.final_energy, one.report.final_energy);
+  for (const char* m : {"gibbs.best_sweep", "gibbs.annealed_energy", "gibbs.last_sweep_changes"})
+    EXPECT_EQ(vec.metrics.at(m), one.metrics.at(m)) << m;
+  for (const char* c : kClasses) {
+    const Layer& a = vec.scores.at(c);
+    const Layer& b = one.scores.at(c);
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << c;
+  }
 }
 
 }  // namespace
