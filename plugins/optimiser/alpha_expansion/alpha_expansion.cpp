@@ -678,6 +678,7 @@ class AlphaExpansion final : public Stage {
   /// Before a cold cut, on res_t_ / res_n_: most of the flow runs s → q → p → t between
   /// neighbours, and much of the rest through one or two cells between them. Pushing it
   /// greedily, in a pass over the pairs and one over the cells that still send to the sink,
+  /// then along shortest paths found by short searches back from each cell still sending,
   /// leaves the max-flow a residual network with much less to augment and fewer orphans to
   /// adopt (its cuts are those of the original network, and its what_segment the same, as the
   /// nodes reachable from s in the residual network of any maximum flow are the same).
@@ -737,7 +738,62 @@ class AlphaExpansion final : public Stage {
         }
       }
     }
+    // What still sends to the sink is a few hundred cells on the stress grid, each a few hops
+    // from cells with source capacity left: shortest augmenting paths, found by a search
+    // backwards from each such cell, carry most of what remains.
+    constexpr std::size_t kMaxSearch = 64;
+    if (bfs_seen_.size() != std::size_t(N)) bfs_seen_.assign(N, 0);
+    bfs_from_.resize(N);
+    for (int r = 0; r < N; ++r) {
+      while (res_t_[r] < 0) {
+        // Backwards over arcs x → y with residual capacity, until a cell with source capacity.
+        if (++bfs_stamp_ == 0) {
+          std::fill(bfs_seen_.begin(), bfs_seen_.end(), 0);
+          bfs_stamp_ = 1;
+        }
+        bfs_queue_.clear();
+        bfs_queue_.push_back(r);
+        bfs_seen_[r] = bfs_stamp_;
+        int found = -1;
+        // A cell cut off from the source would have the search cover all it reaches; beyond
+        // kMaxSearch cells the max-flow takes over.
+        for (std::size_t head = 0;
+             head < bfs_queue_.size() && found < 0 && bfs_queue_.size() < kMaxSearch; ++head) {
+          const int y = bfs_queue_[head];
+          for (int j = fg_.pairs_off[y]; j < fg_.pairs_off[y + 1]; ++j) {
+            std::size_t xy;
+            const int x = other(fg_.pairs_of[j], y, xy);
+            if (bfs_seen_[x] == bfs_stamp_ || res_n_[xy] == 0) continue;
+            bfs_seen_[x] = bfs_stamp_;
+            bfs_from_[x] = xy;
+            if (res_t_[x] > 0) {
+              found = x;
+              break;
+            }
+            bfs_queue_.push_back(x);
+          }
+        }
+        if (found < 0) break;  // r is cut off from the source: its rest stays with the sink
+        int64_t f = std::min(res_t_[found], -res_t_[r]);
+        for (int x = found; x != r;) {
+          const std::size_t a = bfs_from_[x];
+          f = std::min(f, res_n_[a]);
+          x = pairHead(a);
+        }
+        res_t_[found] -= f;
+        res_t_[r] += f;
+        for (int x = found; x != r;) {
+          const std::size_t a = bfs_from_[x];
+          res_n_[a] -= f;
+          res_n_[a ^ 1] += f;
+          x = pairHead(a);
+        }
+      }
+    }
   }
+
+  /// The node arc a (2k: p→q, 2k + 1: q→p of pair k) points to.
+  int pairHead(std::size_t a) const { return (a & 1) ? fg_.pair_np[a >> 1] : fg_.pair_nq[a >> 1]; }
 
   /// Grid labels (fixed → unknown) and score layers: the local energy margin
   /// min_{j≠k} E_c(j) − E_c(k) given the final neighbours, the score the ROC curves give an
@@ -771,6 +827,10 @@ class AlphaExpansion final : public Stage {
   std::vector<int64_t> res_t_;    ///< per node: residual t-link of a cold cut's first flow
   std::vector<int64_t> res_n_;    ///< per pair: residual n-links (p→q, q→p) of that flow
   std::vector<int> touched_;      ///< nodes whose t-link is rewritten in this cut
+  std::vector<int> bfs_queue_;    ///< greedyFlow's path search: cells in search order
+  std::vector<std::size_t> bfs_from_;  ///< per node: the arc the search reached it by
+  std::vector<uint32_t> bfs_seen_;     ///< per node: the stamp of the search that reached it
+  uint32_t bfs_stamp_ = 0;
   std::vector<int> changes_;      ///< nodes, each time its cell's label changed in this frame
   std::vector<uint8_t> node_seen_, pair_seen_;
   std::vector<uint8_t> lab_, dirty_, in_move_;
