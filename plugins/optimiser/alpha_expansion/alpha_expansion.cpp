@@ -676,12 +676,12 @@ class AlphaExpansion final : public Stage {
   }
 
   /// Before a cold cut, on res_t_ / res_n_: most of the flow runs s → q → p → t between
-  /// neighbours, and much of the rest through one or two cells between them. Pushing it
-  /// greedily, in a pass over the pairs and one over the cells that still send to the sink,
-  /// then along shortest paths found by short searches back from each cell still sending,
-  /// leaves the max-flow a residual network with much less to augment and fewer orphans to
-  /// adopt (its cuts are those of the original network, and its what_segment the same, as the
-  /// nodes reachable from s in the residual network of any maximum flow are the same).
+  /// neighbours, and much of the rest through a few cells between them. Pushing it greedily, in
+  /// a pass over the pairs, then along shortest paths found by short searches back from each
+  /// cell still sending to the sink, leaves the max-flow a residual network with much less to
+  /// augment and fewer orphans to adopt (its cuts are those of the original network, and its
+  /// what_segment the same, as the nodes reachable from s in the residual network of any maximum
+  /// flow are the same).
   void greedyFlow() {
     const std::size_t P = fg_.pair_np.size();
     // Pair k's arcs: 2k = p→q, 2k + 1 = q→p.
@@ -702,91 +702,60 @@ class AlphaExpansion final : public Stage {
       const int64_t f = std::min({res_t_[from], -res_t_[to], res_n_[arc]});
       if (f > 0) push(from, to, arc, f);
     }
-    // Then paths through one or two cells without source capacity (with some, a shorter path
-    // would have used it), s → m → q → r → t and s → p → m → q → r → t, for each r still
-    // sending to the sink. `other` gives pair k's other node and the arc from it into x.
+    // `other` gives pair k's other node and the arc from it into x.
     auto other = [&](int k, int x, std::size_t& into_x) {
       const bool x_is_p = fg_.pair_np[k] == x;
       into_x = 2 * std::size_t(k) + (x_is_p ? 1 : 0);
       return x_is_p ? fg_.pair_nq[k] : fg_.pair_np[k];
     };
     const int N = static_cast<int>(res_t_.size());
-    for (int r = 0; r < N; ++r) {
-      for (int j = fg_.pairs_off[r]; j < fg_.pairs_off[r + 1] && res_t_[r] < 0; ++j) {
-        std::size_t qr, mq, pm;
-        const int q = other(fg_.pairs_of[j], r, qr);
-        if (res_t_[q] > 0) continue;
-        for (int j2 = fg_.pairs_off[q]; j2 < fg_.pairs_off[q + 1]; ++j2) {
-          if (res_t_[r] == 0 || res_n_[qr] == 0) break;
-          const int m = other(fg_.pairs_of[j2], q, mq);
-          if (m == r || res_n_[mq] == 0) continue;
-          if (res_t_[m] > 0) {
-            const int64_t f = std::min({res_t_[m], res_n_[mq], res_n_[qr], -res_t_[r]});
-            push(m, q, mq, f);
-            push(q, r, qr, f);
-            continue;
-          }
-          for (int j3 = fg_.pairs_off[m]; j3 < fg_.pairs_off[m + 1]; ++j3) {
-            if (res_t_[r] == 0 || res_n_[qr] == 0 || res_n_[mq] == 0) break;
-            const int p = other(fg_.pairs_of[j3], m, pm);
-            if (res_t_[p] <= 0 || res_n_[pm] == 0) continue;  // also excludes r and q
-            const int64_t f = std::min({res_t_[p], res_n_[pm], res_n_[mq], res_n_[qr], -res_t_[r]});
-            push(p, m, pm, f);
-            push(m, q, mq, f);
-            push(q, r, qr, f);
-          }
-        }
-      }
-    }
-    // What still sends to the sink is a few hundred cells on the stress grid, each a few hops
+    // What still sends to the sink is about 2 500 cells on the stress grid, most a few hops
     // from cells with source capacity left: shortest augmenting paths, found by a search
-    // backwards from each such cell, carry most of what remains.
+    // backwards from each such cell, carry most of what remains. One search per cell: each cell
+    // with source capacity it meets sends along its search-tree path what the path still carries
+    // (an earlier push may have saturated part of it), until the cell's deficit is met. (This
+    // replaced passes over paths of two and three hops: as fast, and it also finds longer ones.)
     constexpr std::size_t kMaxSearch = 64;
     if (bfs_seen_.size() != std::size_t(N)) bfs_seen_.assign(N, 0);
     bfs_from_.resize(N);
     for (int r = 0; r < N; ++r) {
-      while (res_t_[r] < 0) {
-        // Backwards over arcs x → y with residual capacity, until a cell with source capacity.
-        if (++bfs_stamp_ == 0) {
-          std::fill(bfs_seen_.begin(), bfs_seen_.end(), 0);
-          bfs_stamp_ = 1;
-        }
-        bfs_queue_.clear();
-        bfs_queue_.push_back(r);
-        bfs_seen_[r] = bfs_stamp_;
-        int found = -1;
-        // A cell cut off from the source would have the search cover all it reaches; beyond
-        // kMaxSearch cells the max-flow takes over.
-        for (std::size_t head = 0;
-             head < bfs_queue_.size() && found < 0 && bfs_queue_.size() < kMaxSearch; ++head) {
-          const int y = bfs_queue_[head];
-          for (int j = fg_.pairs_off[y]; j < fg_.pairs_off[y + 1]; ++j) {
-            std::size_t xy;
-            const int x = other(fg_.pairs_of[j], y, xy);
-            if (bfs_seen_[x] == bfs_stamp_ || res_n_[xy] == 0) continue;
-            bfs_seen_[x] = bfs_stamp_;
-            bfs_from_[x] = xy;
-            if (res_t_[x] > 0) {
-              found = x;
-              break;
-            }
-            bfs_queue_.push_back(x);
+      if (res_t_[r] >= 0) continue;
+      if (++bfs_stamp_ == 0) {
+        std::fill(bfs_seen_.begin(), bfs_seen_.end(), 0);
+        bfs_stamp_ = 1;
+      }
+      bfs_queue_.clear();
+      bfs_queue_.push_back(r);
+      bfs_seen_[r] = bfs_stamp_;
+      // Backwards over arcs x → y with residual capacity. A cell cut off from the source would
+      // have the search cover all it reaches; beyond kMaxSearch cells the max-flow takes over.
+      for (std::size_t head = 0; head < bfs_queue_.size() && res_t_[r] < 0; ++head) {
+        const int y = bfs_queue_[head];
+        for (int j = fg_.pairs_off[y]; j < fg_.pairs_off[y + 1] && res_t_[r] < 0; ++j) {
+          std::size_t xy;
+          const int x = other(fg_.pairs_of[j], y, xy);
+          if (bfs_seen_[x] == bfs_stamp_ || res_n_[xy] == 0) continue;
+          bfs_seen_[x] = bfs_stamp_;
+          bfs_from_[x] = xy;
+          if (res_t_[x] <= 0) {
+            if (bfs_queue_.size() < kMaxSearch) bfs_queue_.push_back(x);
+            continue;
           }
-        }
-        if (found < 0) break;  // r is cut off from the source: its rest stays with the sink
-        int64_t f = std::min(res_t_[found], -res_t_[r]);
-        for (int x = found; x != r;) {
-          const std::size_t a = bfs_from_[x];
-          f = std::min(f, res_n_[a]);
-          x = pairHead(a);
-        }
-        res_t_[found] -= f;
-        res_t_[r] += f;
-        for (int x = found; x != r;) {
-          const std::size_t a = bfs_from_[x];
-          res_n_[a] -= f;
-          res_n_[a ^ 1] += f;
-          x = pairHead(a);
+          int64_t f = std::min(res_t_[x], -res_t_[r]);
+          for (int z = x; z != r && f > 0;) {
+            const std::size_t a = bfs_from_[z];
+            f = std::min(f, res_n_[a]);
+            z = pairHead(a);
+          }
+          if (f == 0) continue;
+          res_t_[x] -= f;
+          res_t_[r] += f;
+          for (int z = x; z != r;) {
+            const std::size_t a = bfs_from_[z];
+            res_n_[a] -= f;
+            res_n_[a ^ 1] += f;
+            z = pairHead(a);
+          }
         }
       }
     }
