@@ -17,24 +17,36 @@ namespace {
 // conditional. When every x_k but x_a is beyond NegExp::kMax (q = 1 at a, 0 elsewhere) the draw is
 // certain: pick = a, whatever U is, and the one-at-a-time version skips the exponentials.
 
+/// What a kernel reads of plane p: its labels, its neighbours' offsets, and per label its
+/// unaries and (when averaging) its sums.
+template <int kMax>
+struct PlaneRows {
+  std::array<std::ptrdiff_t, 8> off;
+  uint8_t* lab;
+  const float* u[kMax];
+  float* acc[kMax];
+  PlaneRows(ColourPlanes& cp, int p, float* sums) : off(cp.neighbourOffsets(p)), lab(cp.plane(p)) {
+    for (int k = 0; k < cp.labels(); ++k) {
+      u[k] = cp.unary(p, k);
+      acc[k] = sums ? sums + (std::size_t(p) * cp.labels() + k) * cp.planeSize() : nullptr;
+    }
+  }
+};
+
 template <int KK>
 int sweepScalar(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
   const int K = KK > 0 ? KK : cp.labels();
   constexpr int kMax = KK > 0 ? KK : 255;
-  const std::size_t ps = cp.planeSize();
   uint8_t* all = cp.data().data();
   float s[kMax], x[kMax], q[kMax];
   int n_edge[kMax + 1], n_diag[kMax + 1];
   int changed = 0;
   for (int p = 0; p < 4; ++p) {
-    const auto off = cp.neighbourOffsets(p);
-    uint8_t* lab = cp.plane(p);
-    const float* u[kMax];
-    float* acc[kMax];
-    for (int k = 0; k < K; ++k) {
-      u[k] = cp.unary(p, k);
-      acc[k] = sp.sums ? sp.sums + (std::size_t(p) * K + k) * ps : nullptr;
-    }
+    const PlaneRows<kMax> pr(cp, p, sp.sums);
+    const auto& off = pr.off;
+    uint8_t* lab = pr.lab;
+    const auto& u = pr.u;
+    const auto& acc = pr.acc;
     for (int i = 0; i < cp.subRows(); ++i) {
       const uint32_t row_cell = uint32_t((2 * i + (p >> 1)) * cp.gridCols() + (p & 1));
       for (int j = 0; j < cp.subCols(); ++j) {
@@ -113,18 +125,19 @@ inline void storeLabels8(uint8_t* p, __m256i v) {
   std::memcpy(p, &both, 8);
 }
 
-inline __m256i mixBits8(__m256i x) {
+/// lowbias32 for eight values.
+inline __m256i lowbias8(__m256i x) {
   x = _mm256_xor_si256(x, _mm256_srli_epi32(x, 16));
-  x = _mm256_mullo_epi32(x, _mm256_set1_epi32(int(0x21f0aaadu)));
+  x = _mm256_mullo_epi32(x, _mm256_set1_epi32(int(0x7feb352dU)));
   x = _mm256_xor_si256(x, _mm256_srli_epi32(x, 15));
-  x = _mm256_mullo_epi32(x, _mm256_set1_epi32(int(0x735a2d97u)));
-  return _mm256_xor_si256(x, _mm256_srli_epi32(x, 15));
+  x = _mm256_mullo_epi32(x, _mm256_set1_epi32(int(0x846ca68bU)));
+  return _mm256_xor_si256(x, _mm256_srli_epi32(x, 16));
 }
 
 /// SweepKeys::uniform for eight cells.
 inline __m256 uniform8(const SweepKeys& keys, __m256i cells) {
   const __m256i h =
-      mixBits8(_mm256_xor_si256(mixBits8(_mm256_add_epi32(cells, _mm256_set1_epi32(int(keys.k1)))),
+      lowbias8(_mm256_xor_si256(lowbias8(_mm256_add_epi32(cells, _mm256_set1_epi32(int(keys.k1)))),
                                 _mm256_set1_epi32(int(keys.k2))));
   return _mm256_mul_ps(_mm256_cvtepi32_ps(_mm256_srli_epi32(h, 8)),
                        _mm256_set1_ps(1.0f / 16777216.0f));
@@ -150,7 +163,6 @@ template <int KK>
 int sweepAvx2(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
   const int K = KK > 0 ? KK : cp.labels();
   constexpr int kMax = KK > 0 ? KK : 255;
-  const std::size_t ps = cp.planeSize();
   const uint8_t* all = cp.data().data();
   const __m256 we = _mm256_set1_ps(sp.we), wd = _mm256_set1_ps(sp.wd);
   const __m256 inv_t = _mm256_set1_ps(sp.inv_t), lim = _mm256_set1_ps(NegExp::kMax);
@@ -160,14 +172,11 @@ int sweepAvx2(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
   __m256 s[kMax], q[kMax];
   int changed = 0;
   for (int p = 0; p < 4; ++p) {
-    const auto off = cp.neighbourOffsets(p);
-    uint8_t* lab = cp.plane(p);
-    const float* u[kMax];
-    float* acc[kMax];
-    for (int k = 0; k < K; ++k) {
-      u[k] = cp.unary(p, k);
-      acc[k] = sp.sums ? sp.sums + (std::size_t(p) * K + k) * ps : nullptr;
-    }
+    const PlaneRows<kMax> pr(cp, p, sp.sums);
+    const auto& off = pr.off;
+    uint8_t* lab = pr.lab;
+    const auto& u = pr.u;
+    const auto& acc = pr.acc;
     for (int i = 0; i < cp.subRows(); ++i) {
       const int row_cell = (2 * i + (p >> 1)) * cp.gridCols() + (p & 1);
       uint8_t* settled = cp.settled(p, i);

@@ -5,18 +5,9 @@
 // a cell whose draw is certain can skip it without shifting any other cell's.
 #include <cstdint>
 
-namespace terramrf {
+#include "terramrf/hash.hpp"
 
-/// A 32-bit integer hash with full avalanche (Wellons' "lowbias32" constants, bias ≈ 0.17 of
-/// the best known); a bijection, so distinct inputs never collide.
-inline uint32_t mixBits32(uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x21f0aaadu;
-  x ^= x >> 15;
-  x *= 0x735a2d97u;
-  x ^= x >> 15;
-  return x;
-}
+namespace terramrf {
 
 /// The two 32-bit keys of one sweep of one seed (SplitMix64 of seed and sweep number).
 struct SweepKeys {
@@ -31,7 +22,7 @@ struct SweepKeys {
   }
   /// The 32 random bits of `cell` in this sweep: two rounds, so that neither a cell's
   /// neighbours nor its earlier sweeps (inputs a constant apart) give related bits.
-  uint32_t bits(uint32_t cell) const { return mixBits32(mixBits32(cell + k1) ^ k2); }
+  uint32_t bits(uint32_t cell) const { return lowbias32(lowbias32(cell + k1) ^ k2); }
   /// Uniform in [0, 1) with 24 bits (a float's mantissa).
   float uniform(uint32_t cell) const {
     return static_cast<float>(bits(cell) >> 8) * (1.0f / 16777216.0f);

@@ -4,17 +4,11 @@
 #include <cmath>
 #include <cstdint>
 
+#include "terramrf/hash.hpp"
+
 namespace terramrf::sim::noise {
 
-inline uint32_t hash32(uint32_t x) {
-  // "lowbias32" (Wellons): good avalanche for the price of two multiplies.
-  x ^= x >> 16;
-  x *= 0x7feb352dU;
-  x ^= x >> 15;
-  x *= 0x846ca68bU;
-  x ^= x >> 16;
-  return x;
-}
+inline uint32_t hash32(uint32_t x) { return lowbias32(x); }
 
 inline float lattice(int32_t ix, int32_t iy, uint32_t seed) {
   const uint32_t h = hash32(uint32_t(ix) * 0x8da6b343U ^ hash32(uint32_t(iy) * 0xd8163841U ^ seed));
