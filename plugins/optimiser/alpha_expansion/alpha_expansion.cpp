@@ -270,9 +270,10 @@ class AlphaExpansion final : public Stage {
         block_dirty_[br * C + bc] = 1;
   }
 
-  /// One raster pass of exact 2×2 block moves over the blocks marked dirty: each block of four
-  /// non-fixed cells takes the joint labelling of least energy given the current labels around it
-  /// (the block's unaries, its six inner pairs and its pairs with the twelve cells around it).
+  /// One raster pass of exact 2×2 block moves over the blocks marked dirty: the non-fixed cells
+  /// of each block (at least two) take the joint labelling of least energy given the current
+  /// labels around them (their unaries, the inner pairs between them and their pairs with the
+  /// cells around).
   /// Returns the total energy change (≤ 0). A block is searched only if a bound says it could
   /// improve (every cell at its best label given the outside, every inner pair equal), which
   /// leaves uniform, settled regions alone; the search fixes the top two cells (K² cases) and
@@ -336,16 +337,15 @@ class AlphaExpansion final : public Stage {
       }
       touchBlocks(i, R, C);
     };
-    // Inner neighbours of block cell j (cells 0 1 / 2 3) and the pair weights.
+    // Inner neighbours of block cell j (cells 0 1 / 2 3): edge, edge, diagonal.
     static constexpr int kInner[4][3] = {{1, 2, 3}, {0, 3, 2}, {3, 0, 1}, {2, 1, 0}};
     const double w_inner[3] = {wb, wb, wd};
     const double inner_all =
         2 * wb + wd;  // Σ w_inner: every cell has two inner edges, one diagonal
-    // Cells 0 1 / 2 3; inner pairs 0–1, 2–3, 0–2, 1–3 (edges) and 0–3, 1–2 (diagonals).
-    const double inner_min = -4 * std::max(0.0, wb) - 2 * std::max(0.0, wd);
-    // With non-negative weights, a block whose labels are not all equal pays at least the
-    // cheapest cut of its six pairs over inner_min: one cell against three (2wb + wd), or
-    // top/bottom or left/right (2wb + 2wd), or the diagonals apart (4wb), each pair 2w.
+    // With non-negative weights, a block of four non-fixed cells whose labels are not all equal
+    // pays at least the cheapest cut of its six pairs over their minimum: one cell against three
+    // (2wb + wd), or top/bottom or left/right (2wb + 2wd), or the diagonals apart (4wb), each
+    // pair 2w.
     const double split_extra = wb >= 0 && wd >= 0 ? 2 * std::min(2 * wb + wd, 4 * wb) : 0.0;
     auto dl = [](int a, int b) { return a == b ? -1.0 : 1.0; };
     double total = 0;
@@ -355,50 +355,73 @@ class AlphaExpansion final : public Stage {
         if (!block_dirty_[r * C + c]) continue;
         block_dirty_[r * C + c] = 0;
         const int cell[4] = {r * C + c, r * C + c + 1, (r + 1) * C + c, (r + 1) * C + c + 1};
-        if (em.fixed[cell[0]] || em.fixed[cell[1]] || em.fixed[cell[2]] || em.fixed[cell[3]])
-          continue;
+        // A fixed cell keeps its label and has no pairs; the block's other cells still move
+        // together (two diagonal neighbours next to a cell without points, say). With one cell
+        // or none left to move, an expansion already covers it.
+        bool free[4];
+        int n_free = 0;
+        for (int j = 0; j < 4; ++j) n_free += free[j] = !em.fixed[cell[j]];
+        if (n_free < 2) continue;
+        const bool all_free = n_free == 4;
         int cur[4];
         for (int j = 0; j < 4; ++j) cur[j] = lab[cell[j]];
         // Most blocks are uniform and settled, and the bound below skips them. For a uniform
         // block it reduces to a test per cell: every other label at least 2·Σ w_inner above the
         // block's label in the cell's sums (then neither a uniform relabelling nor a split can
         // be lower), which costs a fraction of the bound's arithmetic.
-        if (split_extra > 0 && cur[0] == cur[1] && cur[0] == cur[2] && cur[0] == cur[3] &&
-            margin(cell[0]) >= 2 * inner_all && margin(cell[1]) >= 2 * inner_all &&
-            margin(cell[2]) >= 2 * inner_all && margin(cell[3]) >= 2 * inner_all)
+        if (all_free && split_extra > 0 && cur[0] == cur[1] && cur[0] == cur[2] &&
+            cur[0] == cur[3] && margin(cell[0]) >= 2 * inner_all &&
+            margin(cell[1]) >= 2 * inner_all && margin(cell[2]) >= 2 * inner_all &&
+            margin(cell[3]) >= 2 * inner_all)
           continue;
-        // local[j][k]: unary of cell j under k plus its pairs with non-fixed cells outside.
+        // The six inner pairs' weights, 0 where a cell is fixed: 0–1, 2–3, 0–2, 1–3 (edges),
+        // 0–3, 1–2 (diagonals).
+        auto pw = [&](int a, int b, double w) { return free[a] && free[b] ? w : 0.0; };
+        const double w01 = pw(0, 1, wb), w23 = pw(2, 3, wb), w02 = pw(0, 2, wb), w13 = pw(1, 3, wb),
+                     w03 = pw(0, 3, wd), w12 = pw(1, 2, wd);
+        const double inner_min = -std::max(0.0, w01) - std::max(0.0, w23) - std::max(0.0, w02) -
+                                 std::max(0.0, w13) - std::max(0.0, w03) - std::max(0.0, w12);
+        // local[j][k]: unary of cell j under k plus its pairs with non-fixed cells outside; a
+        // fixed cell costs nothing at its label and cannot take another.
         double each_min = 0, now = 0;
         for (int j = 0; j < 4; ++j) {
+          if (!free[j]) {
+            for (int k = 0; k < K; ++k) local[j][k] = k == cur[j] ? 0.0 : INFINITY;
+            continue;
+          }
           const double* s = sums(cell[j]);
-          for (int k = 0; k < K; ++k) local[j][k] = s[k] - inner_all;
-          for (int m = 0; m < 3; ++m) local[j][cur[kInner[j][m]]] += 2 * w_inner[m];
+          double inner = 0;
+          for (int m = 0; m < 3; ++m) inner += free[kInner[j][m]] ? w_inner[m] : 0.0;
+          for (int k = 0; k < K; ++k) local[j][k] = s[k] - inner;
+          for (int m = 0; m < 3; ++m)
+            if (free[kInner[j][m]]) local[j][cur[kInner[j][m]]] += 2 * w_inner[m];
           each_min += *std::min_element(local[j], local[j] + K);
           now += local[j][cur[j]];
         }
-        now += wb * (dl(cur[0], cur[1]) + dl(cur[2], cur[3]) + dl(cur[0], cur[2]) +
-                     dl(cur[1], cur[3])) +
-               wd * (dl(cur[0], cur[3]) + dl(cur[1], cur[2]));
+        now += w01 * dl(cur[0], cur[1]) + w23 * dl(cur[2], cur[3]) + w02 * dl(cur[0], cur[2]) +
+               w13 * dl(cur[1], cur[3]) + w03 * dl(cur[0], cur[3]) + w12 * dl(cur[1], cur[2]);
         const double eps = 1e-9 * (1.0 + std::abs(now));
         // A lower bound of the block's best energy: the best labelling with all four equal, or
         // one that splits the block and so pays split_extra, each cell at its best label.
         double uniform = INFINITY;
         for (int k = 0; k < K; ++k)
           uniform = std::min(uniform, local[0][k] + local[1][k] + local[2][k] + local[3][k]);
-        const double bound = inner_min + std::min(uniform, each_min + split_extra);
+        const double bound =
+            inner_min + std::min(uniform, each_min + (all_free ? split_extra : 0.0));
         if (now - bound <= eps) continue;
         double best_e = now - eps;
         int best[4] = {-1, -1, -1, -1};
         for (int x0 = 0; x0 < K; ++x0)
           for (int x1 = 0; x1 < K; ++x1) {
-            const double top = local[0][x0] + local[1][x1] + wb * dl(x0, x1);
+            const double top = local[0][x0] + local[1][x1] + w01 * dl(x0, x1);
+            if (!(top < INFINITY)) continue;  // a fixed cell at another label
             // Bottom pair given the top: f2 = cell 2 with its pairs to 0 (edge) and 1 (diagonal),
             // f3 = cell 3 with its pairs to 1 (edge) and 0 (diagonal).
             int b2 = 0, s2 = -1, b3 = 0, s3 = -1, same = 0;
             double same_e = INFINITY;
             for (int k = 0; k < K; ++k) {
-              f2[k] = local[2][k] + wb * dl(x0, k) + wd * dl(x1, k);
-              f3[k] = local[3][k] + wb * dl(x1, k) + wd * dl(x0, k);
+              f2[k] = local[2][k] + w02 * dl(x0, k) + w12 * dl(x1, k);
+              f3[k] = local[3][k] + w13 * dl(x1, k) + w03 * dl(x0, k);
               if (f2[k] + f3[k] < same_e) {
                 same_e = f2[k] + f3[k];
                 same = k;
@@ -419,7 +442,7 @@ class AlphaExpansion final : public Stage {
               }
             }
             // Equal bottom labels (δ = −1) or the best two different ones (δ = +1).
-            double e = top + same_e - wb;
+            double e = top + same_e - w23;
             int x2 = same, x3 = same;
             int d2 = b2, d3 = b3;
             if (b2 == b3) {
@@ -428,8 +451,8 @@ class AlphaExpansion final : public Stage {
               else
                 d2 = s2;
             }
-            if (top + f2[d2] + f3[d3] + wb < e) {
-              e = top + f2[d2] + f3[d3] + wb;
+            if (top + f2[d2] + f3[d3] + w23 < e) {
+              e = top + f2[d2] + f3[d3] + w23;
               x2 = d2;
               x3 = d3;
             }
