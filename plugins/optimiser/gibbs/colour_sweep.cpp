@@ -43,33 +43,29 @@ int sweepScalar(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
   int changed = 0;
   for (int p = 0; p < 4; ++p) {
     const PlaneRows<kMax> pr(cp, p, sp.sums);
-    const auto& off = pr.off;
-    uint8_t* lab = pr.lab;
-    const auto& u = pr.u;
-    const auto& acc = pr.acc;
     for (int i = 0; i < cp.subRows(); ++i) {
       const uint32_t row_cell = uint32_t((2 * i + (p >> 1)) * cp.gridCols() + (p & 1));
       for (int j = 0; j < cp.subCols(); ++j) {
         const std::size_t idx = cp.index(i, j);
-        const int cur = lab[idx];
+        const int cur = pr.lab[idx];
         if (cur == K) continue;  // fixed, or beyond the grid
         if constexpr (KK > 0 && KK < 8) {
           // One byte counter per label (and the sentinel's) in a word: no stores to reload.
           uint64_t e = 0, d = 0;
-          for (int n = 0; n < 4; ++n) e += uint64_t(1) << (8 * all[off[n] + idx]);
-          for (int n = 4; n < 8; ++n) d += uint64_t(1) << (8 * all[off[n] + idx]);
+          for (int n = 0; n < 4; ++n) e += uint64_t(1) << (8 * all[pr.off[n] + idx]);
+          for (int n = 4; n < 8; ++n) d += uint64_t(1) << (8 * all[pr.off[n] + idx]);
           for (int k = 0; k < K; ++k) {
             n_edge[k] = int(e >> (8 * k) & 0xff);
             n_diag[k] = int(d >> (8 * k) & 0xff);
           }
         } else {
           for (int k = 0; k <= K; ++k) n_edge[k] = n_diag[k] = 0;
-          for (int n = 0; n < 4; ++n) ++n_edge[all[off[n] + idx]];
-          for (int n = 4; n < 8; ++n) ++n_diag[all[off[n] + idx]];
+          for (int n = 0; n < 4; ++n) ++n_edge[all[pr.off[n] + idx]];
+          for (int n = 4; n < 8; ++n) ++n_diag[all[pr.off[n] + idx]];
         }
         int arg = 0;
         for (int k = 0; k < K; ++k) {
-          s[k] = u[k][idx] - (float(n_edge[k]) * sp.we + float(n_diag[k]) * sp.wd);
+          s[k] = pr.u[k][idx] - (float(n_edge[k]) * sp.we + float(n_diag[k]) * sp.wd);
           if (s[k] < s[arg]) arg = k;
         }
         bool certain = true;
@@ -93,14 +89,14 @@ int sweepScalar(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
         }
         if (pick != cur) {
           energy += double(s[pick]) - double(s[cur]);
-          lab[idx] = static_cast<uint8_t>(pick);
+          pr.lab[idx] = static_cast<uint8_t>(pick);
           ++changed;
         }
         if (sp.sums) {
           if (certain) {
-            acc[arg][idx] += 1.f;
+            pr.acc[arg][idx] += 1.f;
           } else {
-            for (int k = 0; k < K; ++k) acc[k][idx] += q[k] * inv_z;
+            for (int k = 0; k < K; ++k) pr.acc[k][idx] += q[k] * inv_z;
           }
         }
       }
@@ -173,16 +169,12 @@ int sweepAvx2(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
   int changed = 0;
   for (int p = 0; p < 4; ++p) {
     const PlaneRows<kMax> pr(cp, p, sp.sums);
-    const auto& off = pr.off;
-    uint8_t* lab = pr.lab;
-    const auto& u = pr.u;
-    const auto& acc = pr.acc;
     for (int i = 0; i < cp.subRows(); ++i) {
       const int row_cell = (2 * i + (p >> 1)) * cp.gridCols() + (p & 1);
       uint8_t* settled = cp.settled(p, i);
       for (int j = 0, g = 0; j < cp.subCols(); j += ColourPlanes::kLanes, ++g) {
         const std::size_t idx = cp.index(i, j);
-        const __m256i cur = loadLabels8(lab + idx);
+        const __m256i cur = loadLabels8(pr.lab + idx);
         const __m256 active = _mm256_castsi256_ps(
             _mm256_xor_si256(_mm256_cmpeq_epi32(cur, sentinel), _mm256_set1_epi32(-1)));
         const int active_bits = _mm256_movemask_ps(active);
@@ -191,13 +183,13 @@ int sweepAvx2(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
           if (sp.sums)
             for (int k = 0; k < K; ++k) {
               const __m256 hit = _mm256_castsi256_ps(_mm256_cmpeq_epi32(cur, _mm256_set1_epi32(k)));
-              _mm256_storeu_ps(acc[k] + idx, _mm256_add_ps(_mm256_loadu_ps(acc[k] + idx),
-                                                           _mm256_and_ps(hit, one)));
+              _mm256_storeu_ps(pr.acc[k] + idx, _mm256_add_ps(_mm256_loadu_ps(pr.acc[k] + idx),
+                                                              _mm256_and_ps(hit, one)));
             }
           continue;
         }
         __m256i nb[8];
-        for (int n = 0; n < 8; ++n) nb[n] = loadLabels8(all + off[n] + idx);
+        for (int n = 0; n < 8; ++n) nb[n] = loadLabels8(all + pr.off[n] + idx);
         // Counts as sums of −1 (equal-compare masks): u + (−n·2β + −d·2β_d) is the same float
         // as u − (n·2β + d·2β_d), rounding being symmetric.
         __m256 m = zero;
@@ -210,7 +202,7 @@ int sweepAvx2(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
           const __m256i nd = _mm256_add_epi32(
               _mm256_add_epi32(_mm256_cmpeq_epi32(nb[4], kk), _mm256_cmpeq_epi32(nb[5], kk)),
               _mm256_add_epi32(_mm256_cmpeq_epi32(nb[6], kk), _mm256_cmpeq_epi32(nb[7], kk)));
-          s[k] = _mm256_add_ps(_mm256_loadu_ps(u[k] + idx),
+          s[k] = _mm256_add_ps(_mm256_loadu_ps(pr.u[k] + idx),
                                _mm256_add_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(ne), we),
                                              _mm256_mul_ps(_mm256_cvtepi32_ps(nd), wd)));
           if (k == 0) {
@@ -268,7 +260,7 @@ int sweepAvx2(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
           for (int l = 0; l < 8; ++l)
             if (moved_bits >> l & 1) energy += double(sk[l]) - double(sc[l]);
           changed += __builtin_popcount(unsigned(moved_bits));
-          storeLabels8(lab + idx, _mm256_blendv_epi8(cur, pick, moved));
+          storeLabels8(pr.lab + idx, _mm256_blendv_epi8(cur, pick, moved));
           cp.unsettleNeighbours(p, i, g, __builtin_ctz(unsigned(moved_bits)),
                                 31 - __builtin_clz(unsigned(moved_bits)));
         } else if (_mm256_movemask_ps(uncertain) == 0) {
@@ -277,7 +269,7 @@ int sweepAvx2(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
         if (sp.sums) {
           for (int k = 0; k < K; ++k) {
             const __m256 add = _mm256_and_ps(active, _mm256_mul_ps(q[k], inv_z));
-            _mm256_storeu_ps(acc[k] + idx, _mm256_add_ps(_mm256_loadu_ps(acc[k] + idx), add));
+            _mm256_storeu_ps(pr.acc[k] + idx, _mm256_add_ps(_mm256_loadu_ps(pr.acc[k] + idx), add));
           }
         }
       }
