@@ -421,17 +421,24 @@ test::OptimiserRun expectOnlyBlockMovesReach(const EnergyModel& em,
 // change pays its eight boundaries (+16) and loses 0.5; together they share the A–B boundary,
 // paid once, and gain 1. No expansion (one label enters) and no swap (cells trade two labels)
 // contains that move: only the 2×2 block moves find it.
-TEST(AlphaExpansion, BlockMovesLetTwoLabelsEnterAtOnce) {
+/// labelZeroGrid(1) with w = 1, in which cell a prefers label 1 and cell b label 2 by `gain`
+/// (and the other of the two labels costs them 5); sets `want` to that labelling.
+EnergyModel twoCellsWantingTwoLabels(int a, int b, float gain, std::vector<uint8_t>& want) {
   EnergyModel em = labelZeroGrid(1.f);
-  const int a = 1 * 4 + 1, b = 1 * 4 + 2;
-  em.unary[a * 3 + 1] = -15.5f;
+  em.unary[a * 3 + 1] = -gain;
   em.unary[a * 3 + 2] = 5.f;
   em.unary[b * 3 + 1] = 5.f;
-  em.unary[b * 3 + 2] = -15.5f;
+  em.unary[b * 3 + 2] = -gain;
   em.beta = em.beta_diagonal = 1.f;
-  std::vector<uint8_t> want = em.initial;
+  want = em.initial;
   want[a] = 1;
   want[b] = 2;
+  return em;
+}
+
+TEST(AlphaExpansion, BlockMovesLetTwoLabelsEnterAtOnce) {
+  std::vector<uint8_t> want;
+  const EnergyModel em = twoCellsWantingTwoLabels(1 * 4 + 1, 1 * 4 + 2, 15.5f, want);
   const auto r = expectOnlyBlockMovesReach(em, want, 1.0, "two labels entering");
   EXPECT_EQ(r.metrics.at("alpha_expansion.block_moves"), 1.0);
 }
@@ -443,17 +450,9 @@ TEST(AlphaExpansion, BlockMovesLetTwoLabelsEnterAtOnce) {
 // move the free cells of a block that has fixed ones (as on SemanticKITTI seq 00 frame 2, where
 // Gibbs found such a move and α-expansion did not).
 TEST(AlphaExpansion, BlockMovesMoveTheFreeCellsBesideFixedOnes) {
-  EnergyModel em = labelZeroGrid(1.f);
-  const int a = 1 * 4 + 2, b = 2 * 4 + 1;
-  em.unary[a * 3 + 1] = -11.5f;
-  em.unary[a * 3 + 2] = 5.f;
-  em.unary[b * 3 + 1] = 5.f;
-  em.unary[b * 3 + 2] = -11.5f;
+  std::vector<uint8_t> want;
+  EnergyModel em = twoCellsWantingTwoLabels(1 * 4 + 2, 2 * 4 + 1, 11.5f, want);
   em.fixed[1 * 4 + 1] = em.fixed[2 * 4 + 2] = 1;
-  em.beta = em.beta_diagonal = 1.f;
-  std::vector<uint8_t> want = em.initial;
-  want[a] = 1;
-  want[b] = 2;
   const auto r = expectOnlyBlockMovesReach(em, want, 1.0, "beside fixed cells");
   EXPECT_EQ(r.metrics.at("alpha_expansion.block_moves"), 1.0);
 }
