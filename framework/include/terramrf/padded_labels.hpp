@@ -1,8 +1,8 @@
 #pragma once
-// Label indices on the grid padded by one cell, as the local optimisers (ICM, the Gibbs sampler,
-// α-expansion's ICM start) read them: the pad and the fixed cells hold the
-// sentinel K, whose score slot is scratch, so an 8-neighbour loop needs neither bounds nor
-// fixed-cell tests.
+// Label indices on the grid padded by one cell, as ICM, α-expansion's ICM start and block moves,
+// and the score layers read them: the pad and the fixed cells hold the sentinel K, whose score
+// slot is scratch, so an 8-neighbour loop needs neither bounds nor fixed-cell tests. (The Gibbs
+// sampler has its own layout, one plane per colour: plugins/optimiser/gibbs/colour_planes.hpp.)
 #include <cstddef>
 #include <cstdint>
 #include <vector>

@@ -337,7 +337,7 @@ TEST(AlphaExpansion, MatchesATextbookImplementationOnLargerGrids) {
 
 // The block moves too, move for move: the bound that skips blocks, the sums kept up to date as
 // moves are taken, and the exact search inside a block must together give what enumerating
-// every block's K^4 labellings in raster order gives.
+// the labellings of every block's non-fixed cells in raster order gives.
 TEST(AlphaExpansion, BlockMovesMatchEnumeratingEveryBlock) {
   OptimiserHarness h;
   int total_moves = 0;
