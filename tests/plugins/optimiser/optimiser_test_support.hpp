@@ -30,7 +30,8 @@ inline LabelSet optimiserLabelSet() {
 }
 
 struct RandomModelSpec {
-  int size = 12;   ///< square grid side [cells]
+  int size = 12;   ///< grid rows, and columns unless `cols` is set [cells]
+  int cols = 0;    ///< grid columns; 0 = square (`size`) [cells]
   int labels = 3;  ///< K (≤ 4)
   double fixed_fraction = 0.1;
   double unary_lo = -1.0, unary_hi = 1.0;
@@ -44,7 +45,7 @@ inline EnergyModel randomModel(uint32_t seed, const RandomModelSpec& s = {}) {
       coin(0, 1);
   std::uniform_int_distribution<int> label(0, s.labels - 1);
   EnergyModel em;
-  em.resize(s.size, s.size, s.labels);
+  em.resize(s.size, s.cols > 0 ? s.cols : s.size, s.labels);
   for (int k = 0; k < s.labels; ++k) em.active[k] = static_cast<LabelId>(k + 1);
   for (auto& u : em.unary) u = static_cast<float>(unary(rng));
   for (std::size_t i = 0; i < em.cells(); ++i) {

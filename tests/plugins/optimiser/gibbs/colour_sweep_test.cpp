@@ -8,30 +8,27 @@
 
 #include <cmath>
 #include <cstring>
-#include <random>
 #include <vector>
 
 #include "colour_planes.hpp"
+#include "optimiser_test_support.hpp"
 #include "terramrf/simd.hpp"
 
 namespace terramrf {
 namespace {
 
+/// A random rows × cols model (test::randomModel), unaries in ±1.5, weights 0.1–1.0.
 EnergyModel randomRectModel(uint32_t seed, int rows, int cols, int K, double fixed_fraction) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> unary(-1.5, 1.5), beta(0.1, 1.0), coin(0, 1);
-  std::uniform_int_distribution<int> label(0, K - 1);
-  EnergyModel em;
-  em.resize(rows, cols, K);
-  for (int k = 0; k < K; ++k) em.active[k] = static_cast<LabelId>(k + 1);
-  for (auto& u : em.unary) u = static_cast<float>(unary(rng));
-  for (std::size_t i = 0; i < em.cells(); ++i) {
-    em.fixed[i] = coin(rng) < fixed_fraction ? 1 : 0;
-    em.initial[i] = static_cast<uint8_t>(label(rng));
-  }
-  em.beta = static_cast<float>(beta(rng));
-  em.beta_diagonal = static_cast<float>(beta(rng));
-  return em;
+  test::RandomModelSpec s;
+  s.size = rows;
+  s.cols = cols;
+  s.labels = K;
+  s.fixed_fraction = fixed_fraction;
+  s.unary_lo = -1.5;
+  s.unary_hi = 1.5;
+  s.beta_lo = 0.1;
+  s.beta_hi = 1.0;
+  return test::randomModel(seed, s);
 }
 
 struct Chain {
