@@ -1,5 +1,6 @@
 #include "colour_sweep.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstring>
 
@@ -45,60 +46,83 @@ int sweepScalar(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
     const PlaneRows<kMax> pr(cp, p, sp.sums);
     for (int i = 0; i < cp.subRows(); ++i) {
       const uint32_t row_cell = uint32_t((2 * i + (p >> 1)) * cp.gridCols() + (p & 1));
-      for (int j = 0; j < cp.subCols(); ++j) {
-        const std::size_t idx = cp.index(i, j);
-        const int cur = pr.lab[idx];
-        if (cur == K) continue;  // fixed, or beyond the grid
-        if constexpr (KK > 0 && KK < 8) {
-          // One byte counter per label (and the sentinel's) in a word: no stores to reload.
-          uint64_t e = 0, d = 0;
-          for (int n = 0; n < 4; ++n) e += uint64_t(1) << (8 * all[pr.off[n] + idx]);
-          for (int n = 4; n < 8; ++n) d += uint64_t(1) << (8 * all[pr.off[n] + idx]);
-          for (int k = 0; k < K; ++k) {
-            n_edge[k] = int(e >> (8 * k) & 0xff);
-            n_diag[k] = int(d >> (8 * k) & 0xff);
-          }
-        } else {
-          for (int k = 0; k <= K; ++k) n_edge[k] = n_diag[k] = 0;
-          for (int n = 0; n < 4; ++n) ++n_edge[all[pr.off[n] + idx]];
-          for (int n = 4; n < 8; ++n) ++n_diag[all[pr.off[n] + idx]];
-        }
-        int arg = 0;
-        for (int k = 0; k < K; ++k) {
-          s[k] = pr.u[k][idx] - (float(n_edge[k]) * sp.we + float(n_diag[k]) * sp.wd);
-          if (s[k] < s[arg]) arg = k;
-        }
-        bool certain = true;
-        for (int k = 0; k < K; ++k) {
-          x[k] = (s[k] - s[arg]) * sp.inv_t;
-          certain = certain && (k == arg || NegExp::zero(x[k]));
-        }
-        int pick = arg;
-        float inv_z = 1.f;
-        if (!certain) {
-          float z = 0.f;
-          for (int k = 0; k < K; ++k) z += q[k] = NegExp::eval(x[k]);
-          float v = sp.keys.uniform(row_cell + 2 * uint32_t(j)) * z;
-          pick = K - 1;
-          for (int k = 0; k < K - 1; ++k)
-            if ((v -= q[k]) < 0.f) {
-              pick = k;
-              break;
+      uint8_t* settled = cp.settled(p, i);
+      // By groups of the vector sweep's lanes, so that both settle and skip the same groups.
+      for (int j0 = 0, g = 0; j0 < cp.subCols(); j0 += ColourPlanes::kLanes, ++g) {
+        const int j_end = std::min(j0 + ColourPlanes::kLanes, cp.subCols());
+        if (sp.skip_settled && settled[g]) {  // certain draws of the current labels
+          if (sp.sums)
+            for (int j = j0; j < j_end; ++j) {
+              const std::size_t idx = cp.index(i, j);
+              if (pr.lab[idx] != K) pr.acc[pr.lab[idx]][idx] += 1.f;
             }
-          inv_z = 1.f / z;
+          continue;
         }
-        if (pick != cur) {
-          energy += double(s[pick]) - double(s[cur]);
-          pr.lab[idx] = static_cast<uint8_t>(pick);
-          ++changed;
-        }
-        if (sp.sums) {
-          if (certain) {
-            pr.acc[arg][idx] += 1.f;
+        int moved_first = -1, moved_last = -1;
+        bool any_active = false, any_uncertain = false;
+        for (int j = j0; j < j_end; ++j) {
+          const std::size_t idx = cp.index(i, j);
+          const int cur = pr.lab[idx];
+          if (cur == K) continue;  // fixed, or beyond the grid
+          any_active = true;
+          if constexpr (KK > 0 && KK < 8) {
+            // One byte counter per label (and the sentinel's) in a word: no stores to reload.
+            uint64_t e = 0, d = 0;
+            for (int n = 0; n < 4; ++n) e += uint64_t(1) << (8 * all[pr.off[n] + idx]);
+            for (int n = 4; n < 8; ++n) d += uint64_t(1) << (8 * all[pr.off[n] + idx]);
+            for (int k = 0; k < K; ++k) {
+              n_edge[k] = int(e >> (8 * k) & 0xff);
+              n_diag[k] = int(d >> (8 * k) & 0xff);
+            }
           } else {
-            for (int k = 0; k < K; ++k) pr.acc[k][idx] += q[k] * inv_z;
+            for (int k = 0; k <= K; ++k) n_edge[k] = n_diag[k] = 0;
+            for (int n = 0; n < 4; ++n) ++n_edge[all[pr.off[n] + idx]];
+            for (int n = 4; n < 8; ++n) ++n_diag[all[pr.off[n] + idx]];
+          }
+          int arg = 0;
+          for (int k = 0; k < K; ++k) {
+            s[k] = pr.u[k][idx] - (float(n_edge[k]) * sp.we + float(n_diag[k]) * sp.wd);
+            if (s[k] < s[arg]) arg = k;
+          }
+          bool certain = true;
+          for (int k = 0; k < K; ++k) {
+            x[k] = (s[k] - s[arg]) * sp.inv_t;
+            certain = certain && (k == arg || NegExp::zero(x[k]));
+          }
+          int pick = arg;
+          float inv_z = 1.f;
+          if (!certain) {
+            any_uncertain = true;
+            float z = 0.f;
+            for (int k = 0; k < K; ++k) z += q[k] = NegExp::eval(x[k]);
+            float v = sp.keys.uniform(row_cell + 2 * uint32_t(j)) * z;
+            pick = K - 1;
+            for (int k = 0; k < K - 1; ++k)
+              if ((v -= q[k]) < 0.f) {
+                pick = k;
+                break;
+              }
+            inv_z = 1.f / z;
+          }
+          if (pick != cur) {
+            energy += double(s[pick]) - double(s[cur]);
+            pr.lab[idx] = static_cast<uint8_t>(pick);
+            ++changed;
+            if (moved_first < 0) moved_first = j - j0;
+            moved_last = j - j0;
+          }
+          if (sp.sums) {
+            if (certain) {
+              pr.acc[arg][idx] += 1.f;
+            } else {
+              for (int k = 0; k < K; ++k) pr.acc[k][idx] += q[k] * inv_z;
+            }
           }
         }
+        if (moved_first >= 0)
+          cp.unsettleNeighbours(p, i, g, moved_first, moved_last);
+        else if (any_active && !any_uncertain)
+          settled[g] = 1;
       }
     }
   }
@@ -179,7 +203,8 @@ int sweepAvx2(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
             _mm256_xor_si256(_mm256_cmpeq_epi32(cur, sentinel), _mm256_set1_epi32(-1)));
         const int active_bits = _mm256_movemask_ps(active);
         if (active_bits == 0) continue;
-        if (settled[g]) {  // certain draws of the current labels: only their conditionals count
+        if (sp.skip_settled &&
+            settled[g]) {  // certain draws of the current labels: only their conditionals count
           if (sp.sums)
             for (int k = 0; k < K; ++k) {
               const __m256 hit = _mm256_castsi256_ps(_mm256_cmpeq_epi32(cur, _mm256_set1_epi32(k)));

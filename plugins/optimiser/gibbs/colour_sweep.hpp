@@ -1,9 +1,10 @@
 #pragma once
 // One chromatic Gibbs sweep: the four colours of ColourPlanes in turn, every cell of a colour
 // drawn from its conditional P(k | neighbours) ∝ exp(−E_c(k) / T) given the other colours.
-// Two implementations of the same arithmetic: one cell at a time (any x86-64), and eight cells
-// at a time in AVX2. Each performs the same IEEE operations in the same order per cell and the
-// random numbers depend only on (seed, sweep, cell), so the two give the same bits.
+// Two implementations of the same arithmetic: one cell at a time (any CPU), and eight cells
+// at a time in AVX2; both skip the same settled groups. Each performs the same IEEE operations in
+// the same order per cell and the random numbers depend only on (seed, sweep, cell), so the two
+// give the same bits.
 #include <cstdint>
 
 #include "colour_planes.hpp"
@@ -21,6 +22,9 @@ struct ColourSweepParams {
   float* sums = nullptr;
   SweepKeys keys{0, 0};
   bool avx2 = false;  ///< the eight-lane version (the caller checks the CPU)
+  /// Skip the groups ColourPlanes marks settled (exact: their draws are certain and the same).
+  /// Off only to check that it is exact.
+  bool skip_settled = true;
 };
 
 /// Runs one sweep over `planes`; returns the number of labels changed and adds the energy change
