@@ -725,12 +725,6 @@ class AlphaExpansion final : public Stage {
       const int64_t f = std::min({res_t_[from], -res_t_[to], res_n_[arc]});
       if (f > 0) push(from, to, arc, f);
     }
-    // `other` gives pair k's other node and the arc from it into x.
-    auto other = [&](int k, int x, std::size_t& into_x) {
-      const bool x_is_p = fg_.pair_np[k] == x;
-      into_x = 2 * std::size_t(k) + (x_is_p ? 1 : 0);
-      return x_is_p ? fg_.pair_nq[k] : fg_.pair_np[k];
-    };
     const int N = static_cast<int>(res_t_.size());
     // What still sends to the sink is about 2 500 cells on the stress grid, most a few hops
     // from cells with source capacity left: shortest augmenting paths, found by a search
@@ -738,54 +732,70 @@ class AlphaExpansion final : public Stage {
     // with source capacity it meets sends along its search-tree path what the path still carries
     // (an earlier push may have saturated part of it), until the cell's deficit is met. (This
     // replaced passes over paths of two and three hops: as fast, and it also finds longer ones.)
-    constexpr std::size_t kMaxSearch = 64;
+    // Raw pointers and a local deficit: stores through the members' pointers would otherwise
+    // make the compiler reload everything in the inner loop.
+    constexpr int kMaxSearch = 64;
     if (bfs_seen_.size() != std::size_t(N)) bfs_seen_.assign(N, 0);
     bfs_from_.resize(N);
+    int64_t* const res_t = res_t_.data();
+    int64_t* const res_n = res_n_.data();
+    uint32_t* const seen = bfs_seen_.data();
+    uint32_t* const from = bfs_from_.data();
+    const int* const pair_np = fg_.pair_np.data();
+    const int* const pair_nq = fg_.pair_nq.data();
+    const int* const pairs_off = fg_.pairs_off.data();
+    const int* const pairs_of = fg_.pairs_of.data();
+    auto head = [&](uint32_t arc) { return (arc & 1) ? pair_np[arc >> 1] : pair_nq[arc >> 1]; };
+    int queue[kMaxSearch];
     for (int r = 0; r < N; ++r) {
-      if (res_t_[r] >= 0) continue;
+      if (res_t[r] >= 0) continue;
+      int64_t need = -res_t[r];
       if (++bfs_stamp_ == 0) {
         std::fill(bfs_seen_.begin(), bfs_seen_.end(), 0);
         bfs_stamp_ = 1;
       }
-      bfs_queue_.clear();
-      bfs_queue_.push_back(r);
-      bfs_seen_[r] = bfs_stamp_;
+      const uint32_t stamp = bfs_stamp_;
+      int queued = 1;
+      queue[0] = r;
+      seen[r] = stamp;
       // Backwards over arcs x → y with residual capacity. A cell cut off from the source would
       // have the search cover all it reaches; beyond kMaxSearch cells the max-flow takes over.
-      for (std::size_t head = 0; head < bfs_queue_.size() && res_t_[r] < 0; ++head) {
-        const int y = bfs_queue_[head];
-        for (int j = fg_.pairs_off[y]; j < fg_.pairs_off[y + 1] && res_t_[r] < 0; ++j) {
-          std::size_t xy;
-          const int x = other(fg_.pairs_of[j], y, xy);
-          if (bfs_seen_[x] == bfs_stamp_ || res_n_[xy] == 0) continue;
-          bfs_seen_[x] = bfs_stamp_;
-          bfs_from_[x] = xy;
-          if (res_t_[x] <= 0) {
-            if (bfs_queue_.size() < kMaxSearch) bfs_queue_.push_back(x);
+      for (int at = 0; at < queued && need > 0; ++at) {
+        const int y = queue[at];
+        for (int j = pairs_off[y], j_end = pairs_off[y + 1]; j < j_end; ++j) {
+          // Pair k's other node x, and the arc x → y.
+          const uint32_t k = uint32_t(pairs_of[j]);
+          const bool y_is_p = pair_np[k] == y;
+          const int x = y_is_p ? pair_nq[k] : pair_np[k];
+          const uint32_t xy = 2 * k + (y_is_p ? 1 : 0);
+          if (seen[x] == stamp || res_n[xy] == 0) continue;
+          seen[x] = stamp;
+          from[x] = xy;
+          if (res_t[x] <= 0) {
+            if (queued < kMaxSearch) queue[queued++] = x;
             continue;
           }
-          int64_t f = std::min(res_t_[x], -res_t_[r]);
+          int64_t f = std::min(res_t[x], need);
           for (int z = x; z != r && f > 0;) {
-            const std::size_t a = bfs_from_[z];
-            f = std::min(f, res_n_[a]);
-            z = pairHead(a);
+            const uint32_t a = from[z];
+            f = std::min(f, res_n[a]);
+            z = head(a);
           }
           if (f == 0) continue;
-          res_t_[x] -= f;
-          res_t_[r] += f;
+          res_t[x] -= f;
+          need -= f;
           for (int z = x; z != r;) {
-            const std::size_t a = bfs_from_[z];
-            res_n_[a] -= f;
-            res_n_[a ^ 1] += f;
-            z = pairHead(a);
+            const uint32_t a = from[z];
+            res_n[a] -= f;
+            res_n[a ^ 1] += f;
+            z = head(a);
           }
+          if (need == 0) break;
         }
       }
+      res_t[r] = -need;
     }
   }
-
-  /// The node arc a (2k: p→q, 2k + 1: q→p of pair k) points to.
-  int pairHead(std::size_t a) const { return (a & 1) ? fg_.pair_np[a >> 1] : fg_.pair_nq[a >> 1]; }
 
   /// Grid labels (fixed → unknown) and score layers: the local energy margin
   /// min_{j≠k} E_c(j) − E_c(k) given the final neighbours, the score the ROC curves give an
@@ -819,8 +829,7 @@ class AlphaExpansion final : public Stage {
   std::vector<int64_t> res_t_;    ///< per node: residual t-link of a cold cut's first flow
   std::vector<int64_t> res_n_;    ///< per pair: residual n-links (p→q, q→p) of that flow
   std::vector<int> touched_;      ///< nodes whose t-link is rewritten in this cut
-  std::vector<int> bfs_queue_;    ///< greedyFlow's path search: cells in search order
-  std::vector<std::size_t> bfs_from_;  ///< per node: the arc the search reached it by
+  std::vector<uint32_t> bfs_from_;     ///< per node: the arc the search reached it by
   std::vector<uint32_t> bfs_seen_;     ///< per node: the stamp of the search that reached it
   uint32_t bfs_stamp_ = 0;
   std::vector<int> changes_;      ///< nodes, each time its cell's label changed in this frame
