@@ -212,5 +212,46 @@ TEST(ColourPlanes, LayoutRoundTripsAndNeighboursAreTheGridsNeighbours) {
     }
 }
 
+TEST(ColourPlanes, UnsettlingReachesEveryGroupNextToTheChangedLanes) {
+  // A group is skipped while it is settled, so a change must unsettle every group that holds a
+  // grid neighbour of a changed cell; a group missed here would be skipped with a stale draw.
+  // Grids whose planes have several groups per row, each lane range of every group.
+  for (const auto& [rows, cols] : {std::pair{9, 37}, std::pair{6, 50}}) {
+    const EnergyModel em = randomRectModel(rows * 7 + cols, rows, cols, 3, 0.0);
+    ColourPlanes cp;
+    cp.assign(em, em.initial);
+    auto settleAll = [&] {
+      for (int q = 0; q < 4; ++q)
+        for (int r = -1; r <= cp.subRows(); ++r)
+          for (int h = -1; h * ColourPlanes::kLanes <= cp.subCols() + ColourPlanes::kLanes; ++h)
+            cp.settled(q, r)[h] = 1;
+    };
+    for (int p = 0; p < 4; ++p) {
+      const int a = p >> 1, b = p & 1;
+      for (int i = 0; 2 * i + a < rows; ++i)
+        for (int g = 0; g * ColourPlanes::kLanes < cp.subCols(); ++g)
+          for (int first = 0; first < ColourPlanes::kLanes; ++first)
+            for (int last = first; last < ColourPlanes::kLanes; ++last) {
+              settleAll();
+              cp.unsettleNeighbours(p, i, g, first, last);
+              for (int l = first; l <= last; ++l) {
+                const int r = 2 * i + a, c = 2 * (g * ColourPlanes::kLanes + l) + b;
+                if (c >= cols) continue;
+                for (int dr = -1; dr <= 1; ++dr)
+                  for (int dc = -1; dc <= 1; ++dc) {
+                    const int rr = r + dr, cc = c + dc;
+                    if ((dr == 0 && dc == 0) || rr < 0 || rr >= rows || cc < 0 || cc >= cols)
+                      continue;
+                    const int q = 2 * (rr & 1) + (cc & 1);
+                    EXPECT_EQ(cp.settled(q, rr / 2)[(cc / 2) / ColourPlanes::kLanes], 0)
+                        << rows << "×" << cols << " plane " << p << " row " << i << " group " << g
+                        << " lanes " << first << "–" << last << ": neighbour " << rr << "," << cc;
+                  }
+              }
+            }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace terramrf
