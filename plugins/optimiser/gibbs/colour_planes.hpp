@@ -63,9 +63,11 @@ class ColourPlanes {
   uint8_t* settled(int p, int i) {
     return &settled_[(std::size_t(p) * (sub_rows_ + 2) + i + 1) * settled_stride_ + 1];
   }
-  /// Unsettles the groups whose cells neighbour lanes [first, last] of group g in plane p's
-  /// sub-row i (they are in the other three planes, sub-rows i − 1 to i + 1).
-  void unsettleNeighbours(int p, int i, int g, int first, int last) {
+  /// Unsettles the groups whose cells neighbour the lanes set in `moved` (bit l = lane l, not 0)
+  /// of group g in plane p's sub-row i: they are in the other three planes, sub-rows i − 1 to
+  /// i + 1, and the groups beside g when the first or last lane moved.
+  void unsettleNeighbours(int p, int i, int g, unsigned moved) {
+    const int first = __builtin_ctz(moved), last = 31 - __builtin_clz(moved);
     const int g_lo = g + ((first - 1) >> 3), g_hi = g + ((last + 1) >> 3);
     static_assert(kLanes == 8, "the shifts above divide by kLanes");
     for (int q = 0; q < 4; ++q) {

@@ -58,7 +58,7 @@ int sweepScalar(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
             }
           continue;
         }
-        int moved_first = -1, moved_last = -1;
+        unsigned moved = 0;  // bit l: lane l changed label
         bool any_active = false, any_uncertain = false;
         for (int j = j0; j < j_end; ++j) {
           const std::size_t idx = cp.index(i, j);
@@ -108,8 +108,7 @@ int sweepScalar(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
             energy += double(s[pick]) - double(s[cur]);
             pr.lab[idx] = static_cast<uint8_t>(pick);
             ++changed;
-            if (moved_first < 0) moved_first = j - j0;
-            moved_last = j - j0;
+            moved |= 1u << (j - j0);
           }
           if (sp.sums) {
             if (certain) {
@@ -119,8 +118,8 @@ int sweepScalar(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
             }
           }
         }
-        if (moved_first >= 0)
-          cp.unsettleNeighbours(p, i, g, moved_first, moved_last);
+        if (moved != 0)
+          cp.unsettleNeighbours(p, i, g, moved);
         else if (any_active && !any_uncertain)
           settled[g] = 1;
       }
@@ -286,8 +285,7 @@ int sweepAvx2(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
             if (moved_bits >> l & 1) energy += double(sk[l]) - double(sc[l]);
           changed += __builtin_popcount(unsigned(moved_bits));
           storeLabels8(pr.lab + idx, _mm256_blendv_epi8(cur, pick, moved));
-          cp.unsettleNeighbours(p, i, g, __builtin_ctz(unsigned(moved_bits)),
-                                31 - __builtin_clz(unsigned(moved_bits)));
+          cp.unsettleNeighbours(p, i, g, unsigned(moved_bits));
         } else if (_mm256_movemask_ps(uncertain) == 0) {
           settled[g] = 1;
         }

@@ -215,7 +215,8 @@ TEST(ColourPlanes, LayoutRoundTripsAndNeighboursAreTheGridsNeighbours) {
 TEST(ColourPlanes, UnsettlingReachesEveryGroupNextToTheChangedLanes) {
   // A group is skipped while it is settled, so a change must unsettle every group that holds a
   // grid neighbour of a changed cell; a group missed here would be skipped with a stale draw.
-  // Grids whose planes have several groups per row, each lane range of every group.
+  // Grids whose planes have several groups per row, every set of changed lanes of every group
+  // (the kernels pass their changed lanes as this mask).
   for (const auto& [rows, cols] : {std::pair{9, 37}, std::pair{6, 50}}) {
     const EnergyModel em = randomRectModel(rows * 7 + cols, rows, cols, 3, 0.0);
     ColourPlanes cp;
@@ -230,25 +231,26 @@ TEST(ColourPlanes, UnsettlingReachesEveryGroupNextToTheChangedLanes) {
       const int a = p >> 1, b = p & 1;
       for (int i = 0; 2 * i + a < rows; ++i)
         for (int g = 0; g * ColourPlanes::kLanes < cp.subCols(); ++g)
-          for (int first = 0; first < ColourPlanes::kLanes; ++first)
-            for (int last = first; last < ColourPlanes::kLanes; ++last) {
-              settleAll();
-              cp.unsettleNeighbours(p, i, g, first, last);
-              for (int l = first; l <= last; ++l) {
-                const int r = 2 * i + a, c = 2 * (g * ColourPlanes::kLanes + l) + b;
-                if (c >= cols) continue;
-                for (int dr = -1; dr <= 1; ++dr)
-                  for (int dc = -1; dc <= 1; ++dc) {
-                    const int rr = r + dr, cc = c + dc;
-                    if ((dr == 0 && dc == 0) || rr < 0 || rr >= rows || cc < 0 || cc >= cols)
-                      continue;
-                    const int q = 2 * (rr & 1) + (cc & 1);
-                    EXPECT_EQ(cp.settled(q, rr / 2)[(cc / 2) / ColourPlanes::kLanes], 0)
-                        << rows << "×" << cols << " plane " << p << " row " << i << " group " << g
-                        << " lanes " << first << "–" << last << ": neighbour " << rr << "," << cc;
-                  }
-              }
+          for (unsigned moved = 1; moved < 1u << ColourPlanes::kLanes; ++moved) {
+            settleAll();
+            cp.unsettleNeighbours(p, i, g, moved);
+            for (int l = 0; l < ColourPlanes::kLanes; ++l) {
+              if (!(moved >> l & 1)) continue;
+              const int r = 2 * i + a, c = 2 * (g * ColourPlanes::kLanes + l) + b;
+              if (c >= cols) continue;
+              for (int dr = -1; dr <= 1; ++dr)
+                for (int dc = -1; dc <= 1; ++dc) {
+                  const int rr = r + dr, cc = c + dc;
+                  if ((dr == 0 && dc == 0) || rr < 0 || rr >= rows || cc < 0 || cc >= cols)
+                    continue;
+                  const int q = 2 * (rr & 1) + (cc & 1);
+                  EXPECT_EQ(cp.settled(q, rr / 2)[(cc / 2) / ColourPlanes::kLanes], 0)
+                      << rows << "×" << cols << " plane " << p << " row " << i << " group " << g
+                      << " lanes 0x" << std::hex << moved << std::dec << ": neighbour " << rr << ","
+                      << cc;
+                }
             }
+          }
     }
   }
 }
