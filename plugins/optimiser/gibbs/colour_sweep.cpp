@@ -202,8 +202,8 @@ int sweepAvx2(ColourPlanes& cp, const ColourSweepParams& sp, double& energy) {
             _mm256_xor_si256(_mm256_cmpeq_epi32(cur, sentinel), _mm256_set1_epi32(-1)));
         const int active_bits = _mm256_movemask_ps(active);
         if (active_bits == 0) continue;
-        if (sp.skip_settled &&
-            settled[g]) {  // certain draws of the current labels: only their conditionals count
+        // Certain draws of the current labels: only their conditionals count.
+        if (sp.skip_settled && settled[g]) {
           if (sp.sums)
             for (int k = 0; k < K; ++k) {
               const __m256 hit = _mm256_castsi256_ps(_mm256_cmpeq_epi32(cur, _mm256_set1_epi32(k)));
