@@ -1,14 +1,15 @@
 // α-expansion (Boykov, Veksler & Zabih 2001) with Kolmogorov's Boykov–Kolmogorov max-flow
-// (Debian's libmaxflow), whose search trees survive between cuts.
+// (Debian's libmaxflow), run only where a cut can still change.
 //
 // The Potts term of EnergyModel, w·δ with δ(equal) = −1 and δ(different) = +1, equals the metric
 // V(a, b) = 2w·[a ≠ b] minus the constant w per pair, so minimising one minimises the other and
 // α-expansion applies, with its factor-2 bound on the shifted energy (docs/optimisers.md). Every
-// expansion is one min-cut; each label keeps its own graph (cells, 8-neighbour pairs) for the
-// frame, and its next cut starts from the residual network and search trees of its previous one
-// (Kohli & Torr 2007): only the capacities that changed are written and their nodes marked, so a
-// cut after a few cells changed label costs little more than those cells. A move is kept only if
-// the exact EnergyModel energy drops, so the result never lies above the start.
+// expansion is one min-cut; each label keeps the residual network of its last cut (cells,
+// 8-neighbour pairs) for the frame, and its next cut starts from it (Kohli & Torr 2007): only the
+// capacities that changed are written. The max-flow then runs on a region around the nodes still
+// sending to the sink, grown until it provably holds the whole cut (cutResidual), so a cut after a
+// few cells changed label costs little more than those cells. A move is kept only if the exact
+// EnergyModel energy drops, so the result never lies above the start.
 //
 // Once no expansion improves, exact 2×2 block moves follow (`block_moves`): each 2×2 block of
 // cells takes its best joint labelling given its neighbours. They contain the moves in which two
@@ -16,6 +17,7 @@
 // expansion (one label enters) and no swap (two labels trade cells) contains; after any accepted
 // block move the expansions run again.
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -169,16 +171,19 @@ class AlphaExpansion final : public Stage {
     for (std::size_t k = 0; k < fg_.pair_w.size(); ++k)
       fg_.pair_v[k] = toUnits(2.0 * fg_.pair_w[k]);
     in_move_.assign(em.cells(), 0);
+    shift_t_.assign(fg_.cells.size(), 0);
+    local_of_.assign(fg_.cells.size(), -1);
     node_seen_.assign(fg_.cells.size(), 0);
     pair_seen_.assign(fg_.pair_p.size(), 0);
     warm_.resize(K);
-    for (WarmStart& w : warm_) w.cold = true;  // graphs are built by each label's first cut
+    for (WarmStart& w : warm_) w.cold = true;  // built by each label's first cut
 
     double e = em.energy(lab);
     block_dirty_.assign(em.cells(), 1);
     changes_.clear();
     int cycle = 0, expansions = 0, accepted = 0, block_passes = 0;
     block_moves_taken_ = 0;
+    region_cuts_ = region_nodes_ = region_regrowths_ = 0;
     // An expansion that changed nothing need not be repeated until another one changes the
     // labelling: `version` counts accepted moves, failed_at[α] remembers when α last failed.
     int version = 0;
@@ -239,19 +244,21 @@ class AlphaExpansion final : public Stage {
     ctx.metrics[name() + ".icm_sweeps"] = icm_sweeps;
     ctx.metrics[name() + ".block_passes"] = block_passes;
     ctx.metrics[name() + ".block_moves"] = block_moves_taken_;
+    ctx.metrics[name() + ".max_flows"] = region_cuts_;
+    ctx.metrics[name() + ".max_flow_nodes_per_cut"] =
+        region_cuts_ ? double(region_nodes_) / region_cuts_ : 0.0;
+    ctx.metrics[name() + ".max_flow_regrowths"] = region_regrowths_;
     ctx.metrics[name() + ".energy"] = e;
     ctx.metrics[name() + ".initial_energy"] = e_initial;
   }
 
  private:
-  /// One label's cut graph for the frame: its residual network and search trees after its last
-  /// cut, and the move energy that cut was for (to write only what changed since).
+  /// One label's move energy for the frame: the residual network of a maximum flow after its
+  /// last cut, and the move energy that cut was for (to write only what changed since).
   struct WarmStart {
     bool cold = true;                 ///< no cut yet in this frame
-    std::unique_ptr<CutGraph> g;      ///< kept across frames for its memory (reset per frame)
-    CutGraph::arc_id arcs = nullptr;  ///< the graph's first arc
-    /// Per pair k: its p→q arc is arcs[arc_of[k]], q→p the next; −1 while the pair has no arcs.
-    std::vector<int> arc_of;
+    std::vector<int64_t> res_t;       ///< per node: residual t-link (> 0 source, < 0 sink)
+    std::vector<int64_t> res_n;       ///< per pair: residual n-links, p→q then q→p
     std::vector<int64_t> model_t;     ///< per node: cost(x=1) − cost(x=0)
     std::vector<int64_t> model_n;     ///< per pair: c01 (p→q), c10 (q→p)
     std::vector<uint8_t> lab_at;      ///< per node: its label at that cut
@@ -531,22 +538,15 @@ class AlphaExpansion final : public Stage {
   }
 
   /// Writes pair k's new n-link capacities into α's residual network (the previous residual plus
-  /// the change of the model) and marks its nodes; a deficit goes to the t-links via shift_t_.
-  void updatePair(WarmStart& w, std::size_t k, const PairTerm& m, bool mark) {
+  /// the change of the model); a deficit goes to the t-links via shift_t_.
+  void updatePair(WarmStart& w, std::size_t k, const PairTerm& m) {
     const int64_t d01 = m.c01 - w.model_n[2 * k], d10 = m.c10 - w.model_n[2 * k + 1];
     if (d01 == 0 && d10 == 0) return;
     w.model_n[2 * k] = m.c01;
     w.model_n[2 * k + 1] = m.c10;
-    CutGraph& g = *w.g;
     const int np = fg_.pair_np[k], nq = fg_.pair_nq[k];
-    if (w.arc_of[k] < 0) {  // a pair without arcs gets them now (the search trees allow it)
-      w.arc_of[k] = g.get_arc_num();
-      g.add_edge(np, nq, 0, 0);
-      w.arcs = g.get_first_arc();  // the arc array may have moved
-    }
-    const CutGraph::arc_id pq = w.arcs + w.arc_of[k];  // cut when p keeps its label, q takes α
-    const CutGraph::arc_id qp = pq + 1;          // cut when p takes α and q keeps its label
-    int64_t r01 = g.get_rcap(pq) + d01, r10 = g.get_rcap(qp) + d10;
+    // p→q is cut when p keeps its label and q takes α; q→p the other way round.
+    int64_t r01 = w.res_n[2 * k] + d01, r10 = w.res_n[2 * k + 1] + d10;
     // r01 + r10 = c01 + c10 ≥ 0, so at most one is negative; move its deficit to the t-links:
     // (1−x_p)·x_q = x_p·(1−x_q) + x_q − x_p.
     if (r01 < 0) {
@@ -560,23 +560,16 @@ class AlphaExpansion final : public Stage {
       shift_t_[nq] -= r10;
       r10 = 0;
     }
-    g.set_rcap(pq, r01);
-    g.set_rcap(qp, r10);
-    if (mark) {
-      g.mark_node(np);
-      g.mark_node(nq);
-    }
+    w.res_n[2 * k] = r01;
+    w.res_n[2 * k + 1] = r10;
   }
 
   /// Writes node n's new t-link (signed: > 0 from the source, cut when the cell takes α; < 0 to
   /// the sink) into α's residual network.
-  void updateNode(WarmStart& w, int n, int64_t model, bool mark) {
-    const int64_t d = model - w.model_t[n] + shift_t_[n];
+  void updateNode(WarmStart& w, int n, int64_t model) {
+    w.res_t[n] += model - w.model_t[n] + shift_t_[n];
     shift_t_[n] = 0;
     w.model_t[n] = model;
-    if (d == 0) return;
-    w.g->set_trcap(n, w.g->get_trcap(n) + d);
-    if (mark) w.g->mark_node(n);
   }
 
   /// Node n's unary difference cost(α) − cost(its label), in capacity units.
@@ -601,25 +594,22 @@ class AlphaExpansion final : public Stage {
   /// Best α-expansion of `lab` by one min-cut: the cells that would take α go to move_. Returns
   /// false if there are none.
   ///
-  /// Each label keeps its graph for the frame (Kohli & Torr 2007): the residual network of α's
-  /// previous cut represents that move energy up to a constant, so the new move energy is that
-  /// residual plus the change of the capacities, which only the cells whose label changed since
-  /// (their pairs, and their and their neighbours' t-links) have. Those are written and their
-  /// nodes marked, and the max-flow reuses its search trees: an expansion after a few changed
-  /// cells costs about as much as those cells.
+  /// Each label keeps the residual network of its last cut for the frame (Kohli & Torr 2007): it
+  /// represents that move energy up to a constant, so the new move energy is that residual plus
+  /// the change of the capacities, which only the cells whose label changed since (their pairs,
+  /// and their and their neighbours' t-links) have. Those are written, and the max-flow runs
+  /// only around the nodes left sending to the sink (cutResidual): an expansion after a few
+  /// changed cells costs about as much as those cells.
   bool expand(const EnergyModel& em, const std::vector<uint8_t>& lab, int alpha) {
     const int N = static_cast<int>(fg_.cells.size());
     const std::size_t P = fg_.pair_p.size();
     if (N == 0) return false;  // every cell fixed: nothing to cut
     WarmStart& w = warm_[alpha];
-    shift_t_.resize(N);
     if (w.cold) {
       w.cold = false;
       w.model_t.resize(N);
       w.model_n.resize(2 * P);
       w.lab_at.resize(N);
-      // The move energy and a first flow are computed on compact arrays (16 bytes a pair instead
-      // of the library's 64), and the graph is written once, with the residual capacities.
       for (int n = 0; n < N; ++n) {
         w.model_t[n] = unaryModel(em, lab, alpha, n);
         w.lab_at[n] = lab[fg_.cells[n]];
@@ -631,31 +621,10 @@ class AlphaExpansion final : public Stage {
         w.model_t[fg_.pair_np[k]] += m.s;
         w.model_t[fg_.pair_nq[k]] += m.t;
       }
-      res_t_ = w.model_t;
-      res_n_ = w.model_n;
-      greedyFlow();
-      if (!w.g)
-        w.g = std::make_unique<CutGraph>(N, static_cast<int>(P), &maxflowError);
-      else
-        w.g->reset();
-      w.g->add_node(N);
-      // A pair without capacity either way (one cell labelled α: no n-link) gets no arcs: the
-      // max-flow then scans fewer, and the graph is smaller (by the share of α's pairs). Its arcs
-      // are added if a later cut needs them.
-      w.arc_of.resize(P);
-      for (std::size_t k = 0; k < P; ++k) {
-        if (w.model_n[2 * k] == 0 && w.model_n[2 * k + 1] == 0) {
-          w.arc_of[k] = -1;
-          continue;
-        }
-        w.arc_of[k] = w.g->get_arc_num();  // add_edge appends p→q, then q→p
-        w.g->add_edge(fg_.pair_np[k], fg_.pair_nq[k], res_n_[2 * k], res_n_[2 * k + 1]);
-      }
-      w.arcs = w.g->get_first_arc();
-      for (int n = 0; n < N; ++n) w.g->set_trcap(n, res_t_[n]);
-      std::fill(shift_t_.begin(), shift_t_.end(), 0);
+      w.res_t = w.model_t;
+      w.res_n = w.model_n;
+      greedyFlow(w.res_t.data(), w.res_n.data());
       w.changes_at = changes_.size();
-      w.g->maxflow(false);
     } else {
       // The cells whose label changed since α's last cut, from the log of changes (a cell may be
       // logged more than once, or be back at its label). shift_t_ is 0 outside touched_ nodes
@@ -670,8 +639,7 @@ class AlphaExpansion final : public Stage {
           const int k = fg_.pairs_of[j];
           if (pair_seen_[k]) continue;
           pair_seen_[k] = 1;
-          updatePair(w, k, pairTerm(lab[fg_.pair_p[k]], lab[fg_.pair_q[k]], alpha, fg_.pair_v[k]),
-                     true);
+          updatePair(w, k, pairTerm(lab[fg_.pair_p[k]], lab[fg_.pair_q[k]], alpha, fg_.pair_v[k]));
           for (const int m : {fg_.pair_np[k], fg_.pair_nq[k]})
             if (!node_seen_[m]) node_seen_[m] = 1, touched_.push_back(m);
         }
@@ -680,52 +648,147 @@ class AlphaExpansion final : public Stage {
       w.changes_at = changes_.size();
       if (touched_.empty()) return false;  // the problem of α's last cut, which did not improve
       for (const int n : touched_) {
-        updateNode(w, n, nodeModel(em, lab, alpha, n), true);
+        updateNode(w, n, nodeModel(em, lab, alpha, n));
         node_seen_[n] = 0;
         for (int j = fg_.pairs_off[n]; j < fg_.pairs_off[n + 1]; ++j)
           pair_seen_[fg_.pairs_of[j]] = 0;
       }
-      w.g->maxflow(true);
     }
-    // The source side of the minimum cut (the source search tree: what is reachable from s in the
-    // residual network) keeps its label, the rest takes α.
-    move_.clear();
-    for (int n = 0; n < N; ++n) {
-      const int p = fg_.cells[n];
-      if (lab[p] != alpha && w.g->what_segment(n, CutGraph::SINK) == CutGraph::SINK)
-        move_.push_back(p);
-    }
-    return !move_.empty();
+    return cutResidual(w, lab, alpha);
   }
 
-  /// Before a cold cut, on res_t_ / res_n_: most of the flow runs s → q → p → t between
-  /// neighbours, and much of the rest through a few cells between them. Pushing it greedily, in
-  /// a pass over the pairs, then along shortest paths found by short searches back from each
-  /// cell still sending to the sink, leaves the max-flow a residual network with much less to
-  /// augment and fewer orphans to adopt (its cuts are those of the original network, and its
-  /// what_segment the same, as the nodes reachable from s in the residual network of any maximum
-  /// flow are the same).
-  void greedyFlow() {
+  /// Completes the flow in α's residual network to a maximum flow and puts the cells on the sink
+  /// side of the minimum cut into move_: those that can still send to the sink, the least set of
+  /// cells a best move needs (of equally good moves, the smallest).
+  ///
+  /// Only the neighbourhood of the nodes still sending to the sink needs the max-flow. Every
+  /// other node has source capacity left, so it is on the source side, and whatever reaches the
+  /// sink enters that neighbourhood from outside over an arc with residual capacity. So the
+  /// region is the nodes within `depth` such arcs backwards of those sending to the sink, plus
+  /// the ring of nodes with an arc into it (each with its own t-link, without its arcs further
+  /// out). After a max-flow on that subnetwork, if no ring node can reach the sink, no path from
+  /// the source can either: it would have to enter through a ring node, which has source
+  /// capacity or a path to the source within the region. Then the region's sink side is the
+  /// whole graph's. Otherwise the region grows from everything that can reach the sink (the
+  /// flow found so far stays) until that holds.
+  bool cutResidual(WarmStart& w, const std::vector<uint8_t>& lab, int alpha) {
+    const int N = static_cast<int>(fg_.cells.size());
+    int64_t* const res_t = w.res_t.data();
+    int64_t* const res_n = w.res_n.data();
+    const int* const pair_np = fg_.pair_np.data();
+    const int* const pair_nq = fg_.pair_nq.data();
+    const int* const pairs_off = fg_.pairs_off.data();
+    const int* const pairs_of = fg_.pairs_of.data();
+    move_.clear();
+    region_.clear();
+    // A cell labelled α has no n-link with capacity (pairTerm), so it cannot pass flow on; its
+    // t-link is a constant of the move energy.
+    for (int n = 0; n < N; ++n)
+      if (res_t[n] < 0 && lab[fg_.cells[n]] != alpha) region_.push_back(n);
+    if (region_.empty()) return false;  // nothing can reach the sink: no cell gains from α
+    if (!region_graph_) region_graph_ = std::make_unique<CutGraph>(1024, 4096, &maxflowError);
+    CutGraph& g = *region_graph_;
+    // Where much of the graph sends to the sink (the first cuts from a noisy start), the region
+    // would be most of it anyway: the whole of what reaches the seeds is cut at once.
+    int depth = region_.size() > std::size_t(N) / 8 ? INT_MAX : kRegionDepth;
+    for (;;) {
+      // Backwards breadth-first from the seeds: layer `depth` is the ring.
+      for (std::size_t i = 0; i < region_.size(); ++i) local_of_[region_[i]] = int(i);
+      std::size_t layer_begin = 0;
+      for (int d = 0; d < depth && layer_begin < region_.size(); ++d) {
+        const std::size_t layer_end = region_.size();
+        for (std::size_t i = layer_begin; i < layer_end; ++i) {
+          const int y = region_[i];
+          for (int j = pairs_off[y], j_end = pairs_off[y + 1]; j < j_end; ++j) {
+            const int k = pairs_of[j];
+            const bool y_is_p = pair_np[k] == y;
+            const int x = y_is_p ? pair_nq[k] : pair_np[k];
+            if (local_of_[x] >= 0 || res_n[2 * k + (y_is_p ? 1 : 0)] == 0) continue;
+            local_of_[x] = int(region_.size());
+            region_.push_back(x);
+          }
+        }
+        layer_begin = layer_end;
+      }
+      // Without a last layer the search ran out: the region is closed, every node inside.
+      const std::size_t ring_begin = layer_begin;
+      // The subnetwork: every pair with both nodes in the region, p→q arcs first.
+      const int R = static_cast<int>(region_.size());
+      g.reset();
+      g.add_node(R);
+      region_pairs_.clear();
+      for (int i = 0; i < R; ++i) {
+        const int n = region_[i];
+        g.set_trcap(i, res_t[n]);
+        for (int j = pairs_off[n], j_end = pairs_off[n + 1]; j < j_end; ++j) {
+          const int k = pairs_of[j];
+          const int x = pair_np[k] == n ? pair_nq[k] : pair_np[k];
+          const int lx = local_of_[x];
+          if (lx <= i || (res_n[2 * k] == 0 && res_n[2 * k + 1] == 0)) continue;
+          region_pairs_.push_back(k);
+          g.add_edge(local_of_[pair_np[k]], local_of_[pair_nq[k]], res_n[2 * k], res_n[2 * k + 1]);
+        }
+      }
+      g.maxflow(false);
+      ++region_cuts_;
+      region_nodes_ += R;
+      // Back into α's residual network.
+      for (int i = 0; i < R; ++i) res_t[region_[i]] = g.get_trcap(i);
+      const CutGraph::arc_id arcs = g.get_first_arc();
+      for (std::size_t j = 0; j < region_pairs_.size(); ++j) {
+        const std::size_t k = std::size_t(region_pairs_[j]);
+        res_n[2 * k] = g.get_rcap(arcs + 2 * j);
+        res_n[2 * k + 1] = g.get_rcap(arcs + 2 * j + 1);
+      }
+      bool ring_reaches_sink = false;
+      for (int i = int(ring_begin); i < R && !ring_reaches_sink; ++i)
+        ring_reaches_sink = g.what_segment(i, CutGraph::SOURCE) == CutGraph::SINK;
+      for (int n : region_) local_of_[n] = -1;
+      if (!ring_reaches_sink) {
+        for (int i = 0; i < R; ++i) {
+          const int p = fg_.cells[region_[i]];
+          if (lab[p] != alpha && g.what_segment(i, CutGraph::SOURCE) == CutGraph::SINK)
+            move_.push_back(p);
+        }
+        return !move_.empty();
+      }
+      ++region_regrowths_;
+      depth = std::size_t(R) > std::size_t(N) / 4 || depth > INT_MAX / 2 ? INT_MAX : 2 * depth;
+      // Grow again from every node that can reach the sink (which holds every node still
+      // sending to it).
+      std::size_t kept = 0;
+      for (int i = 0; i < R; ++i)
+        if (g.what_segment(i, CutGraph::SOURCE) == CutGraph::SINK) region_[kept++] = region_[i];
+      region_.resize(kept);
+    }
+  }
+
+  /// Before a cold cut, on its residual network (res_t per node, res_n per pair): most of the flow
+  /// runs s → q → p → t between neighbours, and much of the rest through a few cells between them.
+  /// Pushing it greedily, in a pass over the pairs, then along shortest paths found by short
+  /// searches back from each cell still sending to the sink, leaves the max-flow a residual network
+  /// with much less to augment and fewer orphans to adopt (its cuts are those of the original
+  /// network, and its what_segment the same, as the nodes reachable from s in the residual network
+  /// of any maximum flow are the same).
+  void greedyFlow(int64_t* const res_t, int64_t* const res_n) {
     const std::size_t P = fg_.pair_np.size();
-    // Pair k's arcs: 2k = p→q, 2k + 1 = q→p.
-    auto push = [&](int from, int to, std::size_t arc, int64_t f) {
-      res_t_[from] -= f;
-      res_t_[to] += f;
-      res_n_[arc] -= f;
-      res_n_[arc ^ 1] += f;
-    };
     for (std::size_t k = 0; k < P; ++k) {
       const int np = fg_.pair_np[k], nq = fg_.pair_nq[k];
-      const int64_t tp = res_t_[np], tq = res_t_[nq];
+      const int64_t tp = res_t[np], tq = res_t[nq];
       if (tp == 0 || tq == 0 || (tp > 0) == (tq > 0)) continue;
-      // From the node with source capacity over its arc to the node with sink capacity.
+      // From the node with source capacity over its arc to the node with sink capacity; pair
+      // k's arcs are 2k = p→q, 2k + 1 = q→p.
       const bool q_to_p = tq > 0;
       const int from = q_to_p ? nq : np, to = q_to_p ? np : nq;
       const std::size_t arc = 2 * k + (q_to_p ? 1 : 0);
-      const int64_t f = std::min({res_t_[from], -res_t_[to], res_n_[arc]});
-      if (f > 0) push(from, to, arc, f);
+      const int64_t f = std::min({res_t[from], -res_t[to], res_n[arc]});
+      if (f <= 0) continue;
+      res_t[from] -= f;
+      res_t[to] += f;
+      res_n[arc] -= f;
+      res_n[arc ^ 1] += f;
     }
-    const int N = static_cast<int>(res_t_.size());
+    const int N = static_cast<int>(fg_.cells.size());
     // What still sends to the sink is about 2 500 cells on the stress grid, most a few hops
     // from cells with source capacity left: shortest augmenting paths, found by a search
     // backwards from each such cell, carry most of what remains. One search per cell: each cell
@@ -737,8 +800,6 @@ class AlphaExpansion final : public Stage {
     constexpr int kMaxSearch = 64;
     if (bfs_seen_.size() != std::size_t(N)) bfs_seen_.assign(N, 0);
     bfs_from_.resize(N);
-    int64_t* const res_t = res_t_.data();
-    int64_t* const res_n = res_n_.data();
     uint32_t* const seen = bfs_seen_.data();
     uint32_t* const from = bfs_from_.data();
     const int* const pair_np = fg_.pair_np.data();
@@ -826,8 +887,13 @@ class AlphaExpansion final : public Stage {
   double scale_ = 1;  ///< capacity units per energy unit
   std::vector<WarmStart> warm_;
   std::vector<int64_t> shift_t_;  ///< per node: deficits moved off n-links, not yet written
-  std::vector<int64_t> res_t_;    ///< per node: residual t-link of a cold cut's first flow
-  std::vector<int64_t> res_n_;    ///< per pair: residual n-links (p→q, q→p) of that flow
+  /// Depth of a cut's region, in arcs back from the nodes sending to the sink (cutResidual).
+  static constexpr int kRegionDepth = 2;
+  std::unique_ptr<CutGraph> region_graph_;  ///< the region's max-flow network, reset per cut
+  std::vector<int> region_;                 ///< a cut's region: nodes, seeds first, the ring last
+  std::vector<int> local_of_;               ///< per node: its place in region_, −1 outside
+  std::vector<int> region_pairs_;           ///< pairs with arcs in the region network, in arc order
+  long region_cuts_ = 0, region_nodes_ = 0, region_regrowths_ = 0;
   std::vector<int> touched_;      ///< nodes whose t-link is rewritten in this cut
   std::vector<uint32_t> bfs_from_;     ///< per node: the arc the search reached it by
   std::vector<uint32_t> bfs_seen_;     ///< per node: the stamp of the search that reached it
@@ -847,5 +913,5 @@ class AlphaExpansion final : public Stage {
 
 TERRAMRF_PLUGIN(
     terramrf::AlphaExpansion, terramrf::PluginKind::kOptimiser, "alpha_expansion",
-    "α-expansion graph cuts (Boykov–Kolmogorov max-flow, reused search trees); scores = "
+    "α-expansion graph cuts (Boykov–Kolmogorov max-flow on the regions a cut can change); scores = "
     "local energy margin")
