@@ -766,10 +766,9 @@ class AlphaExpansion final : public Stage {
   /// Before a cold cut, on its residual network (res_t per node, res_n per pair): most of the flow
   /// runs s → q → p → t between neighbours, and much of the rest through a few cells between them.
   /// Pushing it greedily, in a pass over the pairs, then along shortest paths found by short
-  /// searches back from each cell still sending to the sink, leaves the max-flow a residual network
-  /// with much less to augment and fewer orphans to adopt (its cuts are those of the original
-  /// network, and its what_segment the same, as the nodes reachable from s in the residual network
-  /// of any maximum flow are the same).
+  /// searches back from each cell still sending to the sink, leaves the max-flow much less to
+  /// augment and far fewer nodes to start its region from (cutResidual). The cut is the same: the
+  /// nodes that can reach t in the residual network are the same for every maximum flow.
   void greedyFlow(int64_t* const res_t, int64_t* const res_n) {
     const std::size_t P = fg_.pair_np.size();
     for (std::size_t k = 0; k < P; ++k) {
