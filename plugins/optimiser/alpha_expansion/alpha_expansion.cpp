@@ -799,6 +799,12 @@ class AlphaExpansion final : public Stage {
     constexpr int kMaxSearch = 64;
     if (bfs_seen_.size() != std::size_t(N)) bfs_seen_.assign(N, 0);
     bfs_from_.resize(N);
+    // A search that ends with its cell still short marks the cells it queued dry: a cluster of
+    // cells that all want α and no supply near them would otherwise have each of its cells repeat
+    // the same fruitless search. Later searches neither start from nor pass through dry cells;
+    // what they leave is the max-flow's.
+    dry_.assign(N, 0);
+    uint8_t* const dry = dry_.data();
     uint32_t* const seen = bfs_seen_.data();
     uint32_t* const from = bfs_from_.data();
     const int* const pair_np = fg_.pair_np.data();
@@ -808,7 +814,7 @@ class AlphaExpansion final : public Stage {
     auto head = [&](uint32_t arc) { return (arc & 1) ? pair_np[arc >> 1] : pair_nq[arc >> 1]; };
     int queue[kMaxSearch];
     for (int r = 0; r < N; ++r) {
-      if (res_t[r] >= 0) continue;
+      if (res_t[r] >= 0 || dry[r]) continue;
       int64_t need = -res_t[r];
       if (++bfs_stamp_ == 0) {
         std::fill(bfs_seen_.begin(), bfs_seen_.end(), 0);
@@ -832,7 +838,7 @@ class AlphaExpansion final : public Stage {
           seen[x] = stamp;
           from[x] = xy;
           if (res_t[x] <= 0) {
-            if (queued < kMaxSearch) queue[queued++] = x;
+            if (queued < kMaxSearch && !dry[x]) queue[queued++] = x;
             continue;
           }
           int64_t f = std::min(res_t[x], need);
@@ -854,6 +860,8 @@ class AlphaExpansion final : public Stage {
         }
       }
       res_t[r] = -need;
+      if (need > 0)
+        for (int i = 0; i < queued; ++i) dry[queue[i]] = 1;
     }
   }
 
@@ -896,6 +904,7 @@ class AlphaExpansion final : public Stage {
   std::vector<int> touched_;      ///< nodes whose t-link is rewritten in this cut
   std::vector<uint32_t> bfs_from_;     ///< per node: the arc the search reached it by
   std::vector<uint32_t> bfs_seen_;     ///< per node: the stamp of the search that reached it
+  std::vector<uint8_t> dry_;           ///< per node: a search through it came up short
   uint32_t bfs_stamp_ = 0;
   std::vector<int> changes_;      ///< nodes, each time its cell's label changed in this frame
   std::vector<uint8_t> node_seen_, pair_seen_;

@@ -337,7 +337,7 @@ TEST(AlphaExpansion, MatchesATextbookImplementationOnLargerGrids) {
   EXPECT_GE(long_runs, 6) << "too few runs with improving warm-started cuts";
   // A cut's max-flow runs on a region around the cells still sending to the sink, grown when
   // its ring could reach the sink; the growing must be exercised for the comparison to test it.
-  EXPECT_GE(regrowths, 12) << "the max-flow regions never had to grow";
+  EXPECT_GE(regrowths, 5) << "the max-flow regions never had to grow";
 }
 
 // The block moves too, move for move: the bound that skips blocks, the sums kept up to date as
