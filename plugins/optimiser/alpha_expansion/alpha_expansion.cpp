@@ -44,6 +44,14 @@ constexpr int kDr[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
 constexpr int kDc[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
 inline bool isDiagonal(int d) { return kDr[d] != 0 && kDc[d] != 0; }
 
+/// Pair k's arc into its node y (arcs 2k = p→q, 2k + 1 = q→p); its tail, the other node, goes to
+/// x. Raw pointers, as the searches that call it keep theirs in registers.
+inline uint32_t arcInto(const int* pair_np, const int* pair_nq, uint32_t k, int y, int& x) {
+  const bool y_is_p = pair_np[k] == y;
+  x = y_is_p ? pair_nq[k] : pair_np[k];
+  return 2 * k + (y_is_p ? 1 : 0);
+}
+
 /// 64-bit capacities: 2^36 units for the largest capacity leave room for 2^26 nodes.
 using CutGraph = maxflow::Graph<int64_t, int64_t, int64_t>;
 
@@ -701,9 +709,9 @@ class AlphaExpansion final : public Stage {
           const int y = region_[i];
           for (int j = pairs_off[y], j_end = pairs_off[y + 1]; j < j_end; ++j) {
             const int k = pairs_of[j];
-            const bool y_is_p = pair_np[k] == y;
-            const int x = y_is_p ? pair_nq[k] : pair_np[k];
-            if (local_of_[x] >= 0 || res_n[2 * k + (y_is_p ? 1 : 0)] == 0) continue;
+            int x;
+            const uint32_t xy = arcInto(pair_np, pair_nq, uint32_t(k), y, x);
+            if (local_of_[x] >= 0 || res_n[xy] == 0) continue;
             local_of_[x] = int(region_.size());
             region_.push_back(x);
           }
@@ -831,9 +839,8 @@ class AlphaExpansion final : public Stage {
         for (int j = pairs_off[y], j_end = pairs_off[y + 1]; j < j_end; ++j) {
           // Pair k's other node x, and the arc x → y.
           const uint32_t k = uint32_t(pairs_of[j]);
-          const bool y_is_p = pair_np[k] == y;
-          const int x = y_is_p ? pair_nq[k] : pair_np[k];
-          const uint32_t xy = 2 * k + (y_is_p ? 1 : 0);
+          int x;
+          const uint32_t xy = arcInto(pair_np, pair_nq, k, y, x);
           if (seen[x] == stamp || res_n[xy] == 0) continue;
           seen[x] = stamp;
           from[x] = xy;
