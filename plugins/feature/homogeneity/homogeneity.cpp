@@ -30,49 +30,11 @@
 #include <string>
 #include <vector>
 
+#include "cheng_sun_map.hpp"
 #include "terramrf/camera_fusion/fused_cameras.hpp"
 #include "terramrf/plugin.hpp"
-#include "terramrf/simd.hpp"
 
 namespace terramrf {
-
-namespace {
-
-/// N²v² = N·ΣI² − (ΣI)² at pixel i from the window sums ΣI (s1) and ΣI² (s2) over `area`
-/// pixels: exact in uint32, as both terms are below 2^32 for windows up to 15 × 15 and the
-/// difference is never negative.
-__attribute__((always_inline)) inline uint32_t spread2(const int32_t* s1, const int32_t* s2,
-                                                       std::size_t i, uint32_t area) {
-  return area * uint32_t(s2[i]) - uint32_t(s1[i]) * uint32_t(s1[i]);
-}
-/// e² = Gx² + Gy² < 2^21 at pixel i from the Sobel derivatives.
-__attribute__((always_inline)) inline uint32_t gradient2(const int16_t* gx, const int16_t* gy,
-                                                         std::size_t i) {
-  return uint32_t(gx[i] * gx[i] + gy[i] * gy[i]);
-}
-
-/// Cheng & Sun's H = 1 − √(e²·N²v²)·k over n pixels. One body, inlined into a plain (SSE2) and
-/// an AVX2 copy: the same IEEE operations either way (no FMA), so the same bits.
-__attribute__((always_inline)) inline void fixedBody(const int32_t* s1, const int32_t* s2,
-                                                     const int16_t* gx, const int16_t* gy,
-                                                     std::size_t n, uint32_t area, float k,
-                                                     float* h) {
-  for (std::size_t i = 0; i < n; ++i)
-    h[i] = 1.0f - std::sqrt(float(gradient2(gx, gy, i)) * float(spread2(s1, s2, i, area))) * k;
-}
-void fixedSse2(const int32_t* s1, const int32_t* s2, const int16_t* gx, const int16_t* gy,
-               std::size_t n, uint32_t area, float k, float* h) {
-  fixedBody(s1, s2, gx, gy, n, area, k, h);
-}
-#if defined(TERRAMRF_SIMD_DISPATCH)
-TERRAMRF_TARGET_AVX2 void fixedAvx2(const int32_t* s1, const int32_t* s2, const int16_t* gx,
-                                    const int16_t* gy, std::size_t n, uint32_t area, float k,
-                                    float* h) {
-  fixedBody(s1, s2, gx, gy, n, area, k, h);
-}
-#endif
-
-}  // namespace
 
 class Homogeneity final : public Stage {
  public:
@@ -152,7 +114,7 @@ class Homogeneity final : public Stage {
   /// Per image. Cheng & Sun: H over the rows that hold cell pixels (or the whole image when its
   /// maxima normalise), from `first_pixel` (v·width) on; local_mean: the 3 × 3 sums (CV_16U).
   struct Maps {
-    cv::Mat h, band, sum, sqsum, gx, gy;
+    cv::Mat h, band;
     std::size_t first_pixel = 0;
   };
 
@@ -168,52 +130,39 @@ class Homogeneity final : public Stage {
         m.h.release();
         return;
       }
-      const auto [lo, hi] = std::minmax_element(cp.pixels.begin(), cp.pixels.end());
-      v0 = int(*lo / uint32_t(cols));
-      v1 = int(*hi / uint32_t(cols)) + 1;
+      // A plain signed min/max loop vectorises, even with SSE2 (pixel indices are below 2^31);
+      // std::minmax_element's pairwise scan does not.
+      int32_t lo = int32_t(cp.pixels[0]), hi = lo;
+      for (const uint32_t p : cp.pixels)
+        lo = std::min(lo, int32_t(p)), hi = std::max(hi, int32_t(p));
+      v0 = lo / cols;
+      v1 = hi / cols + 1;
     }
     const int reach = std::max(window_ / 2, 1);
     const int p0 = std::max(0, v0 - reach), p1 = std::min(rows, v1 + reach);
-    fusion::toGrey(img, m.band, p0, p1);  // a whole image of its own to OpenCV
+    fusion::toGrey(img, m.band, p0, p1);  // an image of its own: its border rows reflect
     const cv::Mat& band = m.band;
     m.first_pixel = std::size_t(v0) * cols;
-    const cv::Size win(window_, window_);
-    cv::boxFilter(band, m.sum, CV_32S, win, cv::Point(-1, -1), false, cv::BORDER_REFLECT_101);
-    cv::sqrBoxFilter(band, m.sqsum, CV_32S, win, cv::Point(-1, -1), false, cv::BORDER_REFLECT_101);
-    cv::spatialGradient(band, m.gx, m.gy, 3, cv::BORDER_REFLECT_101);  // 3 × 3 Sobel
     m.h.create(v1 - v0, cols, CV_32F);
-    const std::size_t n = m.h.total(), skip = std::size_t(v0 - p0) * cols;
-    const int32_t* s1 = m.sum.ptr<int32_t>(0) + skip;
-    const int32_t* s2 = m.sqsum.ptr<int32_t>(0) + skip;
-    const int16_t* gx = m.gx.ptr<int16_t>(0) + skip;
-    const int16_t* gy = m.gy.ptr<int16_t>(0) + skip;
+    const uint8_t* grey = band.ptr<uint8_t>(0);
+    const int band_rows = p1 - p0, r0 = v0 - p0, r1 = v1 - p0;
     float* h = m.h.ptr<float>(0);
-    const uint32_t area = uint32_t(window_) * uint32_t(window_);
     // E·V = √(e²·N²v²) / (e_max·N·v_max), with 8-bit grey's bounds (|Gx|, |Gy| ≤ 4·255; v ≤
-    // 127.5, half black, half white) or the image's maxima. One pass each; the file is built
-    // with -fno-math-errno, so these loops vectorise.
+    // 127.5, half black, half white) or the image's maxima.
     if (normalise_ == "fixed") {
+      const uint32_t area = uint32_t(window_) * uint32_t(window_);
       const float k = float(1.0 / (1020 * M_SQRT2 * area * 127.5));
-#if defined(TERRAMRF_SIMD_DISPATCH)
-      if (useAvx2()) return fixedAvx2(s1, s2, gx, gy, n, area, k, h);
-#endif
-      return fixedSse2(s1, s2, gx, gy, n, area, k, h);
+      return map_.fixed(grey, band_rows, cols, window_, r0, r1, k, h);
     }
     uint32_t v2_max = 0, e2_max = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      v2_max = std::max(v2_max, spread2(s1, s2, i, area));
-      e2_max = std::max(e2_max, gradient2(gx, gy, i));
-    }
+    map_.maxima(grey, band_rows, cols, window_, r0, r1, &e2_max, &v2_max);
     // A flat image has no pixel with both spread and gradient: H = 1 everywhere.
     if (v2_max == 0 || e2_max == 0) {
       m.h.setTo(1.0f);
       return;
     }
     // Formed as each pixel's product is, and divided by: the pixel holding both maxima reads 0.
-    const float ev_max = std::sqrt(float(e2_max) * float(v2_max));
-    for (std::size_t i = 0; i < n; ++i)
-      h[i] =
-          1.0f - std::sqrt(float(gradient2(gx, gy, i)) * float(spread2(s1, s2, i, area))) / ev_max;
+    map_.image(grey, band_rows, cols, window_, r0, r1, std::sqrt(float(e2_max) * float(v2_max)), h);
   }
 
   std::string layer_ = "homogeneity";
@@ -227,6 +176,7 @@ class Homogeneity final : public Stage {
   float weight_[kTable] = {};
   std::vector<cv::Mat> grey_;
   std::vector<Maps> maps_;
+  ChengSunMap map_;
 };
 
 }  // namespace terramrf
