@@ -26,6 +26,7 @@
 
 #include "footprint_raster.hpp"
 #include "occlusion_buffer.hpp"
+#include "pinhole_projection.hpp"
 #include "ring_gap.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -127,41 +128,37 @@ class CameraFusion final : public Stage {
     return std::all_of(m.distortion.begin(), m.distortion.end(), [](double k) { return k == 0; });
   }
 
-  /// pixel_of_point for the whole scan; returns the number of visible points. Same maths as
-  /// CameraModel::project (which handles distortion); without distortion P and T_camera_lidar are
-  /// pre-multiplied so a point costs one 3×4 product (~3× faster on a 115k-point scan). With
-  /// `depth`, also each visible point's depth w = row 3 of M · [X; 1], the quantity the footprint
-  /// plane's depth is compared with (left as it was where not visible).
+  /// pixel_of_point for the whole scan (−1 where not visible); returns the number of visible
+  /// points. Same maths as CameraModel::project (which handles distortion); without distortion P
+  /// and T_camera_lidar are pre-multiplied so a point costs one 3×4 product, in a loop without
+  /// branches that runs four points per AVX2 vector (pinhole_projection.hpp). With `depth`, also
+  /// each visible point's depth w = row 3 of M · [X; 1], the quantity the footprint plane's depth
+  /// is compared with (0 where not visible).
   static std::size_t projectScan(const CameraModel& m, const Eigen::Matrix<double, 3, 4>& M,
                                  const PointCloud& pc, int32_t* pix, float* depth) {
     const std::size_t n = pc.size();
-    std::size_t visible = 0;
-    auto w_of = [&](double x, double y, double z) {
-      return M(2, 0) * x + M(2, 1) * y + M(2, 2) * z + M(2, 3);
-    };
-    if (!isPinhole(m)) {
-      for (std::size_t i = 0; i < n; ++i) {
-        const auto uv = m.project(Eigen::Vector3d(pc.x[i], pc.y[i], pc.z[i]));
-        if (uv && store(m, uv->x(), uv->y(), &pix[i])) {
-          ++visible;
-          if (depth) depth[i] = float(w_of(pc.x[i], pc.y[i], pc.z[i]));
-        }
+    if (isPinhole(m)) {
+      PinholeScan s;
+      s.x = pc.x.data(), s.y = pc.y.data(), s.z = pc.z.data(), s.n = n;
+      const Eigen::Matrix<double, 1, 4> zc = m.T_camera_lidar.matrix().row(2);
+      for (int j = 0; j < 4; ++j) {
+        s.zc[j] = zc(j);
+        for (int r = 0; r < 3; ++r) s.M[r][j] = M(r, j);
       }
-      return visible;
+      s.width = m.width, s.height = m.height;
+      s.pix = pix, s.depth = depth;
+      return projectPinhole(s);
     }
-    const Eigen::Matrix<double, 1, 4> zc = m.T_camera_lidar.matrix().row(2);
-    const double w = m.width, h = m.height;
+    std::size_t visible = 0;
     for (std::size_t i = 0; i < n; ++i) {
-      const double x = pc.x[i], y = pc.y[i], z = pc.z[i];
-      if (zc(0) * x + zc(1) * y + zc(2) * z + zc(3) <= 1e-6) continue;  // as projectUnbounded
-      const double qz = w_of(x, y, z);
-      if (qz <= 1e-9) continue;
-      const double u = (M(0, 0) * x + M(0, 1) * y + M(0, 2) * z + M(0, 3)) / qz;
-      const double v = (M(1, 0) * x + M(1, 1) * y + M(1, 2) * z + M(1, 3)) / qz;
-      if (!(u >= -0.5 && v >= -0.5 && u < w - 0.5 && v < h - 0.5)) continue;  // as project
-      if (!store(m, u, v, &pix[i])) continue;
-      ++visible;
-      if (depth) depth[i] = float(qz);
+      pix[i] = -1;
+      if (depth) depth[i] = 0.f;
+      const auto uv = m.project(Eigen::Vector3d(pc.x[i], pc.y[i], pc.z[i]));
+      if (uv && store(m, uv->x(), uv->y(), &pix[i])) {
+        ++visible;
+        if (depth)
+          depth[i] = float(M(2, 0) * pc.x[i] + M(2, 1) * pc.y[i] + M(2, 2) * pc.z[i] + M(2, 3));
+      }
     }
     return visible;
   }
@@ -197,8 +194,8 @@ class CameraFusion final : public Stage {
     const bool depth_test = occlusion_ == "depth_test";
     const Eigen::Matrix<double, 3, 4> M = m.P * m.T_camera_lidar.matrix();
     const bool pinhole = isPinhole(m);
-    out.pixel_of_point.assign(n, -1);
-    if (depth_test) depth_.assign(n, 0.f);
+    out.pixel_of_point.resize(n);
+    if (depth_test) depth_.resize(n);
     const std::size_t visible =
         projectScan(m, M, pc, out.pixel_of_point.data(), depth_test ? depth_.data() : nullptr);
     if (n > 0 && visible == 0)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 
 namespace terramrf {
 
@@ -70,8 +71,11 @@ std::size_t FootprintRaster::rasterise(const std::vector<Eigen::Vector2d>& poly,
   uint32_t* o = out.data() + at;
   uint32_t* const end = o + written;
   for (const Span& s : spans_) {
-    const uint32_t row = uint32_t(s.v) * uint32_t(width);
-    for (int u = s.u0; u < s.u1 && o != end; ++u) *o++ = row + uint32_t(u);
+    // The span's length clipped to what is left first: then the loop has one exit and vectorises.
+    const uint32_t first = uint32_t(s.v) * uint32_t(width) + uint32_t(s.u0);
+    const std::ptrdiff_t m = std::min<std::ptrdiff_t>(s.u1 - s.u0, end - o);
+    for (std::ptrdiff_t k = 0; k < m; ++k) o[k] = first + uint32_t(k);
+    o += m;
     if (o == end) break;
   }
   return written;

@@ -82,15 +82,21 @@ void OcclusionBuffer::splatScalar(const Splat& s, const std::vector<int32_t>& pi
 namespace {
 /// min over four keys at once: every key is below 2^63 (a positive float's bits high), so the
 /// signed comparison AVX2 has orders them as the unsigned one would.
+TERRAMRF_TARGET_AVX2 inline void min4(uint64_t* at, __m256i k) {
+  __m256i* p = reinterpret_cast<__m256i*>(at);
+  const __m256i cur = _mm256_loadu_si256(p);
+  _mm256_storeu_si256(p, _mm256_blendv_epi8(cur, k, _mm256_cmpgt_epi64(cur, k)));
+}
+/// A min is idempotent, so a span of 4 or more keys ends with one vector overlapping the last
+/// full one instead of a scalar tail (a 5-pixel splat row: two vectors, no loop).
 TERRAMRF_TARGET_AVX2 inline void rowMinAvx2(uint64_t* row, int x0, int x1, uint64_t key) {
-  const __m256i k = _mm256_set1_epi64x(int64_t(key));
-  int x = x0;
-  for (; x + 3 <= x1; x += 4) {
-    __m256i* at = reinterpret_cast<__m256i*>(row + x);
-    const __m256i cur = _mm256_loadu_si256(at);
-    _mm256_storeu_si256(at, _mm256_blendv_epi8(cur, k, _mm256_cmpgt_epi64(cur, k)));
+  if (x1 - x0 < 3) {
+    for (int x = x0; x <= x1; ++x) row[x] = std::min(row[x], key);
+    return;
   }
-  for (; x <= x1; ++x) row[x] = std::min(row[x], key);
+  const __m256i k = _mm256_set1_epi64x(int64_t(key));
+  for (int x = x0; x + 3 < x1; x += 4) min4(row + x, k);
+  min4(row + x1 - 3, k);
 }
 }  // namespace
 
