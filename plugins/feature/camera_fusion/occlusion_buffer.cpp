@@ -48,22 +48,50 @@ inline uint64_t keyOf(float depth, int32_t cell) {
 }
 
 /// Every visible point's key into the (2r + 1)² square around its pixel, keeping the least;
-/// `row_min(row, x0, x1, key)` does one row of it.
-template <class RowMin>
+/// `row_min(row, x0, x1, key)` does one row of it. With kR ≥ 0 (= s.r) the squares away from the
+/// image border have a size known when compiling, so their rows unroll into a few vector
+/// operations each (a 5 × 5 splat: ten); kR = −1 reads r at run time.
+template <int kR, class RowMin>
 __attribute__((always_inline)) inline void splatBody(const OcclusionBuffer::Splat& s,
                                                      const std::vector<int32_t>& pixel_of_point,
                                                      const std::vector<float>& depth,
                                                      const std::vector<int32_t>& cell_of_point,
                                                      RowMin row_min) {
+  const int r = kR >= 0 ? kR : s.r;
+  const std::size_t W = std::size_t(s.width);
   for (std::size_t i = 0, n = pixel_of_point.size(); i < n; ++i) {
     const int32_t px = pixel_of_point[i];
     if (px < 0) continue;
     const uint64_t key = keyOf(depth[i], cell_of_point[i]);
     const int u = px % s.width, v = px / s.width;
-    const int u0 = std::max(0, u - s.r), u1 = std::min(s.width - 1, u + s.r);
-    const int v0 = std::max(0, v - s.r), v1 = std::min(s.height - 1, v + s.r);
-    for (int y = v0; y <= v1; ++y)
-      row_min(s.keys + std::size_t(y - s.row0) * std::size_t(s.width), u0, u1, key);
+    if (kR >= 0 && u >= kR && u + kR < s.width && v >= kR && v + kR < s.height) {
+      uint64_t* at = s.keys + std::size_t(v - kR - s.row0) * W + std::size_t(u - kR);
+      for (int y = 0; y <= 2 * kR; ++y, at += W) row_min(at, 0, 2 * kR, key);
+      continue;
+    }
+    const int u0 = std::max(0, u - r), u1 = std::min(s.width - 1, u + r);
+    const int v0 = std::max(0, v - r), v1 = std::min(s.height - 1, v + r);
+    for (int y = v0; y <= v1; ++y) row_min(s.keys + std::size_t(y - s.row0) * W, u0, u1, key);
+  }
+}
+
+/// splatBody for the frame's half-width: the common ones (KITTI's ring gap gives 2) compiled
+/// for their size.
+template <class RowMin>
+__attribute__((always_inline)) inline void splatAny(const OcclusionBuffer::Splat& s,
+                                                    const std::vector<int32_t>& pixel_of_point,
+                                                    const std::vector<float>& depth,
+                                                    const std::vector<int32_t>& cell_of_point,
+                                                    RowMin row_min) {
+  switch (s.r) {
+    case 1:
+      return splatBody<1>(s, pixel_of_point, depth, cell_of_point, row_min);
+    case 2:
+      return splatBody<2>(s, pixel_of_point, depth, cell_of_point, row_min);
+    case 3:
+      return splatBody<3>(s, pixel_of_point, depth, cell_of_point, row_min);
+    default:
+      return splatBody<-1>(s, pixel_of_point, depth, cell_of_point, row_min);
   }
 }
 
@@ -72,17 +100,18 @@ __attribute__((always_inline)) inline void splatBody(const OcclusionBuffer::Spla
 void OcclusionBuffer::splatScalar(const Splat& s, const std::vector<int32_t>& pixel_of_point,
                                   const std::vector<float>& depth,
                                   const std::vector<int32_t>& cell_of_point) {
-  splatBody(s, pixel_of_point, depth, cell_of_point,
-            [](uint64_t* row, int x0, int x1, uint64_t key) {
-              for (int x = x0; x <= x1; ++x) row[x] = std::min(row[x], key);
-            });
+  splatAny(
+      s, pixel_of_point, depth, cell_of_point,
+      [](uint64_t * row, int x0, int x1, uint64_t key) __attribute__((always_inline)) {
+        for (int x = x0; x <= x1; ++x) row[x] = std::min(row[x], key);
+      });
 }
 
 #if defined(TERRAMRF_SIMD_DISPATCH)
 namespace {
 /// min over four keys at once: every key is below 2^63 (a positive float's bits high), so the
 /// signed comparison AVX2 has orders them as the unsigned one would.
-TERRAMRF_TARGET_AVX2 inline void min4(uint64_t* at, __m256i k) {
+TERRAMRF_TARGET_AVX2 __attribute__((always_inline)) inline void min4(uint64_t* at, __m256i k) {
   __m256i* p = reinterpret_cast<__m256i*>(at);
   const __m256i cur = _mm256_loadu_si256(p);
   _mm256_storeu_si256(p, _mm256_blendv_epi8(cur, k, _mm256_cmpgt_epi64(cur, k)));
@@ -98,13 +127,19 @@ TERRAMRF_TARGET_AVX2 inline void rowMinAvx2(uint64_t* row, int x0, int x1, uint6
   for (int x = x0; x + 3 < x1; x += 4) min4(row + x, k);
   min4(row + x1 - 3, k);
 }
+/// rowMinAvx2 as a function object (a lambda would not carry the target), inlined into splatBody.
+struct RowMinAvx2 {
+  TERRAMRF_TARGET_AVX2 void operator()(uint64_t* row, int x0, int x1, uint64_t key) const {
+    rowMinAvx2(row, x0, x1, key);
+  }
+};
 }  // namespace
 
 TERRAMRF_TARGET_AVX2 void OcclusionBuffer::splatAvx2(const Splat& s,
                                                      const std::vector<int32_t>& pixel_of_point,
                                                      const std::vector<float>& depth,
                                                      const std::vector<int32_t>& cell_of_point) {
-  splatBody(s, pixel_of_point, depth, cell_of_point, rowMinAvx2);
+  splatAny(s, pixel_of_point, depth, cell_of_point, RowMinAvx2{});
 }
 #endif
 

@@ -225,7 +225,7 @@ TEST(CameraFusionOcclusion, SplatIsTheSameOnEveryInstructionSet) {
   Frame f = groundFrame(forwardCamera(), noFill);
   addFace(f, 2.2, -0.4, 0.4, 0.005, -0.98, -0.1, 0.088);
   std::size_t previous = std::numeric_limits<std::size_t>::max();
-  for (int splat : {1, 3, 7, 16}) {
+  for (int splat : {1, 2, 3, 7, 16}) {
     const std::string params =
         "{occlusion: depth_test, max_pixels_per_cell: 100000, "
         "occlusion_splat: fixed, occlusion_splat_px: " +
