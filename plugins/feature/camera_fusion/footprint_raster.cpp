@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <utility>
 
 namespace terramrf {
 
@@ -19,20 +20,28 @@ std::size_t FootprintRaster::spans(const std::vector<Eigen::Vector2d>& poly, int
   const double v_hi = std::min(double(height), std::ceil(ymax));
   std::size_t count = 0;
   double su = 0, sv = 0;
+  // A row crosses at most n edges; a convex footprint (every cell seen from in front) exactly 0
+  // or 2, which need no sort.
+  xs_.resize(n);
+  double* const xs = xs_.data();
   for (int v = int(v_lo); v < int(v_hi); ++v) {
     const double y = v;
-    xs_.clear();
-    for (std::size_t i = 0; i < n; ++i) {
-      const Eigen::Vector2d& a = poly[i];
-      const Eigen::Vector2d& b = poly[(i + 1) % n];
+    std::size_t crossings = 0;
+    for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
+      const Eigen::Vector2d& a = poly[j];
+      const Eigen::Vector2d& b = poly[i];
       if ((a.y() <= y) != (b.y() <= y))
-        xs_.push_back(a.x() + (y - a.y()) * (b.x() - a.x()) / (b.y() - a.y()));
+        xs[crossings++] = a.x() + (y - a.y()) * (b.x() - a.x()) / (b.y() - a.y());
     }
-    std::sort(xs_.begin(), xs_.end());
-    for (std::size_t k = 0; k + 1 < xs_.size(); k += 2) {
+    if (crossings == 2) {
+      if (xs[1] < xs[0]) std::swap(xs[0], xs[1]);
+    } else {
+      std::sort(xs, xs + crossings);
+    }
+    for (std::size_t k = 0; k + 1 < crossings; k += 2) {
       // Pixel u is inside when xa <= u < xb.
-      const double u0 = std::max(0.0, std::ceil(xs_[k]));
-      const double u1 = std::min(double(width), std::ceil(xs_[k + 1]));
+      const double u0 = std::max(0.0, std::ceil(xs[k]));
+      const double u1 = std::min(double(width), std::ceil(xs[k + 1]));
       if (u1 <= u0) continue;
       const int a = int(u0), b = int(u1);
       spans_.push_back({v, a, b});
