@@ -1,6 +1,7 @@
 #pragma once
 // The per-point lookup point → pixel of camera_fusion for a camera without distortion: one 3 × 4
-// product per point (M = P · T_camera_lidar), the same arithmetic as CameraModel::project.
+// product per point (M = P · T_camera_lidar): the maths of CameraModel::project, which multiplies
+// by T_camera_lidar and P in turn (so the two can round apart in the last bit).
 #include <cstddef>
 #include <cstdint>
 
