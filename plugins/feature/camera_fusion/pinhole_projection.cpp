@@ -14,11 +14,12 @@ std::size_t onePointAtATime(const PinholeScan& s, std::size_t i0) {
     const double x = s.x[i], y = s.y[i], z = s.z[i];
     const double cz = s.zc[0] * x + s.zc[1] * y + s.zc[2] * z + s.zc[3];
     const double w = s.M[2][0] * x + s.M[2][1] * y + s.M[2][2] * z + s.M[2][3];
-    const double u = (s.M[0][0] * x + s.M[0][1] * y + s.M[0][2] * z + s.M[0][3]) / w;
-    const double v = (s.M[1][0] * x + s.M[1][1] * y + s.M[1][2] * z + s.M[1][3]) / w;
     s.pix[i] = -1;
     if (s.depth) s.depth[i] = 0.f;
-    if (!(cz > 1e-6 && w > 1e-9 && u >= -0.5 && v >= -0.5 && u < w_max && v < h_max)) continue;
+    if (!(cz > 1e-6 && w > 1e-9)) continue;  // behind the camera: no divisions
+    const double u = (s.M[0][0] * x + s.M[0][1] * y + s.M[0][2] * z + s.M[0][3]) / w;
+    const double v = (s.M[1][0] * x + s.M[1][1] * y + s.M[1][2] * z + s.M[1][3]) / w;
+    if (!(u >= -0.5 && v >= -0.5 && u < w_max && v < h_max)) continue;
     // The nearest pixel centre; u, v ≥ −0.5, so the sums are ≥ 0 and truncation rounds. Within
     // half a pixel beyond the last column or row there is no pixel.
     const int iu = int(u + 0.5), iv = int(v + 0.5);
