@@ -97,28 +97,15 @@ __attribute__((always_inline)) inline void rowBody(const uint8_t* grey, int rows
   }
 }
 
-/// rowBody for the window d (3–15, odd; the plugin's declared range).
-#define TERRAMRF_ROW_FOR_WINDOW                           \
-  switch (window / 2) {                                   \
-    case 1:                                               \
-      return rowBody<1>(grey, rows, cols, r, running, s); \
-    case 2:                                               \
-      return rowBody<2>(grey, rows, cols, r, running, s); \
-    case 3:                                               \
-      return rowBody<3>(grey, rows, cols, r, running, s); \
-    case 4:                                               \
-      return rowBody<4>(grey, rows, cols, r, running, s); \
-    case 5:                                               \
-      return rowBody<5>(grey, rows, cols, r, running, s); \
-    case 6:                                               \
-      return rowBody<6>(grey, rows, cols, r, running, s); \
-    default:                                              \
-      return rowBody<7>(grey, rows, cols, r, running, s); \
-  }
-void rowSse2(const uint8_t* grey, int rows, int cols, int window, int r, bool running,
-             const Rows& s) {
-  TERRAMRF_ROW_FOR_WINDOW
+/// One row function per window (3–15, odd; the plugin's declared range) and instruction set,
+/// chosen once per call of the public functions: [R] runs rowBody<R>, [0] is unused.
+using RowFn = void (*)(const uint8_t*, int, int, int, bool, const Rows&);
+template <int R>
+void rowSse2(const uint8_t* grey, int rows, int cols, int r, bool running, const Rows& s) {
+  rowBody<R>(grey, rows, cols, r, running, s);
 }
+constexpr RowFn kRowSse2[8] = {nullptr,    rowSse2<1>, rowSse2<2>, rowSse2<3>,
+                               rowSse2<4>, rowSse2<5>, rowSse2<6>, rowSse2<7>};
 
 /// e² · N²v² as a float, formed the same way everywhere. Both are below 2^31 (e² ≤ 2 · 1020²;
 /// N²v² = N² · variance ≤ 225² · 127.5²), so they convert as signed integers: one instruction
@@ -137,10 +124,15 @@ void fixedSse2(const uint32_t* e2, const uint32_t* v2, int n, float k, float* h)
 }
 
 #if defined(TERRAMRF_SIMD_DISPATCH)
-TERRAMRF_TARGET_AVX2 void rowAvx2(const uint8_t* grey, int rows, int cols, int window, int r,
-                                  bool running,
-                                  const Rows& s){TERRAMRF_ROW_FOR_WINDOW} TERRAMRF_TARGET_AVX2
-    void fixedAvx2(const uint32_t* e2, const uint32_t* v2, int n, float k, float* h) {
+template <int R>
+TERRAMRF_TARGET_AVX2 void rowAvx2(const uint8_t* grey, int rows, int cols, int r, bool running,
+                                  const Rows& s) {
+  rowBody<R>(grey, rows, cols, r, running, s);
+}
+constexpr RowFn kRowAvx2[8] = {nullptr,    rowAvx2<1>, rowAvx2<2>, rowAvx2<3>,
+                               rowAvx2<4>, rowAvx2<5>, rowAvx2<6>, rowAvx2<7>};
+TERRAMRF_TARGET_AVX2 void fixedAvx2(const uint32_t* e2, const uint32_t* v2, int n, float k,
+                                    float* h) {
   fixedBody(e2, v2, n, k, h);
 }
 #endif
@@ -151,6 +143,7 @@ void ChengSunMap::reserve(int cols, int window) {
   if (window < 3 || window > 15 || window % 2 == 0)
     throw std::invalid_argument("ChengSunMap: window " + std::to_string(window) +
                                 " px; expected an odd size from 3 to 15");
+  half_ = window / 2;
 #if defined(TERRAMRF_SIMD_DISPATCH)
   avx2_ = useAvx2();
 #endif
@@ -162,18 +155,18 @@ void ChengSunMap::reserve(int cols, int window) {
   v2_.resize(W);
 }
 
-void ChengSunMap::row(const uint8_t* grey, int rows, int cols, int window, int r, bool running) {
+void ChengSunMap::row(const uint8_t* grey, int rows, int cols, int r, bool running) {
   const Rows s{col_s_.data(), col_q_.data(), sobel_rows_.data(), e2_.data(), v2_.data()};
 #if defined(TERRAMRF_SIMD_DISPATCH)
-  if (avx2_) return rowAvx2(grey, rows, cols, window, r, running, s);
+  if (avx2_) return kRowAvx2[half_](grey, rows, cols, r, running, s);
 #endif
-  rowSse2(grey, rows, cols, window, r, running, s);
+  kRowSse2[half_](grey, rows, cols, r, running, s);
 }
 
 void ChengSunMap::rowProducts(const uint8_t* grey, int rows, int cols, int window, int r,
                               const uint32_t** e2, const uint32_t** v2) {
   reserve(cols, window);
-  row(grey, rows, cols, window, r, false);
+  row(grey, rows, cols, r, false);
   *e2 = e2_.data();
   *v2 = v2_.data();
 }
@@ -182,7 +175,7 @@ void ChengSunMap::fixed(const uint8_t* grey, int rows, int cols, int window, int
                         float k, float* h) {
   reserve(cols, window);
   for (int r = r0; r < r1; ++r, h += cols) {
-    row(grey, rows, cols, window, r, r > r0);
+    row(grey, rows, cols, r, r > r0);
 #if defined(TERRAMRF_SIMD_DISPATCH)
     if (avx2_) {
       fixedAvx2(e2_.data(), v2_.data(), cols, k, h);
@@ -198,7 +191,7 @@ void ChengSunMap::maxima(const uint8_t* grey, int rows, int cols, int window, in
   reserve(cols, window);
   uint32_t e = 0, v = 0;
   for (int r = r0; r < r1; ++r) {
-    row(grey, rows, cols, window, r, r > r0);
+    row(grey, rows, cols, r, r > r0);
     for (int x = 0; x < cols; ++x) e = std::max(e, e2_[x]), v = std::max(v, v2_[x]);
   }
   *e2_max = e;
@@ -209,7 +202,7 @@ void ChengSunMap::image(const uint8_t* grey, int rows, int cols, int window, int
                         float ev_max, float* h) {
   reserve(cols, window);
   for (int r = r0; r < r1; ++r, h += cols) {
-    row(grey, rows, cols, window, r, r > r0);
+    row(grey, rows, cols, r, r > r0);
     for (int x = 0; x < cols; ++x) h[x] = 1.0f - std::sqrt(product(e2_[x], v2_[x])) / ev_max;
   }
 }

@@ -33,16 +33,18 @@ class ChengSunMap {
                    const uint32_t** v2);
 
  private:
-  /// Sizes the rows and reads the instruction set (once per call of the public functions).
+  /// Sizes the rows, checks the window and reads the instruction set (once per call of the
+  /// public functions).
   void reserve(int cols, int window);
   /// e² and N²v² of row r into e2_ and v2_; `running`: the column sums hold row r − 1's.
-  void row(const uint8_t* grey, int rows, int cols, int window, int r, bool running);
+  void row(const uint8_t* grey, int rows, int cols, int r, bool running);
 
   std::vector<uint16_t> col_s_;  // ΣI down the window's rows, per column, padded by d/2 each side
   std::vector<uint32_t> col_q_;  // ΣI², the same
   std::vector<uint8_t> sobel_rows_;  // rows r − 1, r, r + 1, padded by one pixel each side
   std::vector<uint32_t> e2_, v2_;
   bool avx2_ = false;
+  int half_ = 1;  // window / 2
 };
 
 }  // namespace terramrf

@@ -154,6 +154,8 @@ class Homogeneity final : public Stage {
       const float k = float(1.0 / (1020 * M_SQRT2 * area * 127.5));
       return map_.fixed(grey, band_rows, cols, window_, r0, r1, k, h);
     }
+    // The image's maxima first, then H: two passes of the kernel (cheaper than keeping e² and
+    // N²v² for the whole image between them).
     uint32_t v2_max = 0, e2_max = 0;
     map_.maxima(grey, band_rows, cols, window_, r0, r1, &e2_max, &v2_max);
     // A flat image has no pixel with both spread and gradient: H = 1 everywhere.
