@@ -16,6 +16,11 @@
 // zero. The default was chosen on the simulator's validation world
 // (docs/plugins/camera_features.md).
 //
+// `local_std` (the spread term alone, as the only public implementation of a terrain-classification
+// "homogeneity" we found computes it: cogsys-tuebingen/cslibs_vision,
+// docs/plugins/camera_features.md):
+//   H(p) = 1 − v(p) / v_max,  v and v_max as above. Range [0, 1]; 1 on a flat patch.
+//
 // `local_mean` (this project's earlier stand-in):
 //   h(p) = 1 / (1 + |I(p) − Ī(p)| / s),  Ī = mean of I over the 3 × 3 neighbourhood, s =
 //   `contrast_scale` [grey levels]. Range (0, 1]; exactly 1 on a flat patch and on linear shading.
@@ -43,16 +48,17 @@ class Homogeneity final : public Stage {
           "name of the output layer: mean pixel homogeneity over the cell, [0, 1]");
     d.add("definition", definition_,
           "per-pixel homogeneity: cheng_sun (1 − normalised Sobel magnitude × normalised local "
-          "standard deviation, Cheng & Sun 2000) or local_mean (1/(1+|I − 3×3 mean|/s))")
-        .choices({"cheng_sun", "local_mean"});
+          "standard deviation, Cheng & Sun 2000), local_std (1 − normalised local standard "
+          "deviation) or local_mean (1/(1+|I − 3×3 mean|/s))")
+        .choices({"cheng_sun", "local_std", "local_mean"});
     d.add("window", window_,
-          "cheng_sun: side of the square window of the local standard deviation (odd)")
+          "cheng_sun, local_std: side of the square window of the local standard deviation (odd)")
         .unit("px")
         .range(3, 15);
     d.add("normalise", normalise_,
-          "cheng_sun: divide gradient and standard deviation by the largest values 8-bit grey "
-          "allows (fixed: a cell's value does not depend on the rest of the image) or by the "
-          "image's maxima (image, as published)")
+          "cheng_sun, local_std: divide the gradient (cheng_sun) and the standard deviation by "
+          "the largest values 8-bit grey allows (fixed: a cell's value does not depend on the "
+          "rest of the image) or by the image's maxima (image, as published)")
         .choices({"image", "fixed"});
     d.add("contrast_scale", scale_,
           "local_mean: grey-level difference to the 3×3 mean at which a pixel's homogeneity is 1/2")
@@ -76,12 +82,13 @@ class Homogeneity final : public Stage {
   void process(FrameContext& ctx) override {
     TerrainGrid& g = *ctx.grid;
     const auto cams = fusion::fusedCameras(ctx, camera_, "homogeneity");
-    const bool cheng_sun = definition_ == "cheng_sun";
+    // cheng_sun and local_std write a float map of H; local_mean the 3 × 3 sums.
+    const bool float_map = definition_ != "local_mean";
     grey_.resize(cams.size());
     maps_.resize(cams.size());
     for (std::size_t k = 0; k < cams.size(); ++k) {
-      if (cheng_sun) {
-        chengSun(*cams[k].image, *cams[k].pixels, maps_[k]);
+      if (float_map) {
+        windowed(*cams[k].image, *cams[k].pixels, maps_[k]);
         continue;
       }
       fusion::toGrey(*cams[k].image, grey_[k]);
@@ -95,7 +102,7 @@ class Homogeneity final : public Stage {
       const CellPixels& cp = *cams[k].pixels;
       if (cp.count(c) < uint32_t(min_pixels_)) continue;
       double s = 0;
-      if (cheng_sun) {
+      if (float_map) {
         const float* h = maps_[k].h.ptr<float>(0) - maps_[k].first_pixel;
         for (const uint32_t* it = cp.begin(c); it != cp.end(c); ++it) s += h[*it];
       } else {
@@ -111,14 +118,16 @@ class Homogeneity final : public Stage {
  private:
   static constexpr int kTable = 9 * 255 + 1;
 
-  /// Per image. Cheng & Sun: H over the rows that hold cell pixels (or the whole image when its
-  /// maxima normalise), from `first_pixel` (v·width) on; local_mean: the 3 × 3 sums (CV_16U).
+  /// Per image. cheng_sun, local_std: H over the rows that hold cell pixels (or the whole image
+  /// when its maxima normalise), from `first_pixel` (v·width) on; local_mean: the 3 × 3 sums
+  /// (CV_16U).
   struct Maps {
     cv::Mat h, band;
     std::size_t first_pixel = 0;
   };
 
-  void chengSun(const Image& img, const CellPixels& cp, Maps& m) {
+  /// H of cheng_sun or local_std.
+  void windowed(const Image& img, const CellPixels& cp, Maps& m) {
     // Only the rows the cells use need H, unless the image's maxima normalise it. The grey
     // conversion and the filters run on those rows plus the window's reach above and below
     // (clipped to the image, where the border rule applies as on the whole image), and H is kept
@@ -147,6 +156,7 @@ class Homogeneity final : public Stage {
     const uint8_t* grey = band.ptr<uint8_t>(0);
     const int band_rows = p1 - p0, r0 = v0 - p0, r1 = v1 - p0;
     float* h = m.h.ptr<float>(0);
+    if (definition_ == "local_std") return localStd(band, r0, r1, h);
     // E·V = √(e²·N²v²) / (e_max·N·v_max), with 8-bit grey's bounds (|Gx|, |Gy| ≤ 4·255; v ≤
     // 127.5, half black, half white) or the image's maxima.
     if (normalise_ == "fixed") {
@@ -167,6 +177,37 @@ class Homogeneity final : public Stage {
     map_.image(grey, band_rows, cols, window_, r0, r1, std::sqrt(float(e2_max) * float(v2_max)), h);
   }
 
+  /// local_std's H = 1 − v / v_max over band rows [r0, r1) into h, from the window's exact integer
+  /// sums (N²v² = N·ΣI² − (ΣI)², N = d²), as Cheng & Sun's map forms v.
+  void localStd(const cv::Mat& band, int r0, int r1, float* h) {
+    const int cols = band.cols;
+    const cv::Size win(window_, window_);
+    cv::boxFilter(band, sum_, CV_32S, win, cv::Point(-1, -1), false, cv::BORDER_REFLECT_101);
+    cv::sqrBoxFilter(band, sqsum_, CV_64F, win, cv::Point(-1, -1), false, cv::BORDER_REFLECT_101);
+    const double n = double(window_) * window_;
+    double nv_max = n * 127.5;  // fixed: half the window black, half white
+    if (normalise_ == "image") {
+      double v2_max = 0;
+      for (int r = r0; r < r1; ++r) {
+        const int32_t* s = sum_.ptr<int32_t>(r);
+        const double* q = sqsum_.ptr<double>(r);
+        for (int c = 0; c < cols; ++c) v2_max = std::max(v2_max, n * q[c] - double(s[c]) * s[c]);
+      }
+      if (v2_max == 0) {  // a flat image: H = 1 everywhere
+        std::fill(h, h + std::size_t(r1 - r0) * cols, 1.0f);
+        return;
+      }
+      nv_max = std::sqrt(v2_max);
+    }
+    for (int r = r0; r < r1; ++r) {
+      const int32_t* s = sum_.ptr<int32_t>(r);
+      const double* q = sqsum_.ptr<double>(r);
+      float* hr = h + std::size_t(r - r0) * cols;
+      for (int c = 0; c < cols; ++c)
+        hr[c] = float(1.0 - std::sqrt(n * q[c] - double(s[c]) * s[c]) / nv_max);
+    }
+  }
+
   std::string layer_ = "homogeneity";
   std::string definition_ = "cheng_sun";
   int window_ = 5;
@@ -179,10 +220,11 @@ class Homogeneity final : public Stage {
   std::vector<cv::Mat> grey_;
   std::vector<Maps> maps_;
   ChengSunMap map_;
+  cv::Mat sum_, sqsum_;  // local_std: the window's ΣI and ΣI² over the band
 };
 
 }  // namespace terramrf
 
 TERRAMRF_PLUGIN(terramrf::Homogeneity, terramrf::PluginKind::kFeature, "homogeneity",
                 "texture homogeneity f_th: mean over the cell's pixels of Cheng & Sun's "
-                "1 − E·V (or 1/(1+|I−mean3x3(I)|/s)) (paper 000 §4.3)")
+                "1 − E·V (or 1 − V, or 1/(1+|I−mean3x3(I)|/s)) (paper 000 §4.3)")

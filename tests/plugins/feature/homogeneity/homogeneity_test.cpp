@@ -1,5 +1,6 @@
-// homogeneity: f_th = mean over the cell of Cheng & Sun's H = 1 − E·V (default) or of
-// 1 / (1 + |I − mean3×3(I)| / s) (definition: local_mean), against values computed by hand.
+// homogeneity: f_th = mean over the cell of Cheng & Sun's H = 1 − E·V (default), of 1 − V
+// (definition: local_std) or of 1 / (1 + |I − mean3×3(I)| / s) (definition: local_mean), against
+// values computed by hand.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -98,6 +99,48 @@ TEST(HomogeneityChengSun, StepEdgeByHand) {
               1e-6);
 }
 
+// local_std: the spread alone. On the step, the 5 × 5 standard deviation is 200·√(p(1 − p)): p =
+// 1/5, 2/5, 3/5, 4/5 at columns 98–101 (80, 200·√0.24, 200·√0.24, 80), 0 elsewhere.
+TEST(HomogeneityLocalStd, StepEdgeByHand) {
+  const char* const image = "{definition: local_std, normalise: image}";
+  const char* const fixed = "{definition: local_std}";  // normalise: fixed is the default
+  const double v_edge = 200 * std::sqrt(0.24);
+  EXPECT_FLOAT_EQ(run(image, step, 99, 101, 10, 90), 0.0f);
+  EXPECT_NEAR(run(image, step, 98, 99, 10, 90), 1.0 - 80.0 / v_edge, 1e-6);
+  EXPECT_NEAR(run(image, step, 101, 102, 10, 90), 1.0 - 80.0 / v_edge, 1e-6);
+  EXPECT_FLOAT_EQ(run(image, step, 102, 150, 10, 90), 1.0f);
+  EXPECT_FLOAT_EQ(run(image, step, 0, 98, 10, 90), 1.0f);
+  EXPECT_NEAR(run(fixed, step, 99, 101, 10, 90), 1.0 - v_edge / 127.5, 1e-6);
+  EXPECT_NEAR(run(fixed, step, 98, 99, 10, 90), 1.0 - 80.0 / 127.5, 1e-6);
+  // Unlike Cheng & Sun's, columns 98 and 101 (spread, no gradient) are below 1: over the four
+  // columns the mean is lower than 1 − E·V's 0.5 with the image's maxima.
+  EXPECT_NEAR(run(image, step, 98, 102, 10, 90), (1.0 - 80.0 / v_edge) / 2, 1e-6);
+  // 3 × 3: p = 1/3, 2/3 at columns 99 and 100 (200·√2/3), nothing at 98 and 101.
+  EXPECT_NEAR(run("{definition: local_std, window: 3}", step, 99, 101, 10, 90),
+              1.0 - 200 * std::sqrt(2.0) / 3 / 127.5, 1e-6);
+  EXPECT_FLOAT_EQ(run("{definition: local_std, window: 3}", step, 101, 102, 10, 90), 1.0f);
+}
+
+TEST(HomogeneityLocalStd, FlatImageIsOneAndContrastInvariantPerImage) {
+  for (int g : {0, 137, 255}) {
+    auto flat = [g](int, int, uint8_t* p) { grey(p, g); };
+    EXPECT_FLOAT_EQ(run("{definition: local_std, normalise: image}", flat, 0, 200, 0, 100), 1.0f)
+        << g;
+    EXPECT_FLOAT_EQ(run("{definition: local_std}", flat, 0, 200, 0, 100), 1.0f) << g;
+  }
+  auto board = [](int amp) {
+    return [amp](int u, int v, uint8_t* p) {
+      grey(p, u < 100 ? 100 + (((u / 4) + (v / 4)) % 2 ? amp : -amp) : 100);
+    };
+  };
+  const char* const image = "{definition: local_std, normalise: image}";
+  const float h = run(image, board(40), 20, 80, 20, 80);
+  EXPECT_LT(h, 0.8f);
+  EXPECT_NEAR(run(image, board(10), 20, 80, 20, 80), h, 1e-6);
+  EXPECT_GT(run("{definition: local_std}", board(10), 20, 80, 20, 80),
+            run("{definition: local_std}", board(40), 20, 80, 20, 80));
+}
+
 TEST(HomogeneityChengSun, FlatImageIsOne) {
   // No gradient and no spread anywhere: the image maxima are 0, and H is 1, not 0/0. Bright
   // grey checks that the standard deviation of a flat window is exactly 0.
@@ -171,6 +214,14 @@ TEST(HomogeneityChengSun, MatchesDefinitionOnNoise) {
             << w << " at " << u << "," << v;
         EXPECT_NEAR(run("{" + w + ", normalise: fixed}", fill, u, u + 1, v, v + 1),
                     1 - ev / (1020 * std::sqrt(2.0) * 127.5), 1e-5)
+            << w << " at " << u << "," << v;
+        // local_std, the spread alone.
+        EXPECT_NEAR(
+            run("{definition: local_std, " + w + ", normalise: image}", fill, u, u + 1, v, v + 1),
+            1 - V[v * 200 + u] / vmax, 1e-5)
+            << w << " at " << u << "," << v;
+        EXPECT_NEAR(run("{definition: local_std, " + w + "}", fill, u, u + 1, v, v + 1),
+                    1 - V[v * 200 + u] / 127.5, 1e-5)
             << w << " at " << u << "," << v;
       }
   }
