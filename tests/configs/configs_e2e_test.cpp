@@ -309,7 +309,7 @@ TEST(SweepsE2E, SimulatorSweepMeetsTheTargets) {
       EXPECT_NE(row.at("candidate").find("homog.definition="), std::string::npos)
           << row.at("candidate");
     }
-  EXPECT_EQ(fh_candidates, 8);
+  EXPECT_EQ(fh_candidates, 12);  // 4 component counts × cheng_sun, local_std, local_mean
 }
 
 // docs/own_data.md's example, as shipped, on three simulated drives made as its header says.
