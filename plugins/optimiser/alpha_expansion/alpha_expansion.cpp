@@ -732,7 +732,8 @@ class AlphaExpansion final : public Stage {
       // The new nodes, then every pair between a new node and a node added before it (each pair
       // with both nodes in the region is in the network once), p→q arcs first.
       const int R = static_cast<int>(region_.size());
-      g.add_node(R - int(old_size));
+      // (A growth can add nothing: ring nodes whose arcs in all come from inside.)
+      if (R > int(old_size)) g.add_node(R - int(old_size));
       for (int i = int(old_size); i < R; ++i) {
         const int n = region_[i];
         g.set_trcap(i, res_t[n]);
