@@ -207,4 +207,13 @@ void ChengSunMap::image(const uint8_t* grey, int rows, int cols, int window, int
   }
 }
 
+void ChengSunMap::spread(const uint8_t* grey, int rows, int cols, int window, int r0, int r1,
+                         double nv_max, float* h) {
+  reserve(cols, window);
+  for (int r = r0; r < r1; ++r, h += cols) {
+    row(grey, rows, cols, r, r > r0);
+    for (int x = 0; x < cols; ++x) h[x] = float(1.0 - std::sqrt(double(v2_[x])) / nv_max);
+  }
+}
+
 }  // namespace terramrf

@@ -9,6 +9,7 @@
 // intermediate image is written: the window's column sums are carried from row to row (one row
 // in, one out) and each row's sums live in a few L1-sized buffers. On a KITTI image that is
 // 60 % fewer instructions than those four filters and the pass that combined their images.
+// `spread` gives the plugin's local_std, 1 − √(N²v²) / nv_max, from the same rows.
 #include <cstdint>
 #include <vector>
 
@@ -27,6 +28,9 @@ class ChengSunMap {
   /// H = 1 − √(e² · N²v²) / ev_max over rows [r0, r1).
   void image(const uint8_t* grey, int rows, int cols, int window, int r0, int r1, float ev_max,
              float* h);
+  /// The spread alone (the plugin's local_std): 1 − √(N²v²) / nv_max over rows [r0, r1).
+  void spread(const uint8_t* grey, int rows, int cols, int window, int r0, int r1, double nv_max,
+              float* h);
 
   /// e² and N²v² of row r, as the filters give them (for the tests; valid until the next call).
   void rowProducts(const uint8_t* grey, int rows, int cols, int window, int r, const uint32_t** e2,

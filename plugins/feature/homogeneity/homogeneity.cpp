@@ -177,35 +177,22 @@ class Homogeneity final : public Stage {
     map_.image(grey, band_rows, cols, window_, r0, r1, std::sqrt(float(e2_max) * float(v2_max)), h);
   }
 
-  /// local_std's H = 1 − v / v_max over band rows [r0, r1) into h, from the window's exact integer
-  /// sums (N²v² = N·ΣI² − (ΣI)², N = d²), as Cheng & Sun's map forms v.
+  /// local_std's H = 1 − v / v_max over band rows [r0, r1) into h, from the same window sums as
+  /// Cheng & Sun's v.
   void localStd(const cv::Mat& band, int r0, int r1, float* h) {
-    const int cols = band.cols;
-    const cv::Size win(window_, window_);
-    cv::boxFilter(band, sum_, CV_32S, win, cv::Point(-1, -1), false, cv::BORDER_REFLECT_101);
-    cv::sqrBoxFilter(band, sqsum_, CV_64F, win, cv::Point(-1, -1), false, cv::BORDER_REFLECT_101);
+    const uint8_t* grey = band.ptr<uint8_t>(0);
     const double n = double(window_) * window_;
     double nv_max = n * 127.5;  // fixed: half the window black, half white
     if (normalise_ == "image") {
-      double v2_max = 0;
-      for (int r = r0; r < r1; ++r) {
-        const int32_t* s = sum_.ptr<int32_t>(r);
-        const double* q = sqsum_.ptr<double>(r);
-        for (int c = 0; c < cols; ++c) v2_max = std::max(v2_max, n * q[c] - double(s[c]) * s[c]);
-      }
+      uint32_t e2_max = 0, v2_max = 0;
+      map_.maxima(grey, band.rows, band.cols, window_, r0, r1, &e2_max, &v2_max);
       if (v2_max == 0) {  // a flat image: H = 1 everywhere
-        std::fill(h, h + std::size_t(r1 - r0) * cols, 1.0f);
+        std::fill(h, h + std::size_t(r1 - r0) * band.cols, 1.0f);
         return;
       }
-      nv_max = std::sqrt(v2_max);
+      nv_max = std::sqrt(double(v2_max));
     }
-    for (int r = r0; r < r1; ++r) {
-      const int32_t* s = sum_.ptr<int32_t>(r);
-      const double* q = sqsum_.ptr<double>(r);
-      float* hr = h + std::size_t(r - r0) * cols;
-      for (int c = 0; c < cols; ++c)
-        hr[c] = float(1.0 - std::sqrt(n * q[c] - double(s[c]) * s[c]) / nv_max);
-    }
+    map_.spread(grey, band.rows, band.cols, window_, r0, r1, nv_max, h);
   }
 
   std::string layer_ = "homogeneity";
@@ -220,7 +207,6 @@ class Homogeneity final : public Stage {
   std::vector<cv::Mat> grey_;
   std::vector<Maps> maps_;
   ChengSunMap map_;
-  cv::Mat sum_, sqsum_;  // local_std: the window's ΣI and ΣI² over the band
 };
 
 }  // namespace terramrf
