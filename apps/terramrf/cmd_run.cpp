@@ -6,6 +6,7 @@
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/config.hpp"
 #include "terramrf/pipeline.hpp"
+#include "terramrf/sweep.hpp"
 
 namespace terramrf::cli {
 
@@ -30,8 +31,26 @@ int cmdValidate(const Args& args) {
   if (!parseConfigArgs(a, "validate", config)) return kUsage;
   LoadOptions lo;
   lo.data_override = takeOption(a, "--data");
-  PluginRegistry reg(PluginRegistry::defaultSearchDirs());
+  if (!a.empty()) {
+    std::cerr << "terramrf validate: unexpected argument '" << a[0] << "'\n";
+    return kUsage;
+  }
   try {
+    if (isSweepFile(config)) {
+      if (!lo.data_override.empty()) {
+        std::cerr << "terramrf validate: --data is for pipeline configs; a sweep names its "
+                     "datasets' folders itself\n";
+        return kUsage;
+      }
+      const SweepPlan plan = planSweep(config);
+      std::cout << config << ": ok (sweep '" << plan.name << "': " << plan.runs.size()
+                << " run(s), " << plan.skipped.size() << " skipped, " << plan.selection_runs.size()
+                << " validation run(s) of select:)\n";
+      for (const auto& [run, why] : plan.skipped)
+        std::cout << "  skip " << run << ": " << why << "\n";
+      return kOk;
+    }
+    PluginRegistry reg(PluginRegistry::defaultSearchDirs());
     Pipeline p = loadPipeline(config, lo, reg);
     std::cout << config << ": ok (" << p.stages.size() << " stages, " << p.outputs.size()
               << " outputs, " << p.source->size() << " frames)\n";

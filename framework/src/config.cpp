@@ -113,6 +113,44 @@ YAML::Node loadYamlFile(const std::string& path, Diags& d, const std::string& wh
   return root;
 }
 
+namespace {
+/// The top-level keys only one kind of file has.
+const std::vector<std::string> kSweepOnlyKeys = {"datasets", "feature_sets", "optimisers"};
+const std::vector<std::string> kPipelineOnlyKeys = {"source", "stages"};
+
+std::vector<std::string> presentKeys(const YAML::Node& root, const std::vector<std::string>& keys) {
+  std::vector<std::string> out;
+  for (const auto& k : keys)
+    if (root[k]) out.push_back("'" + k + "'");
+  return out;
+}
+
+std::string joined(const std::vector<std::string>& v) {
+  std::string s;
+  for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + v[i];
+  return s;
+}
+}  // namespace
+
+void refuseOtherKind(const YAML::Node& root, FileKind expected, Diags& d) {
+  if (!root.IsMap()) return;
+  const auto sweep = presentKeys(root, kSweepOnlyKeys);
+  const auto pipeline = presentKeys(root, kPipelineOnlyKeys);
+  if (expected == FileKind::kPipeline && !sweep.empty() && pipeline.empty()) {
+    d.add(root.Mark(), "this is a sweep (it has " + joined(sweep) +
+                           "): run it with 'terramrf compare'; run, train and mesh read a "
+                           "pipeline config (version, grid, source, stages, outputs)");
+    d.throwIfAny();
+  }
+  if (expected == FileKind::kSweep && !pipeline.empty() && sweep.empty()) {
+    d.add(root.Mark(), "this is a pipeline config (it has " + joined(pipeline) +
+                           "): run it with 'terramrf run' or 'terramrf train'; compare reads a "
+                           "sweep (version, datasets, split, feature_sets, optimisers; "
+                           "docs/compare.md)");
+    d.throwIfAny();
+  }
+}
+
 void checkVersion(const YAML::Node& root, Diags& d) {
   if (!root["version"]) {
     d.add(root.Mark(), "missing key 'version' (expected 'version: 1')");
@@ -254,6 +292,16 @@ bool applyEntryParams(Plugin& plugin, const YAML::Node& e, const PluginContext& 
 
 }  // namespace detail
 
+bool isSweepFile(const std::string& path) {
+  try {
+    const YAML::Node root = YAML::LoadFile(path);
+    return root.IsMap() && !detail::presentKeys(root, detail::kSweepOnlyKeys).empty() &&
+           detail::presentKeys(root, detail::kPipelineOnlyKeys).empty();
+  } catch (const YAML::Exception&) {
+    return false;  // the pipeline loader reports it with its position
+  }
+}
+
 const std::vector<std::string> detail::kPipelineKeys = {
     "version", "plugin_path", "grid", "labels", "split", "source", "stages", "outputs", "output_dir"};
 
@@ -266,6 +314,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
     c.add(root.Mark(), "expected a map with keys version, grid, source, stages, outputs");
     c.throwIfAny();
   }
+  detail::refuseOtherKind(root, detail::FileKind::kPipeline, c);
   detail::checkKeys(c, root, detail::kPipelineKeys, "the config");
 
   Pipeline p;

@@ -53,6 +53,14 @@ void checkDuplicateKeys(const YAML::Node& n, Diags& d);
 /// ConfigError; repeated keys are added to `d`.
 YAML::Node loadYamlFile(const std::string& path, Diags& d, const std::string& what);
 
+/// What a file is meant to be, judged from its top-level keys.
+enum class FileKind { kPipeline, kSweep };
+
+/// A pipeline config given where a sweep is expected, or the other way round, would otherwise
+/// come back as a dozen unknown and missing keys; this reports it once, naming the command that
+/// reads it, and throws. A file that looks like neither is left to the caller's key checks.
+void refuseOtherKind(const YAML::Node& root, FileKind expected, Diags& d);
+
 /// `version: 1` is required.
 void checkVersion(const YAML::Node& root, Diags& d);
 

@@ -360,6 +360,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
           "optimisers)");
     d.throwIfAny();
   }
+  detail::refuseOtherKind(root, detail::FileKind::kSweep, d);
   detail::checkKeys(d, root, kSweepKeys, "the sweep", kKeyHint);
   detail::checkVersion(root, d);
   s->f0.file = path;

@@ -296,6 +296,7 @@ TrainResult trainModel(const TrainOptions& o) {
     d.add(root.Mark(), "expected a pipeline config (a map with version, grid, source, stages)");
     d.throwIfAny();
   }
+  detail::refuseOtherKind(root, detail::FileKind::kPipeline, d);
   detail::checkKeys(d, root, detail::kPipelineKeys, "the config", kKeyHint);
   detail::checkVersion(root, d);
   Frame0 f0;

@@ -118,5 +118,53 @@ TEST(CompareCli, ATypoInAPluginTypeIsAnErrorNotASkippedRun) {
       << err;
 }
 
+TEST(ValidateCli, ChecksASweepAsASweep) {
+  test::TempDir dir;
+  const std::string sweep = put(dir, "s.yaml", sweepWithOptimisers("[icm, not_built]"));
+  testing::internal::CaptureStdout();
+  EXPECT_EQ(cli::cmdValidate({sweep}), cli::kOk);
+  const std::string out = testing::internal::GetCapturedStdout();
+  EXPECT_NE(out.find("s.yaml: ok (sweep 's': 1 run(s), 1 skipped"), std::string::npos) << out;
+  EXPECT_NE(out.find("skip b × L × not_built"), std::string::npos) << out;
+
+  // The sweep's own checks, not the pipeline's: a typo is reported where compare reports it.
+  const std::string typo = put(dir, "typo.yaml", sweepWithOptimisers("[icm, icmm]"));
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(cli::cmdValidate({typo}), cli::kUsage);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("typo.yaml:8:19: stage 'icmm' (icmm): plugin type 'icmm' is not installed"),
+            std::string::npos)
+      << err;
+  EXPECT_EQ(cli::cmdValidate({sweep, "--data", dir.str()}), cli::kUsage);
+  EXPECT_EQ(cli::cmdValidate({sweep, "extra"}), cli::kUsage);
+}
+
+TEST(ValidateCli, TheWrongKindOfFileIsOneErrorNamingTheCommand) {
+  // Before, each command listed every key of the other kind as unknown and its own as missing:
+  // eleven errors for configs/sweeps/simulator.yaml given to run, none saying what was wrong.
+  test::TempDir dir;
+  const std::string sweep = put(dir, "s.yaml", sweepWithOptimisers("[icm]"));
+  const std::string config = put(dir, "t.yaml", kTrainConfig);
+  auto only_error = [](const std::string& err, const std::string& what) {
+    EXPECT_NE(err.find(what), std::string::npos) << err;
+    EXPECT_NE(err.find("\n1 error(s) in "), std::string::npos) << err;
+  };
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(cli::cmdTrain({sweep, "--out", dir.str() + "/m.yaml", "--no-progress"}), cli::kUsage);
+  only_error(testing::internal::GetCapturedStderr(),
+             "s.yaml:1:1: this is a sweep (it has 'datasets', 'feature_sets', 'optimisers'): "
+             "run it with 'terramrf compare'");
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(cli::cmdRun({sweep, "--out", dir.str() + "/out", "--no-progress"}), cli::kUsage);
+  only_error(testing::internal::GetCapturedStderr(), "s.yaml:1:1: this is a sweep");
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(cli::cmdCompare({config, "--dry-run"}), cli::kUsage);
+  only_error(testing::internal::GetCapturedStderr(),
+             "t.yaml:1:1: this is a pipeline config (it has 'source', 'stages'): run it with "
+             "'terramrf run' or 'terramrf train'");
+  EXPECT_FALSE(fs::exists(dir.str() + "/m.yaml"));
+  EXPECT_FALSE(fs::exists(dir.str() + "/out"));
+}
+
 }  // namespace
 }  // namespace terramrf

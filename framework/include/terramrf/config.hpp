@@ -48,6 +48,10 @@ struct Pipeline {
   std::string resolved_yaml;  ///< the config with every default filled in
 };
 
+/// True if `path` holds a sweep (`terramrf compare`'s input: datasets, feature_sets, optimisers)
+/// rather than a pipeline config; false too if it cannot be read or parsed.
+bool isSweepFile(const std::string& path);
+
 /// Parses and validates `config_path`. Plugins are searched in the registry's folders plus the
 /// config's `plugin_path` entries. Throws ConfigError with every problem found.
 Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options,
