@@ -168,6 +168,10 @@ CommonKeys readCommonKeys(const YAML::Node& root, const std::string& base_dir,
       d.add(pp.Mark(), "'plugin_path' must be a list of folders");
     } else {
       for (const auto& e : pp) {
+        if (!e.IsScalar()) {
+          d.add(e.Mark(), "plugin_path entries must be folder names");
+          continue;
+        }
         const std::string dir = (fs::path(base_dir) / e.Scalar()).lexically_normal().string();
         if (!fs::is_directory(dir))
           d.add(e.Mark(), "plugin_path entry '" + dir + "' is not a folder");
@@ -341,6 +345,9 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
   ctx.labels = p.labels.get();
 
   YAML::Node resolved = YAML::Clone(root);
+  // A `grid:` that is not a map is already a diagnostic; indexing into it would throw yaml-cpp's
+  // own error instead of the list of problems.
+  if (!resolved["grid"].IsMap()) resolved["grid"] = YAML::Node(YAML::NodeType::Map);
   resolved["grid"]["size_m"] = p.grid.size_m;
   resolved["grid"]["cell_m"] = p.grid.cell_m;
 

@@ -137,6 +137,30 @@ TEST(Config, SyntaxErrorAndMissingFile) {
   }
 }
 
+TEST(Config, SectionsOfTheWrongShapeAreDiagnosticsNotYamlCppErrors) {
+  // Found by fuzzing (docs/robustness.md): `grid: -1` ended the load with yaml-cpp's "operator[]
+  // call on a scalar" and no file or line, and a nested plugin_path entry was read as "".
+  test::ConfigFixture f;
+  for (const char* grid : {"-1", "abc", "[40, 0.5]", "~"}) {
+    std::string text = test::ConfigFixture::validPipeline();
+    const std::size_t at = text.find("grid:");
+    ASSERT_NE(at, std::string::npos);
+    text.replace(at, text.find('\n', at) - at, std::string("grid: ") + grid);
+    const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + at, '\n'));
+    std::vector<std::string> errs;
+    ASSERT_NO_THROW(errs = errorsOf(f, text)) << grid;
+    EXPECT_TRUE(contains(
+        errs, "c.yaml:" + std::to_string(line) + ":7: 'grid' must be a map {size_m, cell_m}"))
+        << grid << "\n"
+        << joined(errs);
+  }
+  const auto errs = errorsOf(
+      f, "plugin_path: [[a, b], " + f.dir.str() + "]\n" + test::ConfigFixture::validPipeline());
+  EXPECT_TRUE(contains(errs, "c.yaml:1:15: plugin_path entries must be folder names"))
+      << joined(errs);
+  EXPECT_EQ(errs.size(), 1u) << joined(errs);
+}
+
 TEST(Config, RepeatedKeysAreRejectedAtTheRepeat) {
   // yaml-cpp keeps both entries and lookups return the first: the second would be ignored.
   test::ConfigFixture f;
