@@ -47,4 +47,29 @@ void throwOnRepeatedYamlKey(const YAML::Node& root, const std::string& file) {
   if (!repeats.empty()) throw InputError(file, repeats.front().message());
 }
 
+namespace {
+std::string where(const YAML::Exception& e) {
+  if (e.mark.is_null()) return "";
+  return "line " + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) + ": ";
+}
+}  // namespace
+
+void throwYamlInputError(const std::string& file, const YAML::Exception& e,
+                         const std::string& what) {
+  throw InputError(file, where(e) + what + ": " + e.msg);
+}
+
+YAML::Node loadUserYaml(const std::string& file) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file);
+  } catch (const YAML::BadFile&) {
+    throw InputError(file, "cannot be opened");
+  } catch (const YAML::Exception& e) {
+    throwYamlInputError(file, e, "YAML syntax error");
+  }
+  throwOnRepeatedYamlKey(root, file);
+  return root;
+}
+
 }  // namespace terramrf

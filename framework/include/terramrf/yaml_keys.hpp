@@ -9,6 +9,7 @@
 
 namespace YAML {
 class Node;
+class Exception;
 }
 
 namespace terramrf {
@@ -29,5 +30,16 @@ std::vector<RepeatedYamlKey> repeatedYamlKeys(const YAML::Node& root);
 
 /// Throws InputError(file, first repeat's message) when `root` repeats a key.
 void throwOnRepeatedYamlKey(const YAML::Node& root, const std::string& file);
+
+/// The YAML of a file the user writes or edits (label map, model, calibration), with its repeated
+/// keys refused. A file that cannot be read or parsed throws InputError(file, "line L:C: YAML
+/// syntax error: …") — the position as repeats give it, not yaml-cpp's own wording.
+YAML::Node loadUserYaml(const std::string& file);
+
+/// yaml-cpp's error from reading `file`'s nodes (a scalar indexed as a map, a key that is not a
+/// string, a value of the wrong type) as InputError(file, "line L:C: <what>: <yaml-cpp's
+/// message>"), so that no reader lets yaml-cpp's own message out without the file it is about.
+[[noreturn]] void throwYamlInputError(const std::string& file, const YAML::Exception& e,
+                                      const std::string& what);
 
 }  // namespace terramrf

@@ -34,44 +34,44 @@ uint32_t parseId(const YAML::Node& n, const std::string& path, const std::string
 LabelMap LabelMap::load(const std::string& yaml_path, const LabelSet& labels) {
   if (!std::filesystem::is_regular_file(yaml_path))
     throw InputError(yaml_path, "label map file does not exist");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(yaml_path);
-  } catch (const YAML::Exception& e) {
-    throw InputError(yaml_path, std::string("not valid YAML: ") + e.what());
-  }
-  throwOnRepeatedYamlKey(root, yaml_path);
+  const YAML::Node root = loadUserYaml(yaml_path);
   LabelMap m;
-  m.path_ = yaml_path;
-  if (root["dataset"]) m.dataset_ = root["dataset"].as<std::string>("");
-  const YAML::Node classes = root["classes"];
-  if (!classes || !classes.IsMap())
-    throw InputError(yaml_path, "expected a 'classes' map of project class -> list of raw ids");
-  for (auto it = classes.begin(); it != classes.end(); ++it) {
-    const std::string cls = it->first.as<std::string>();
-    const int id = labels.find(cls);
-    if (id < 0) {
-      std::string known;
-      for (const auto& n : labels.names()) known += (known.empty() ? "" : ", ") + n;
-      throw InputError(yaml_path,
-                       "class '" + cls + "' is not a project class (known: " + known + ")");
+  try {
+    m.path_ = yaml_path;
+    if (root["dataset"]) m.dataset_ = root["dataset"].as<std::string>();
+    const YAML::Node classes = root["classes"];
+    if (!classes || !classes.IsMap())
+      throw InputError(yaml_path, "expected a 'classes' map of project class -> list of raw ids");
+    for (auto it = classes.begin(); it != classes.end(); ++it) {
+      const std::string cls = it->first.as<std::string>();
+      const int id = labels.find(cls);
+      if (id < 0) {
+        std::string known;
+        for (const auto& n : labels.names()) known += (known.empty() ? "" : ", ") + n;
+        throw InputError(yaml_path,
+                         "class '" + cls + "' is not a project class (known: " + known + ")");
+      }
+      const YAML::Node ids = it->second;
+      if (!ids.IsSequence())
+        throw InputError(yaml_path,
+                         "class '" + cls + "': expected a list of raw ids, e.g. [40, 44]");
+      for (const auto& n : ids) {
+        const uint32_t raw = parseId(n, yaml_path, "class '" + cls + "'");
+        auto [pos, inserted] = m.by_raw_.emplace(raw, static_cast<LabelId>(id));
+        if (!inserted && pos->second != static_cast<LabelId>(id))
+          throw InputError(yaml_path, "raw id " + std::to_string(raw) + " is listed under both '" +
+                                          labels.name(pos->second) + "' and '" + cls + "'");
+      }
     }
-    const YAML::Node ids = it->second;
-    if (!ids.IsSequence())
-      throw InputError(yaml_path, "class '" + cls + "': expected a list of raw ids, e.g. [40, 44]");
-    for (const auto& n : ids) {
-      const uint32_t raw = parseId(n, yaml_path, "class '" + cls + "'");
-      auto [pos, inserted] = m.by_raw_.emplace(raw, static_cast<LabelId>(id));
-      if (!inserted && pos->second != static_cast<LabelId>(id))
-        throw InputError(yaml_path, "raw id " + std::to_string(raw) + " is listed under both '" +
-                                        labels.name(pos->second) + "' and '" + cls + "'");
+    if (m.by_raw_.empty()) throw InputError(yaml_path, "'classes' lists no raw ids");
+    if (const YAML::Node names = root["names"]) {
+      if (!names.IsMap()) throw InputError(yaml_path, "'names' must be a map of raw id -> name");
+      for (auto it = names.begin(); it != names.end(); ++it)
+        m.names_[parseId(it->first, yaml_path, "names")] = it->second.as<std::string>();
     }
-  }
-  if (m.by_raw_.empty()) throw InputError(yaml_path, "'classes' lists no raw ids");
-  if (const YAML::Node names = root["names"]) {
-    if (!names.IsMap()) throw InputError(yaml_path, "'names' must be a map of raw id -> name");
-    for (auto it = names.begin(); it != names.end(); ++it)
-      m.names_[parseId(it->first, yaml_path, "names")] = it->second.as<std::string>("");
+  } catch (const YAML::Exception& e) {
+    throwYamlInputError(yaml_path, e,
+                        "not a label map ({classes: {class: [raw ids]}, names: {id: name}})");
   }
   m.dense_.assign(kDenseSize, -1);
   for (const auto& [raw, cls] : m.by_raw_)

@@ -116,27 +116,20 @@ Matrix34d readRellisIntrinsics(const std::string& path) {
 
 Eigen::Isometry3d readRellisCameraFromLidar(const std::string& path) {
   if (!isFile(path)) throw InputError(path, "LiDAR-camera transform file does not exist");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception& e) {
-    throw InputError(path, std::string("not valid YAML: ") + e.what());
-  }
-  throwOnRepeatedYamlKey(root, path);
-  const YAML::Node t = root["os1_cloud_node-pylon_camera_node"];
-  if (!t || !t["q"] || !t["t"])
-    throw InputError(path,
-                     "expected 'os1_cloud_node-pylon_camera_node: {q: {w, x, y, z}, "
-                     "t: {x, y, z}}'");
+  const YAML::Node root = loadUserYaml(path);
+  const char* kExpected =
+      "expected 'os1_cloud_node-pylon_camera_node: {q: {w, x, y, z}, t: {x, y, z}}'";
   Eigen::Quaterniond q;
   Eigen::Vector3d tr;
   try {
+    if (!root.IsMap()) throw InputError(path, kExpected);
+    const YAML::Node t = root["os1_cloud_node-pylon_camera_node"];
+    if (!t || !t.IsMap() || !t["q"] || !t["t"]) throw InputError(path, kExpected);
     q = Eigen::Quaterniond(t["q"]["w"].as<double>(), t["q"]["x"].as<double>(),
                            t["q"]["y"].as<double>(), t["q"]["z"].as<double>());
     tr = {t["t"]["x"].as<double>(), t["t"]["y"].as<double>(), t["t"]["z"].as<double>()};
   } catch (const YAML::Exception& e) {
-    throw InputError(path,
-                     std::string("q needs w, x, y, z and t needs x, y, z numbers: ") + e.what());
+    throwYamlInputError(path, e, "q needs w, x, y, z and t needs x, y, z numbers");
   }
   if (std::abs(q.norm() - 1.0) > 1e-3)
     throw InputError(path, "quaternion norm " + std::to_string(q.norm()) + " is not 1");

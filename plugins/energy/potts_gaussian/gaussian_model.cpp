@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "terramrf/errors.hpp"
 #include "terramrf/yaml_keys.hpp"
 
 namespace terramrf {
@@ -72,29 +73,28 @@ std::vector<GaussianComponent> readMixture(const std::string& path, const std::s
 GaussianModel GaussianModel::load(const std::string& path) {
   GaussianModel m;
   m.path = path;
-  YAML::Node root;
+  // A second entry of a class or feature would silently be ignored: loadUserYaml refuses them.
+  const YAML::Node root = loadUserYaml(path);
+  if (!root.IsMap())
+    throw InputError(path, "expected a model file (a map with 'classes:'; docs/training.md)");
   try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception& e) {
-    throw std::runtime_error(path + ": cannot read model file: " + e.what());
-  }
-  // A second entry of a class or feature would silently be ignored.
-  const std::vector<RepeatedYamlKey> repeats = repeatedYamlKeys(root);
-  if (!repeats.empty()) throw std::runtime_error(path + ": " + repeats.front().message());
-  if (root["provenance"]) m.provenance = root["provenance"].as<std::string>("");
-  const YAML::Node classes = root["classes"];
-  if (!classes || !classes.IsMap())
-    throw std::runtime_error(path +
-                             ": expected a map 'classes: {class: {feature: {mean, sigma}}}'");
-  for (auto c = classes.begin(); c != classes.end(); ++c) {
-    const std::string cls = c->first.as<std::string>();
-    if (c->second.IsMap() && c->second["components"]) {
-      m.classes[cls] = readMixture(path, cls, c->second["components"]);
-    } else {
-      GaussianComponent one;
-      readFeatures(path, cls, c->second, one.features);
-      m.classes[cls] = {one};
+    if (root["provenance"]) m.provenance = root["provenance"].as<std::string>("");
+    const YAML::Node classes = root["classes"];
+    if (!classes || !classes.IsMap())
+      throw std::runtime_error(path +
+                               ": expected a map 'classes: {class: {feature: {mean, sigma}}}'");
+    for (auto c = classes.begin(); c != classes.end(); ++c) {
+      const std::string cls = c->first.as<std::string>();
+      if (c->second.IsMap() && c->second["components"]) {
+        m.classes[cls] = readMixture(path, cls, c->second["components"]);
+      } else {
+        GaussianComponent one;
+        readFeatures(path, cls, c->second, one.features);
+        m.classes[cls] = {one};
+      }
     }
+  } catch (const YAML::Exception& e) {
+    throwYamlInputError(path, e, "not a model file (docs/training.md gives the format)");
   }
   return m;
 }

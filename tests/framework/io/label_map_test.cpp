@@ -100,6 +100,24 @@ TEST(LabelMap, RejectsBadFiles) {
     EXPECT_NE(w.find("i.yaml: line 4:3: duplicate key 'road' (first at line 2)"), std::string::npos)
         << w;
   }
+  // A file that is YAML but not a label map, or not YAML: found by fuzzing, these let yaml-cpp's
+  // own message out ("operator[] call on a scalar", "bad conversion") without the file's name.
+  struct Case {
+    const char *name, *text, *expect;
+  };
+  for (const Case& c :
+       {Case{"j.yaml", "abc\n", "j.yaml: line 1:1: not a label map"},
+        Case{"k.yaml", "classes: {[1]: [1]}\n", "k.yaml: line 1:11: not a label map"},
+        Case{"l.yaml", "classes: {road: [1, 2\n",
+             "l.yaml: line 2:1: YAML syntax error: end of sequence flow not found"},
+        Case{"m.yaml", "classes: {road: [1]}\nnames: {1: [a]}\n", "m.yaml: line 2:"}}) {
+    try {
+      LabelMap::load(write(c.name, c.text), ls);
+      ADD_FAILURE() << "accepted " << c.text;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos) << e.what();
+    }
+  }
   // Listing an id twice under the same class is harmless.
   const LabelMap ok =
       LabelMap::load(write("h.yaml", "classes: {road: [5, 5], rough: [70000]}"), ls);

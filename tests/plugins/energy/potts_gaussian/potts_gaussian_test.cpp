@@ -175,8 +175,12 @@ TEST(PottsGaussian, BadMixturesNameTheFileAndLine) {
         // A repeated class would be ignored: the second road's statistics never used.
         Case{"  obstacle: {f: {mean: 2, sigma: 1}}\n  road: {f: {mean: 5, sigma: 1}}\n",
              "bad.yaml: line 5:3: duplicate key 'road' (first at line 2)"},
-        Case{"  obstacle: {f: {mean: 2, sigma: 1}, f: {mean: 3, sigma: 1}}\n",
-             "duplicate key 'f'"}}) {
+        Case{"  obstacle: {f: {mean: 2, sigma: 1}, f: {mean: 3, sigma: 1}}\n", "duplicate key 'f'"},
+        // Found by fuzzing: yaml-cpp's own message, without the file, came out of these.
+        Case{"  obstacle: {f: {mean: 2, sigma: [1\n",
+             "bad.yaml: line 5:1: YAML syntax error: end of sequence flow not found"},
+        Case{"  ? [obstacle]\n  : {f: {mean: 2, sigma: 1}}\n",
+             "bad.yaml: line 4:5: not a model file"}}) {
     const std::string p = d.str() + "/bad.yaml";
     std::ofstream(p) << base << c.obstacle;
     try {
@@ -186,6 +190,21 @@ TEST(PottsGaussian, BadMixturesNameTheFileAndLine) {
       const std::string what = e.what();
       EXPECT_NE(what.find(c.expect), std::string::npos) << what;
       EXPECT_NE(what.find("bad.yaml"), std::string::npos) << what;
+    }
+  }
+}
+
+TEST(PottsGaussian, AFileThatIsNoModelNamesTheFile) {
+  test::TempDir d;
+  test::StageHarness h;
+  for (const char* text : {"abc\n", "[1, 2]\n", "classes: 3\n"}) {
+    std::ofstream(d.str() + "/m.yaml") << text;
+    try {
+      h.make("potts_gaussian", "{model: " + d.str() + "/m.yaml, features: [f]}");
+      ADD_FAILURE() << "accepted " << text;
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find(d.str() + "/m.yaml: expected a"), std::string::npos)
+          << e.what();
     }
   }
 }
