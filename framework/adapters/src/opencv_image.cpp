@@ -2,17 +2,50 @@
 
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/errors.hpp"
 
 namespace terramrf {
 
+namespace {
+/// libjpeg decodes a JPEG cut short (a copy interrupted, a full disk) without failing: it warns
+/// "Premature end of JPEG file" on stderr, with no file name, and fills the missing rows with
+/// grey, which colour and texture features would then read as data. A complete JPEG ends with
+/// the end-of-image marker FF D9; in the entropy-coded data an FF byte is always followed by 00
+/// or a restart marker, so FF D9 there means the end. Some writers pad after it, hence the
+/// search over the last bytes rather than a look at the final two.
+bool jpegIsCutShort(const std::vector<uchar>& bytes) {
+  if (bytes.size() < 4 || bytes[0] != 0xFF || bytes[1] != 0xD8) return false;  // not a JPEG
+  const std::size_t from = bytes.size() > 4096 ? bytes.size() - 4096 : 2;
+  for (std::size_t i = bytes.size() - 1; i > from; --i)
+    if (bytes[i - 1] == 0xFF && bytes[i] == 0xD9) return false;
+  return true;
+}
+}  // namespace
+
 Image readImage(const std::string& path) {
   if (!std::filesystem::exists(path)) throw InputError(path, "image file does not exist");
-  cv::Mat m = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (!std::filesystem::is_regular_file(path)) throw InputError(path, "is not a file");
+  std::ifstream in(path, std::ios::binary);
+  std::vector<uchar> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (!in.good() && !in.eof()) throw InputError(path, "cannot be read");
+  if (jpegIsCutShort(bytes))
+    throw InputError(path,
+                     "JPEG cut short: no end-of-image marker (FF D9) in its last 4 KiB; "
+                     "the file is incomplete");
+  if (bytes.empty()) throw InputError(path, "not a readable image (expected PNG/JPEG): empty file");
+  cv::Mat m;
+  try {
+    m = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw InputError(path, "not a readable image (expected PNG/JPEG): " + e.msg);
+  }
   if (m.empty()) throw InputError(path, "not a readable image (expected PNG/JPEG)");
   if (m.depth() != CV_8U) {
     throw InputError(path, "expected an 8-bit image, got depth code " + std::to_string(m.depth()));

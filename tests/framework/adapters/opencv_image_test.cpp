@@ -1,0 +1,100 @@
+// readImage/writeImageAtomic (framework/adapters/src/opencv_image.cpp): round trips, and damaged
+// files that must be errors naming the file rather than images with made-up pixels.
+#include "terramrf/adapters/opencv_image.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "terramrf/errors.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+namespace fs = std::filesystem;
+
+/// A 64 × 48 RGB gradient: JPEG keeps it close, PNG exactly.
+Image gradient() {
+  Image img(64, 48, 3);
+  for (int r = 0; r < img.height; ++r)
+    for (int c = 0; c < img.width; ++c)
+      for (int k = 0; k < 3; ++k)
+        img.data[(std::size_t(r) * img.width + c) * 3 + k] = uint8_t(k == 0 ? c * 4 : r * 5);
+  return img;
+}
+
+std::string bytesOf(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void put(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+std::string errorOf(const std::string& path) {
+  try {
+    readImage(path);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(OpenCvImage, PngAndJpegRoundTrip) {
+  test::TempDir d;
+  const Image img = gradient();
+  writeImageAtomic(d.str() + "/a.png", img);
+  const Image png = readImage(d.str() + "/a.png");
+  ASSERT_EQ(png.width, 64);
+  ASSERT_EQ(png.height, 48);
+  EXPECT_EQ(png.data, img.data);
+  writeImageAtomic(d.str() + "/a.jpg", img);
+  const Image jpg = readImage(d.str() + "/a.jpg");
+  ASSERT_EQ(jpg.data.size(), img.data.size());
+  int worst = 0;
+  for (std::size_t i = 0; i < img.data.size(); ++i)
+    worst = std::max(worst, std::abs(int(jpg.data[i]) - int(img.data[i])));
+  EXPECT_LE(worst, 40);
+  // Bytes after the end-of-image marker (some cameras pad) are not a cut-short file.
+  put(d.str() + "/padded.jpg", bytesOf(d.str() + "/a.jpg") + std::string(300, '\0'));
+  EXPECT_EQ(readImage(d.str() + "/padded.jpg").data, jpg.data);
+}
+
+TEST(OpenCvImage, ACutShortJpegIsAnErrorNotGreyRows) {
+  // Found by fuzzing the RELLIS-3D reader: libjpeg decoded half a file, warned "Premature end of
+  // JPEG file" without naming it, and the run went on with the lower half grey.
+  test::TempDir d;
+  writeImageAtomic(d.str() + "/a.jpg", gradient());
+  const std::string whole = bytesOf(d.str() + "/a.jpg");
+  for (const std::size_t keep : {whole.size() / 2, whole.size() - 2, whole.size() - 1}) {
+    const std::string p = d.str() + "/cut.jpg";
+    put(p, whole.substr(0, keep));
+    const std::string err = errorOf(p);
+    EXPECT_NE(err.find(p + ": JPEG cut short"), std::string::npos) << keep << ": " << err;
+  }
+}
+
+TEST(OpenCvImage, DamagedOrMissingFilesNameTheFile) {
+  test::TempDir d;
+  writeImageAtomic(d.str() + "/a.png", gradient());
+  const std::string whole = bytesOf(d.str() + "/a.png");
+  const std::string cut = d.str() + "/cut.png";
+  put(cut, whole.substr(0, whole.size() / 2));
+  EXPECT_NE(errorOf(cut).find(cut + ": not a readable image"), std::string::npos) << errorOf(cut);
+  const std::string empty = d.str() + "/empty.png";
+  put(empty, "");
+  EXPECT_NE(errorOf(empty).find(empty + ": not a readable image"), std::string::npos);
+  const std::string text = d.str() + "/text.jpg";
+  put(text, "not an image at all\n");
+  EXPECT_NE(errorOf(text).find(text + ": not a readable image"), std::string::npos);
+  EXPECT_NE(errorOf(d.str() + "/absent.png").find("absent.png: image file does not exist"),
+            std::string::npos);
+  const std::string dir = d.str() + "/folder.png";
+  fs::create_directory(dir);
+  EXPECT_NE(errorOf(dir).find(dir + ":"), std::string::npos) << errorOf(dir);
+}
+
+}  // namespace
+}  // namespace terramrf
