@@ -111,6 +111,12 @@ int cmdRun(const Args& args) {
   } else {
     std::cout << "\n";
   }
+  if (r.points_dropped_nonfinite + r.points_dropped_no_return > 0)
+    std::cout << "points dropped while reading: " << r.points_dropped_nonfinite
+              << " with NaN/inf values, " << r.points_dropped_no_return
+              << " no-returns at the origin\n";
+  if (!r.empty_frames.empty())
+    std::cout << r.empty_frames.size() << " frame(s) had no usable point (all cells unknown)\n";
   std::cout << "outputs: " << p.output_dir << "\n";
   return r.exitCode();
 }

@@ -80,6 +80,26 @@ class Progress {
 
 }  // namespace
 
+namespace {
+/// Adds the frame's dropped points to the run's counts. Non-finite points mean a damaged or
+/// badly converted file, so each such frame is named; no-returns are normal and only counted.
+void noteDroppedPoints(const Frame& f, RunResult& res, std::ostream& log, bool progress_bar) {
+  res.points_dropped_nonfinite += f.dropped_nonfinite_points;
+  res.points_dropped_no_return += f.dropped_no_return_points;
+  if (f.dropped_nonfinite_points == 0 && !f.points.empty()) return;
+  if (progress_bar && ::isatty(2)) std::fprintf(stderr, "\n");  // off the progress bar's line
+  if (f.dropped_nonfinite_points > 0)
+    log << "warning: frame " << f.id << ": " << f.dropped_nonfinite_points
+        << " point(s) with NaN/inf coordinates or intensity dropped (" << f.source_path << ")\n";
+  if (f.points.empty()) {
+    res.empty_frames.push_back(f.id);
+    log << "warning: frame " << f.id << " has no usable point ("
+        << (f.dropped_nonfinite_points + f.dropped_no_return_points) << " dropped; "
+        << f.source_path << "): every cell stays unknown\n";
+  }
+}
+}  // namespace
+
 RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   std::ostream& log = opt.log ? *opt.log : std::cerr;
   RunResult res;
@@ -139,6 +159,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       frames[cur] = p.source->read(i);
       if (frames[cur].id.empty()) frames[cur].id = id;
       slot_ms[slot++] = msSince(t);
+      noteDroppedPoints(frames[cur], res, log, opt.progress);
       for (std::size_t s = 0; s < first_non_ego; ++s) {
         stage_name = p.stages[s]->name();
         t = Clock::now();

@@ -47,8 +47,12 @@ struct Frame {
   std::vector<OdometrySample> odometry;
   PointLabels truth;                 ///< optional
   std::optional<Eigen::Isometry3d> pose;  ///< LiDAR pose in the world frame, when known
-  /// Points dropped while reading (NaN/inf coordinates, no-return points): reported, not silent.
-  std::size_t dropped_invalid_points = 0;
+  /// Points dropped while reading, reported by the runner (runPipeline): those with NaN/inf in a
+  /// coordinate or the intensity — a damaged or badly converted file, warned about per frame —
+  /// and no-returns stored at the origin (normal for organised scans: ~52k of 131k in a RELLIS-3D
+  /// Ouster scan), counted in the run's summary.
+  std::size_t dropped_nonfinite_points = 0;
+  std::size_t dropped_no_return_points = 0;
 };
 
 }  // namespace terramrf

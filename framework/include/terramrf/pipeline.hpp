@@ -33,6 +33,12 @@ struct RunResult {
   std::size_t frames_total = 0;
   std::vector<StageTiming> timings;  ///< read, egomotion…, grid, stages…, outputs…, total
   std::vector<std::string> output_errors;
+  /// Points the source dropped while reading, over the frames read (Frame::dropped_*_points).
+  std::size_t points_dropped_nonfinite = 0;
+  std::size_t points_dropped_no_return = 0;
+  /// Frames read with no usable point (an empty file, or every point dropped): classified as
+  /// all-unknown, not failed, and listed here so that it is not mistaken for a clear road.
+  std::vector<std::string> empty_frames;
   /// What the stages measured (FrameContext::metrics, e.g. "rough.sorted_rings"), per frame that
   /// completed, in run order; frames whose stages measured nothing are left out.
   std::vector<std::pair<std::string, std::map<std::string, double>>> metrics;

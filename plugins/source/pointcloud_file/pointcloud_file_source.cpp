@@ -209,7 +209,8 @@ class PointCloudFileSource : public Source {
         f.truth.raw.push_back(uint32_t(l));
       }
     }
-    f.dropped_invalid_points = nonfinite + origin;
+    f.dropped_nonfinite_points = nonfinite;
+    f.dropped_no_return_points = origin;
     if (f_label) {
       if (map_) {
         map_->mapAll(f.truth.raw, f.truth.label, file);

@@ -94,7 +94,8 @@ class Rellis3dSource : public Source {
     f.id = files.id;
     f.source_path = files.scan;
     const ScanReadInfo info = readKittiScan(files.scan, f.points, drop_no_return_);
-    f.dropped_invalid_points = info.droppedTotal();
+    f.dropped_nonfinite_points = info.dropped_nonfinite;
+    f.dropped_no_return_points = info.dropped_no_return;
     if (info.raw_points % rings_ != 0)
       throw InputError(files.scan, std::to_string(info.raw_points) +
                                        " points is not a whole number of columns of " +

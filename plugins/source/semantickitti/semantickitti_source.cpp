@@ -141,7 +141,8 @@ class SemanticKittiSource : public Source {
     f.id = layout_.stems[i];
     f.source_path = layout_.scanPath(i);
     const ScanReadInfo info = readKittiScan(f.source_path, f.points, drop_no_return_);
-    f.dropped_invalid_points = info.droppedTotal();
+    f.dropped_nonfinite_points = info.dropped_nonfinite;
+    f.dropped_no_return_points = info.dropped_no_return;
     const std::string label_path = layout_.labelPath(i);
     if (map_ && std::filesystem::exists(label_path))
       readKittiLabels(label_path, f.source_path, info, map_.get(), f.truth);

@@ -15,6 +15,9 @@ class SyntheticSource final : public Source {
     d.add("spacing_m", spacing_m_, "ground sample spacing").unit("m").range(0.01, 1);
     d.add("path", path_, "optional folder that must exist").existingPath();
     d.add("mode", mode_, "scene kind").choices({"plane", "empty"});
+    d.add("nonfinite_points", nonfinite_, "NaN points each read reports as dropped").range(0, 1e6);
+    d.add("no_return_points", no_return_, "origin points each read reports as dropped")
+        .range(0, 1e6);
   }
   std::size_t size() const override { return static_cast<std::size_t>(frames_); }
   std::string frameId(std::size_t i) const override {
@@ -28,6 +31,9 @@ class SyntheticSource final : public Source {
         throw InputError("synthetic/" + frameId(i) + ".bin", "size 13 bytes is not a multiple of 16");
     Frame f;
     f.id = frameId(i);
+    f.source_path = "synthetic/" + f.id + ".bin";
+    f.dropped_nonfinite_points = static_cast<std::size_t>(nonfinite_);
+    f.dropped_no_return_points = static_cast<std::size_t>(no_return_);
     if (mode_ == "empty") return f;
     std::mt19937 rng(static_cast<unsigned>(i));
     std::normal_distribution<float> noise(0.f, 0.005f);
@@ -55,6 +61,7 @@ class SyntheticSource final : public Source {
   double spacing_m_ = 0.1;
   std::string path_;
   std::string mode_ = "plane";
+  int nonfinite_ = 0, no_return_ = 0;
 };
 
 }  // namespace terramrf

@@ -89,7 +89,8 @@ class PointCloudFileTest : public ::testing::Test {
 
 void expectKPoints(const Frame& f) {
   ASSERT_EQ(f.points.size(), 2u);
-  EXPECT_EQ(f.dropped_invalid_points, 2u);  // one NaN, one at the origin
+  EXPECT_EQ(f.dropped_nonfinite_points, 1u);  // one NaN
+  EXPECT_EQ(f.dropped_no_return_points, 1u);  // one at the origin
   EXPECT_EQ(f.points.x[1], -4.f);
   EXPECT_EQ(f.points.intensity[0], 0.5f);
   ASSERT_TRUE(f.points.hasRing());

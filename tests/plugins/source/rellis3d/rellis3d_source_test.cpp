@@ -35,7 +35,8 @@ TEST_F(Rellis3dSourceTest, ExampleFrameWithLabelsRingsAndCamera) {
   EXPECT_EQ(src->frameId(0), "000104");
   const Frame f = src->read(0);
   EXPECT_EQ(f.points.size(), 131072u - 53364u);
-  EXPECT_EQ(f.dropped_invalid_points, 53364u);  // Ouster no-returns at the origin
+  EXPECT_EQ(f.dropped_no_return_points, 53364u);  // Ouster no-returns at the origin
+  EXPECT_EQ(f.dropped_nonfinite_points, 0u);
   EXPECT_NEAR(f.timestamp_s, 1581624663.149, 1e-3);
   ASSERT_TRUE(f.points.hasRing());
   std::map<int, std::size_t> per_ring;

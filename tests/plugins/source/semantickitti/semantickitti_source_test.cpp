@@ -75,7 +75,7 @@ TEST_F(SemanticKittiSourceTest, Seq00FramesLabelsPosesRings) {
   for (std::size_t i = 0; i < 6; ++i) {
     const Frame f = src->read(i);
     EXPECT_EQ(f.points.size(), counts[i]);
-    EXPECT_EQ(f.dropped_invalid_points, 0u);
+    EXPECT_EQ(f.dropped_nonfinite_points + f.dropped_no_return_points, 0u);
     EXPECT_NEAR(f.timestamp_s, 0.1 * i, 1e-9);
     ASSERT_TRUE(f.points.hasRing());
     EXPECT_EQ(*std::max_element(f.points.ring.begin(), f.points.ring.end()), 63);
@@ -409,7 +409,8 @@ TEST_F(SemanticKittiSourceTest, BadScansAndLabels) {
   writeU32(seq + "/labels/000000.label", {40, 72, 0});
   Frame f = src->read(0);
   EXPECT_EQ(f.points.size(), 1u);
-  EXPECT_EQ(f.dropped_invalid_points, 2u);
+  EXPECT_EQ(f.dropped_nonfinite_points, 1u);
+  EXPECT_EQ(f.dropped_no_return_points, 1u);
   EXPECT_EQ(f.truth.raw, (std::vector<uint32_t>{40}));
   // Size not a multiple of 16.
   writeFloats(seq + "/velodyne/000000.bin", {1, 2, 3, 4, 5});
@@ -425,7 +426,7 @@ TEST_F(SemanticKittiSourceTest, BadScansAndLabels) {
   writeU32(seq + "/labels/000000.label", {});
   f = src->read(0);
   EXPECT_TRUE(f.points.empty());
-  EXPECT_EQ(f.dropped_invalid_points, 0u);
+  EXPECT_EQ(f.dropped_nonfinite_points + f.dropped_no_return_points, 0u);
   EXPECT_EQ(f.id, "000000");
 }
 
