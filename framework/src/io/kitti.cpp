@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #if defined(__SSE2__)
@@ -16,6 +17,7 @@
 
 #include "fs_checks.hpp"
 #include "terramrf/errors.hpp"
+#include "text_numbers.hpp"
 
 namespace terramrf {
 namespace fs = std::filesystem;
@@ -65,8 +67,11 @@ std::vector<std::string> sortedStems(const fs::path& dir, const std::string& ext
   return stems;
 }
 
+using io_detail::finiteNumber;
 using io_detail::isDir;
 using io_detail::isFile;
+using io_detail::kRotationTolerance;
+using io_detail::rotationError;
 
 }  // namespace
 
@@ -217,15 +222,14 @@ KittiCalib readKittiCalib(const std::string& path) {
     std::vector<double> v;
     std::string tok;
     while (ss >> tok) {
-      try {
-        std::size_t used = 0;
-        v.push_back(std::stod(tok, &used));
-        if (used != tok.size()) throw std::invalid_argument(tok);
-      } catch (const std::exception&) {
-        // Raw KITTI calib files carry a "calib_time: <date>" line: keep it out of the numbers.
-        v.clear();
-        break;
-      }
+      const std::optional<double> x = finiteNumber(tok);
+      // Raw KITTI calib files carry a "calib_time: <date>" line: an entry that does not start
+      // with a number is not a matrix. One that does must be numbers throughout.
+      if (!x && v.empty()) break;
+      if (!x)
+        throw InputError(path, "line " + std::to_string(lineno) + ": '" + key + ":' value '" + tok +
+                                   "' is not a finite number");
+      v.push_back(*x);
     }
     if (!v.empty()) c.entries[key] = std::move(v);
   }
@@ -242,16 +246,27 @@ KittiCalib readKittiCalib(const std::string& path) {
     for (int r = 0; r < 3; ++r)
       for (int col = 0; col < 4; ++col) c.P[i](r, col) = v[r * 4 + col];
   }
+  // A transform whose 3×3 is no rotation (a digit lost in an edit) would shear the scan into
+  // the image and pass unnoticed until the colours look wrong.
+  auto rotation = [&](const std::string& key, const Eigen::Matrix3d& R) {
+    const double err = rotationError(R);
+    if (err > kRotationTolerance)
+      throw InputError(path, "'" + key + ":' rotation part is not a rotation (|R·Rᵀ − I| = " +
+                                 std::to_string(err) + ", or a reflection)");
+  };
   if (c.entries.count("Tr_velo_to_cam")) {
     c.object_format = true;
     const Eigen::Isometry3d velo_to_cam = isoFrom34(need("Tr_velo_to_cam", 12));
+    rotation("Tr_velo_to_cam", velo_to_cam.linear());
     Eigen::Isometry3d rect = Eigen::Isometry3d::Identity();
     const auto& r0 = need("R0_rect", 9);
     for (int r = 0; r < 3; ++r)
       for (int col = 0; col < 3; ++col) rect.linear()(r, col) = r0[r * 3 + col];
+    rotation("R0_rect", rect.linear());
     c.T_cam_velo = rect * velo_to_cam;
   } else if (c.entries.count("Tr")) {
     c.T_cam_velo = isoFrom34(need("Tr", 12));
+    rotation("Tr", c.T_cam_velo.linear());
   } else {
     throw InputError(path,
                      "no LiDAR->camera transform: expected 'Tr:' (odometry) or "
@@ -328,14 +343,25 @@ std::vector<Eigen::Isometry3d> readKittiPoses(const std::string& path) {
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
     std::istringstream ss(line);
     v.clear();
-    double d;
-    while (ss >> d) v.push_back(d);
-    if (v.size() != 12 || !ss.eof()) {
+    std::string tok;
+    while (ss >> tok) {
+      const std::optional<double> x = finiteNumber(tok);
+      if (!x)
+        throw InputError(path, "line " + std::to_string(lineno) + ": '" + tok +
+                                   "' is not a finite number (expected 12, a row-major 3x4 pose)");
+      v.push_back(*x);
+    }
+    if (v.size() != 12) {
       throw InputError(path, "line " + std::to_string(lineno) +
                                  ": expected 12 numbers (row-major 3x4 pose), got " +
                                  std::to_string(v.size()));
     }
     poses.push_back(isoFrom34(v));
+    const double err = rotationError(poses.back().linear());
+    if (err > kRotationTolerance)
+      throw InputError(path, "line " + std::to_string(lineno) +
+                                 ": the pose's 3x3 is not a rotation (|R·Rᵀ − I| = " +
+                                 std::to_string(err) + ", or a reflection)");
   }
   return poses;
 }
@@ -353,11 +379,14 @@ std::vector<double> readKittiTimes(const std::string& path) {
   while (std::getline(in, line)) {
     ++lineno;
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    try {
-      t.push_back(std::stod(line));
-    } catch (const std::exception&) {
-      throw InputError(path, "line " + std::to_string(lineno) + ": expected a time [s]");
-    }
+    std::istringstream ss(line);
+    std::string tok, extra;
+    ss >> tok >> extra;
+    const std::optional<double> x = finiteNumber(tok);
+    if (!x || !extra.empty())
+      throw InputError(
+          path, "line " + std::to_string(lineno) + ": expected one time [s], got '" + line + "'");
+    t.push_back(*x);
   }
   return t;
 }

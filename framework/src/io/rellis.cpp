@@ -131,6 +131,8 @@ Eigen::Isometry3d readRellisCameraFromLidar(const std::string& path) {
   } catch (const YAML::Exception& e) {
     throwYamlInputError(path, e, "q needs w, x, y, z and t needs x, y, z numbers");
   }
+  if (!q.coeffs().allFinite() || !tr.allFinite())
+    throw InputError(path, "q and t must be finite numbers (found NaN or inf)");
   if (std::abs(q.norm() - 1.0) > 1e-3)
     throw InputError(path, "quaternion norm " + std::to_string(q.norm()) + " is not 1");
   Eigen::Isometry3d camera_in_lidar = Eigen::Isometry3d::Identity();

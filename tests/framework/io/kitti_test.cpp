@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "io_test_util.hpp"
+#include "terramrf/atomic_file.hpp"
 #include "terramrf/errors.hpp"
 #include "test_support.hpp"
 
@@ -360,6 +361,37 @@ TEST(KittiCalib, RejectsBrokenFiles) {
     EXPECT_NE(std::string(e.what()).find("Tr"), std::string::npos);
   }
   EXPECT_THROW(readKittiCalib(dir.str() + "/nope.txt"), InputError);
+
+  // Found by fuzzing: a word in a matrix dropped the whole entry ("no 'P2:' entry", with the line
+  // right there), "nan" was read as a number, and a transform that is no rotation was taken.
+  const std::string good = readFile(seqFile("calib.txt"));
+  struct Case {
+    std::string from, to, expect;
+  };
+  for (const Case& c :
+       {Case{"P2: 7.188560000000e+02 0.000000000000e+00", "P2: 7.188560000000e+02 zero",
+             "calib.txt: line 3: 'P2:' value 'zero' is not a finite number"},
+        Case{"P2: 7.188560000000e+02 0.000000000000e+00", "P2: 7.188560000000e+02 nan",
+             "line 3: 'P2:' value 'nan' is not a finite number"},
+        Case{"P2: 7.188560000000e+02 0.000000000000e+00", "P2: 7.188560000000e+02 1e999",
+             "line 3: 'P2:' value '1e999' is not a finite number"},
+        Case{"Tr: 4.276802385584e-04 -9.999672484946e-01",
+             "Tr: 4.276802385584e-04 -0.9999672484946e-01",
+             "'Tr:' rotation part is not a rotation"}}) {
+    std::string text = good;
+    ASSERT_NE(text.find(c.from), std::string::npos) << c.from;
+    text.replace(text.find(c.from), c.from.size(), c.to);
+    std::ofstream(p) << text;
+    try {
+      readKittiCalib(p);
+      ADD_FAILURE() << "accepted " << c.to;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos) << e.what();
+    }
+  }
+  // Non-numeric entries (raw KITTI's "calib_time: 09-Jan-2012 13:57:47") are not matrices.
+  std::ofstream(p) << "calib_time: 09-Jan-2012 13:57:47\n" << good;
+  EXPECT_NO_THROW(readKittiCalib(p));
 }
 
 TEST(KittiPoses, LidarPoseMovesForward) {
@@ -383,6 +415,41 @@ TEST(KittiPoses, LidarPoseMovesForward) {
     FAIL();
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("line 2"), std::string::npos) << e.what();
+  }
+  // Found by fuzzing: a NaN was reported as "got 0" numbers, and a pose that is no rotation
+  // (one digit off) was taken as a rigid motion.
+  for (const auto& [line, expect] : std::vector<std::pair<std::string, std::string>>{
+           {"1 0 0 0 0 1 0 0 0 0 nan 0", "line 2: 'nan' is not a finite number"},
+           {"1 0 0 0 0 1 0 0 0 0 1 0 7",
+            "line 2: expected 12 numbers (row-major 3x4 pose), got 13"},
+           {"1 0 0 0 0 1 0 0 0 0 10 0", "line 2: the pose's 3x3 is not a rotation"},
+           {"-1 0 0 0 0 1 0 0 0 0 1 0", "line 2: the pose's 3x3 is not a rotation"}}) {
+    std::ofstream(bad) << "1 0 0 0 0 1 0 0 0 0 1 0\n" << line << "\n";
+    try {
+      readKittiPoses(bad);
+      ADD_FAILURE() << "accepted " << line;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(bad + ": " + expect), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(KittiTimes, OneFiniteTimePerLine) {
+  test::TempDir dir;
+  const std::string p = dir.str() + "/times.txt";
+  std::ofstream(p) << "0.000000e+00\n1.036300e-01\n\n";
+  EXPECT_EQ(readKittiTimes(p), (std::vector<double>{0.0, 0.10363}));
+  // std::stod read "0.2s" as 0.2 and "nan" as a time.
+  for (const char* bad : {"0.2s", "nan", "0.1 0.2", "inf"}) {
+    std::ofstream(p) << "0\n" << bad << "\n";
+    try {
+      readKittiTimes(p);
+      ADD_FAILURE() << "accepted " << bad;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(p + ": line 2: expected one time [s], got '" + bad),
+                std::string::npos)
+          << e.what();
+    }
   }
 }
 

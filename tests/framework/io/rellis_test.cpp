@@ -156,6 +156,29 @@ TEST(Rellis, CalibrationErrorsNameTheFile) {
               std::string::npos)
         << e.what();
   }
+  // Found by fuzzing: `.nan` is a YAML float, and a NaN quaternion's norm passed the norm check
+  // (NaN comparisons are false); so did a transform that is a list, with yaml-cpp's own message.
+  for (const char* bad : {"{q: {w: .nan, x: 0, y: 0, z: 0}, t: {x: 0, y: 0, z: 0}}",
+                          "{q: {w: 1, x: 0, y: 0, z: 0}, t: {x: 0, y: .inf, z: 0}}"}) {
+    std::ofstream(tf) << "os1_cloud_node-pylon_camera_node: " << bad << "\n";
+    try {
+      readRellisCameraFromLidar(tf);
+      ADD_FAILURE() << "accepted " << bad;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(tf + ": q and t must be finite numbers"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  std::ofstream(tf) << "os1_cloud_node-pylon_camera_node: [1, 2]\n";
+  try {
+    readRellisCameraFromLidar(tf);
+    FAIL() << "accepted a list";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(tf + ": expected 'os1_cloud_node-pylon_camera_node:"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace
