@@ -11,9 +11,12 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <memory>
+#include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "terramrf/io/label_map.hpp"
 #include "terramrf/io/ring_recovery.hpp"
@@ -58,6 +61,62 @@ double fieldValue(const pcl::PCLPointCloud2& c, const pcl::PCLPointField& f, std
     default:
       return std::nan("");
   }
+}
+
+/// Why the body of a PCD file cannot hold the points its header declares ("" if it can, or if
+/// the header is not understood here: PCL's own reader then words the problem). PCL's
+/// readHeader allocates, and zero-fills, the declared count before any data is read: a damaged
+/// POINTS of 99 999 999 cost 2 GB and 9 s before "cannot read" came back with no reason, and a
+/// larger one can exhaust memory. Binary data needs the sum of SIZE × COUNT bytes a point; ASCII
+/// at least two characters ("0 ") a value. Compressed bodies carry their own sizes. WIDTH ×
+/// HEIGHT must be POINTS (PCL refuses it too, but without saying why).
+std::string pcdBodyTooShort(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::string line, data;
+  std::vector<std::size_t> sizes, counts;
+  std::size_t points = 0, width = 0, height = 0;
+  bool have_points = false;
+  for (int k = 0; k < 64 && data.empty() && std::getline(in, line); ++k) {
+    std::istringstream ss(line);
+    std::string key;
+    ss >> key;
+    std::size_t v = 0;
+    if (key == "SIZE")
+      while (ss >> v) sizes.push_back(v);
+    else if (key == "COUNT")
+      while (ss >> v) counts.push_back(v);
+    else if (key == "POINTS")
+      have_points = static_cast<bool>(ss >> points);
+    else if (key == "WIDTH")
+      ss >> width;
+    else if (key == "HEIGHT")
+      ss >> height;
+    else if (key == "DATA")
+      ss >> data;
+  }
+  if (data.empty() || !have_points) return "";
+  if (width > 0 && height > 0 && width * height != points)  // both < 2^32: no overflow
+    return "WIDTH " + std::to_string(width) + " x HEIGHT " + std::to_string(height) +
+           " is not POINTS " + std::to_string(points);
+  if (sizes.empty() || data == "binary_compressed") return "";
+  const auto at = in.tellg();
+  std::error_code ec;
+  const auto size = fs::file_size(file, ec);
+  if (ec || at < 0) return "";
+  const std::size_t body = size > std::size_t(at) ? size - std::size_t(at) : 0;
+  std::size_t step = 0, values = 0;
+  for (std::size_t f = 0; f < sizes.size(); ++f) {
+    const std::size_t c = f < counts.size() ? std::max<std::size_t>(1, counts[f]) : 1;
+    step += sizes[f] * c;
+    values += c;
+  }
+  const bool binary = data == "binary";
+  const std::size_t per_point = std::max<std::size_t>(1, binary ? step : values * 2);
+  const std::size_t most = body / per_point;  // a division: points * per_point could overflow
+  if (points <= most) return "";
+  return "the header declares POINTS " + std::to_string(points) + ", but " + std::to_string(body) +
+         " bytes of " + (binary ? "binary" : "ASCII") + " data hold at most " +
+         std::to_string(most);
 }
 
 const pcl::PCLPointField* findField(const pcl::PCLPointCloud2& c, const std::string& name) {
@@ -137,12 +196,14 @@ class PointCloudFileSource : public Source {
         rc = pcl::io::loadPLYFile(file, c2);
       } else {
         // PCL 1.13 crashes reading the body of a header without fields: check the header first.
+        why = pcdBodyTooShort(file);
         pcl::PCDReader reader;
         Eigen::Vector4f origin;
         Eigen::Quaternionf orientation;
         int version = 0, data_type = 0;
         unsigned int data_index = 0;
-        rc = reader.readHeader(file, c2, origin, orientation, version, data_type, data_index);
+        if (why.empty())
+          rc = reader.readHeader(file, c2, origin, orientation, version, data_type, data_index);
         if (rc >= 0 && !(findField(c2, "x") && findField(c2, "y") && findField(c2, "z"))) {
           rc = -1;
           why = "the header lists no x, y, z fields";

@@ -174,6 +174,59 @@ TEST_F(PointCloudFileTest, UnreadableFilesAreNamed) {
   EXPECT_THROW(make("{path: " + dir.str() + "/missing.pcd}"), std::exception);
 }
 
+TEST_F(PointCloudFileTest, AHeaderDeclaringMorePointsThanTheFileHoldsIsRefusedBeforeReading) {
+  // Found by fuzzing: PCL allocates and zero-fills the declared count before reading, so POINTS
+  // 99999999 in a damaged header took 2 GB and 9 s to give "cannot read" with no reason.
+  test::TempDir dir;
+  for (const bool binary : {true, false}) {
+    const std::string good = dir.str() + (binary ? "/good.pcd" : "/good_ascii.pcd");
+    ASSERT_EQ(savePcd(good, makeCloud(kPoints, true, true), binary), 0);
+    std::string text;
+    {
+      std::ifstream in(good, std::ios::binary);
+      text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    struct Case {
+      std::string from, to, expect;
+    };
+    for (const Case& c :
+         {Case{"POINTS 4", "POINTS 99999999", "WIDTH 4 x HEIGHT 1 is not POINTS 99999999"},
+          Case{"WIDTH 4\nHEIGHT 1\n", "WIDTH 99999999\nHEIGHT 1\n",
+               "WIDTH 99999999 x HEIGHT 1 is not POINTS 4"}}) {
+      std::string t = text;
+      ASSERT_NE(t.find(c.from), std::string::npos) << c.from;
+      t.replace(t.find(c.from), c.from.size(), c.to);
+      const std::string bad = dir.str() + "/bad.pcd";
+      std::ofstream(bad, std::ios::binary) << t;
+      try {
+        make("{path: " + bad + "}")->read(0);
+        ADD_FAILURE() << "accepted " << c.to;
+      } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos) << e.what();
+      }
+    }
+    // Consistent header, body far too short. (PCL pads a binary body to a whole page, 4096
+    // bytes, and reads the padding as points: the check can only bound, not count.)
+    std::string t = text;
+    for (const char* k : {"WIDTH 4\n", "POINTS 4\n"})
+      t.replace(t.find(k), std::strlen(k), std::string(k).replace(std::strlen(k) - 2, 1, "999"));
+    const std::string bad = dir.str() + "/short.pcd";
+    std::ofstream(bad, std::ios::binary) << t;
+    try {
+      make("{path: " + bad + "}")->read(0);
+      ADD_FAILURE() << "accepted 999 points in the space of 4";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("the header declares POINTS 999, but "),
+                std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find(binary ? "bytes of binary data hold at most 180"
+                                                  : "bytes of ASCII data hold at most 4"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST_F(PointCloudFileTest, RingRecoveryForFilesWithoutRings) {
   // A KITTI scan stored as PCD in scan order gets its rings back with ring_method auto.
   test::TempDir dir;
