@@ -7,11 +7,13 @@
 #include <pcl/point_types.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -63,56 +65,85 @@ double fieldValue(const pcl::PCLPointCloud2& c, const pcl::PCLPointField& f, std
   }
 }
 
-/// Why the body of a PCD file cannot hold the points its header declares ("" if it can, or if
-/// the header is not understood here: PCL's own reader then words the problem). PCL's
-/// readHeader allocates, and zero-fills, the declared count before any data is read: a damaged
-/// POINTS of 99 999 999 cost 2 GB and 9 s before "cannot read" came back with no reason, and a
-/// larger one can exhaust memory. Binary data needs the sum of SIZE × COUNT bytes a point; ASCII
-/// at least two characters ("0 ") a value. Compressed bodies carry their own sizes. WIDTH ×
-/// HEIGHT must be POINTS (PCL refuses it too, but without saying why).
-std::string pcdBodyTooShort(const std::string& file) {
+/// What is wrong with a PCD header, or "" (then PCL reads the file). PCL 1.13 trusts its header:
+/// COUNT -1 crashed it (SIGSEGV), "DATA" without a type came back as vector::_M_range_check,
+/// and readHeader allocates and zero-fills the declared POINTS before reading any data, so a
+/// damaged 99 999 999 cost 2 GB and 9 s to end in "cannot read" with no reason (all found by
+/// fuzzing). Checked here: one SIZE (1, 2, 4, 8), TYPE (I, U, F) and COUNT (≥ 1) per field;
+/// WIDTH × HEIGHT = POINTS; a DATA kind; and a body big enough for POINTS — SIZE × COUNT bytes a
+/// point in binary, two characters ("0 ") a value in ASCII. Compressed bodies carry their own
+/// sizes, which PCL checks.
+std::string pcdHeaderProblem(const std::string& file) {
   std::ifstream in(file, std::ios::binary);
   std::string line, data;
-  std::vector<std::size_t> sizes, counts;
-  std::size_t points = 0, width = 0, height = 0;
-  bool have_points = false;
-  for (int k = 0; k < 64 && data.empty() && std::getline(in, line); ++k) {
+  std::map<std::string, std::vector<std::string>> keys;
+  for (int k = 0; k < 64 && std::getline(in, line); ++k) {
     std::istringstream ss(line);
-    std::string key;
-    ss >> key;
-    std::size_t v = 0;
-    if (key == "SIZE")
-      while (ss >> v) sizes.push_back(v);
-    else if (key == "COUNT")
-      while (ss >> v) counts.push_back(v);
-    else if (key == "POINTS")
-      have_points = static_cast<bool>(ss >> points);
-    else if (key == "WIDTH")
-      ss >> width;
-    else if (key == "HEIGHT")
-      ss >> height;
-    else if (key == "DATA")
-      ss >> data;
+    std::string key, tok;
+    if (!(ss >> key) || key[0] == '#') continue;
+    auto& v = keys[key];
+    while (ss >> tok) v.push_back(tok);
+    if (key == "DATA") break;
   }
-  if (data.empty() || !have_points) return "";
-  if (width > 0 && height > 0 && width * height != points)  // both < 2^32: no overflow
+  auto count = [](const std::string& tok, unsigned long long& out) {
+    if (tok.empty() || tok[0] == '-' || tok[0] == '+') return false;
+    char* end = nullptr;
+    errno = 0;
+    out = std::strtoull(tok.c_str(), &end, 10);
+    return *end == 0 && errno == 0 && out < (1ULL << 32);
+  };
+  auto one = [&](const char* key, unsigned long long& out) -> std::string {
+    const auto it = keys.find(key);
+    if (it == keys.end() || it->second.size() != 1 || !count(it->second[0], out))
+      return std::string(key) + " must be one whole number below 2^32";
+    return "";
+  };
+  const auto data_it = keys.find("DATA");
+  if (data_it == keys.end()) return "";  // not a PCD header at all: PCL says so
+  if (data_it->second.size() != 1 ||
+      (data_it->second[0] != "ascii" && data_it->second[0] != "binary" &&
+       data_it->second[0] != "binary_compressed"))
+    return "DATA must be ascii, binary or binary_compressed";
+  const std::vector<std::string>& fields = keys["FIELDS"];
+  if (fields.empty()) return "";  // PCL's "no x, y, z fields" check below words it
+  const std::size_t n = fields.size();
+  const auto& sizes = keys["SIZE"];
+  const auto& types = keys["TYPE"];
+  std::vector<std::string> counts = keys["COUNT"];
+  if (counts.empty()) counts.assign(n, "1");
+  if (sizes.size() != n || types.size() != n || counts.size() != n)
+    return std::to_string(n) + " FIELDS need as many SIZE, TYPE and COUNT entries (got " +
+           std::to_string(sizes.size()) + ", " + std::to_string(types.size()) + ", " +
+           std::to_string(counts.size()) + ")";
+  unsigned long long step = 0, values = 0;
+  for (std::size_t f = 0; f < n; ++f) {
+    unsigned long long size = 0, c = 0;
+    if (!count(sizes[f], size) || (size != 1 && size != 2 && size != 4 && size != 8))
+      return "SIZE of field '" + fields[f] + "' is '" + sizes[f] + "'; expected 1, 2, 4 or 8";
+    if (types[f] != "I" && types[f] != "U" && types[f] != "F")
+      return "TYPE of field '" + fields[f] + "' is '" + types[f] + "'; expected I, U or F";
+    if (!count(counts[f], c) || c < 1 || c > 65536)
+      return "COUNT of field '" + fields[f] + "' is '" + counts[f] + "'; expected 1 to 65536";
+    step += size * c;
+    values += c;
+  }
+  unsigned long long width = 0, height = 0, points = 0;
+  for (const auto& [key, out] : {std::pair<const char*, unsigned long long*>{"WIDTH", &width},
+                                 {"HEIGHT", &height},
+                                 {"POINTS", &points}})
+    if (std::string why = one(key, *out); !why.empty()) return why;
+  if (width * height != points)  // each < 2^32: no overflow
     return "WIDTH " + std::to_string(width) + " x HEIGHT " + std::to_string(height) +
            " is not POINTS " + std::to_string(points);
-  if (sizes.empty() || data == "binary_compressed") return "";
+  if (data_it->second[0] == "binary_compressed") return "";
   const auto at = in.tellg();
   std::error_code ec;
   const auto size = fs::file_size(file, ec);
   if (ec || at < 0) return "";
-  const std::size_t body = size > std::size_t(at) ? size - std::size_t(at) : 0;
-  std::size_t step = 0, values = 0;
-  for (std::size_t f = 0; f < sizes.size(); ++f) {
-    const std::size_t c = f < counts.size() ? std::max<std::size_t>(1, counts[f]) : 1;
-    step += sizes[f] * c;
-    values += c;
-  }
-  const bool binary = data == "binary";
-  const std::size_t per_point = std::max<std::size_t>(1, binary ? step : values * 2);
-  const std::size_t most = body / per_point;  // a division: points * per_point could overflow
+  const unsigned long long body = size > std::size_t(at) ? size - std::size_t(at) : 0;
+  const bool binary = data_it->second[0] == "binary";
+  const unsigned long long per_point = std::max(1ULL, binary ? step : values * 2);
+  const unsigned long long most = body / per_point;  // a division: points * per_point overflows
   if (points <= most) return "";
   return "the header declares POINTS " + std::to_string(points) + ", but " + std::to_string(body) +
          " bytes of " + (binary ? "binary" : "ASCII") + " data hold at most " +
@@ -191,19 +222,20 @@ class PointCloudFileSource : public Source {
     int rc = -1;
     std::string why;
     const bool ply = lowerExt(file) == ".ply";
+    if (!ply)
+      if (const std::string problem = pcdHeaderProblem(file); !problem.empty())
+        throw InputError(file, "bad PCD header: " + problem);
     try {
       if (ply) {
         rc = pcl::io::loadPLYFile(file, c2);
       } else {
         // PCL 1.13 crashes reading the body of a header without fields: check the header first.
-        why = pcdBodyTooShort(file);
         pcl::PCDReader reader;
         Eigen::Vector4f origin;
         Eigen::Quaternionf orientation;
         int version = 0, data_type = 0;
         unsigned int data_index = 0;
-        if (why.empty())
-          rc = reader.readHeader(file, c2, origin, orientation, version, data_type, data_index);
+        rc = reader.readHeader(file, c2, origin, orientation, version, data_type, data_index);
         if (rc >= 0 && !(findField(c2, "x") && findField(c2, "y") && findField(c2, "z"))) {
           rc = -1;
           why = "the header lists no x, y, z fields";

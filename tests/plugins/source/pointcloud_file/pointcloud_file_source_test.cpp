@@ -174,9 +174,10 @@ TEST_F(PointCloudFileTest, UnreadableFilesAreNamed) {
   EXPECT_THROW(make("{path: " + dir.str() + "/missing.pcd}"), std::exception);
 }
 
-TEST_F(PointCloudFileTest, AHeaderDeclaringMorePointsThanTheFileHoldsIsRefusedBeforeReading) {
+TEST_F(PointCloudFileTest, ADamagedPcdHeaderIsRefusedBeforePclReadsIt) {
   // Found by fuzzing: PCL allocates and zero-fills the declared count before reading, so POINTS
-  // 99999999 in a damaged header took 2 GB and 9 s to give "cannot read" with no reason.
+  // 99999999 in a damaged header took 2 GB and 9 s to give "cannot read" with no reason; and it
+  // trusts the rest of the header too.
   test::TempDir dir;
   for (const bool binary : {true, false}) {
     const std::string good = dir.str() + (binary ? "/good.pcd" : "/good_ascii.pcd");
