@@ -248,7 +248,8 @@ class PointCloudFileSource : public Source {
     }
     if (rc < 0) {
       throw InputError(file, "PCL cannot read it as " + std::string(ply ? "PLY" : "PCD") +
-                                 (why.empty() ? "" : " (" + why + ")") +
+                                 (why.empty() ? " (PCL printed its reason above, on stderr)"
+                                              : " (" + why + ")") +
                                  "; expected a point cloud with x, y, z fields");
     }
     if (!findField(c2, "x") || !findField(c2, "y") || !findField(c2, "z"))
