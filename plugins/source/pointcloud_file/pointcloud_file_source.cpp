@@ -99,7 +99,10 @@ std::string pcdHeaderProblem(const std::string& file) {
     return "";
   };
   const auto data_it = keys.find("DATA");
-  if (data_it == keys.end()) return "";  // not a PCD header at all: PCL says so
+  if (data_it == keys.end())  // not a PCD header at all (PCL says so), or one cut short
+    return keys.count("FIELDS") ? "no DATA line (ascii, binary or binary_compressed) in the "
+                                  "first 64 lines: the header is cut short"
+                                : "";
   if (data_it->second.size() != 1 ||
       (data_it->second[0] != "ascii" && data_it->second[0] != "binary" &&
        data_it->second[0] != "binary_compressed"))
@@ -264,9 +267,11 @@ class PointCloudFileSource : public Source {
     const auto* f_label = use_labels_ ? findField(c2, "label") : nullptr;
     pcl::PointCloud<pcl::PointXYZI> xyzi;
     pcl::PointCloud<pcl::PointXYZ> xyz;
-    if (f_int)
+    // PCL 1.13's conversion takes &cloud[0] of the empty vector for a cloud of no points (UBSan:
+    // reference binding to null; found by fuzzing): an empty file is an empty frame.
+    if (n > 0 && f_int)
       pcl::fromPCLPointCloud2(c2, xyzi);
-    else
+    else if (n > 0)
       pcl::fromPCLPointCloud2(c2, xyz);
 
     Frame f;

@@ -191,9 +191,21 @@ TEST_F(PointCloudFileTest, ADamagedPcdHeaderIsRefusedBeforePclReadsIt) {
       std::string from, to, expect;
     };
     for (const Case& c :
-         {Case{"POINTS 4", "POINTS 99999999", "WIDTH 4 x HEIGHT 1 is not POINTS 99999999"},
+         {Case{"POINTS 4", "POINTS 99999999",
+               "bad PCD header: WIDTH 4 x HEIGHT 1 is not POINTS 99999999"},
           Case{"WIDTH 4\nHEIGHT 1\n", "WIDTH 99999999\nHEIGHT 1\n",
-               "WIDTH 99999999 x HEIGHT 1 is not POINTS 4"}}) {
+               "WIDTH 99999999 x HEIGHT 1 is not POINTS 4"},
+          // PCL 1.13 crashed (SIGSEGV) on this one and threw vector::_M_range_check on the next.
+          Case{"COUNT 1 1", "COUNT -1 1", "COUNT of field 'x' is '-1'; expected 1 to 65536"},
+          Case{binary ? "DATA binary" : "DATA ascii", "DATA",
+               "DATA must be ascii, binary or binary_compressed"},
+          Case{"SIZE 4 4", "SIZE 3 4", "SIZE of field 'x' is '3'; expected 1, 2, 4 or 8"},
+          Case{"TYPE F F", "TYPE Q F", "TYPE of field 'x' is 'Q'; expected I, U or F"},
+          Case{"TYPE F F F F U U", "TYPE F F F F U",
+               "6 FIELDS need as many SIZE, TYPE and COUNT entries (got 6, 5, 6)"},
+          Case{"HEIGHT 1", "HEIGHT -1", "HEIGHT must be one whole number below 2^32"},
+          Case{binary ? "DATA binary\n" : "DATA ascii\n", "",
+               "no DATA line (ascii, binary or binary_compressed) in the first 64 lines"}}) {
       std::string t = text;
       ASSERT_NE(t.find(c.from), std::string::npos) << c.from;
       t.replace(t.find(c.from), c.from.size(), c.to);
@@ -225,6 +237,23 @@ TEST_F(PointCloudFileTest, ADamagedPcdHeaderIsRefusedBeforePclReadsIt) {
                 std::string::npos)
           << e.what();
     }
+  }
+}
+
+TEST_F(PointCloudFileTest, AFileOfNoPointsIsAnEmptyFrame) {
+  // PCL's conversion indexed the empty point vector (UBSan under scripts/sanitize.sh: "reference
+  // binding to null pointer"); found by fuzzing a header cut short.
+  test::TempDir dir;
+  for (const bool with_intensity : {true, false}) {
+    const std::string p = dir.str() + "/none.pcd";
+    const std::string i = with_intensity ? " intensity" : "";
+    const std::string four = with_intensity ? " 4" : "", one = with_intensity ? " 1" : "";
+    std::ofstream(p) << "VERSION 0.7\nFIELDS x y z" << i << "\nSIZE 4 4 4" << four << "\nTYPE F F F"
+                     << (with_intensity ? " F" : "") << "\nCOUNT 1 1 1" << one
+                     << "\nWIDTH 0\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 0\nDATA ascii\n";
+    const Frame f = make("{path: " + p + "}")->read(0);
+    EXPECT_TRUE(f.points.empty());
+    EXPECT_EQ(f.id, "none");
   }
 }
 
