@@ -11,6 +11,7 @@ packages=(
   libeigen3-dev libyaml-cpp-dev libopencv-dev libpcl-dev libcgal-dev libmrpt-poses-dev
   liblcm-dev liblcm-bin libglib2.0-dev libtbb-dev libboost-graph-dev libmaxflow-dev libtinygltf-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  python3  # tools/fuzz/fuzz_inputs.py, run by CTest with fixed seeds
 )
 # Node.js runs the Khronos glTF validator test (tests/meshing/gltf_validator) and the browser viewer
 # (tools/gltf_view). Debian's nodejs + npm only when node/npm are absent: NodeSource's nodejs bundles

@@ -132,6 +132,15 @@ std::string joined(const std::vector<std::string>& v) {
 }
 }  // namespace
 
+void requireTopLevelMap(const YAML::Node& root, Diags& d, const std::string& expected) {
+  if (root.IsMap()) return;
+  if (!root || root.IsNull())
+    d.add(YAML::Mark::null_mark(), "the file holds nothing (empty, or comments only); " + expected);
+  else
+    d.add(root.Mark(), expected);
+  d.throwIfAny();
+}
+
 void refuseOtherKind(const YAML::Node& root, FileKind expected, Diags& d) {
   if (!root.IsMap()) return;
   const auto sweep = presentKeys(root, kSweepOnlyKeys);
@@ -314,10 +323,8 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
   detail::Diags c;
   c.file = config_path;
   const YAML::Node root = detail::loadYamlFile(config_path, c, "config file");
-  if (!root.IsMap()) {
-    c.add(root.Mark(), "expected a map with keys version, grid, source, stages, outputs");
-    c.throwIfAny();
-  }
+  detail::requireTopLevelMap(root, c,
+                             "expected a map with keys version, grid, source, stages, outputs");
   detail::refuseOtherKind(root, detail::FileKind::kPipeline, c);
   detail::checkKeys(c, root, detail::kPipelineKeys, "the config");
 

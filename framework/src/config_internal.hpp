@@ -53,6 +53,10 @@ void checkDuplicateKeys(const YAML::Node& n, Diags& d);
 /// ConfigError; repeated keys are added to `d`.
 YAML::Node loadYamlFile(const std::string& path, Diags& d, const std::string& what);
 
+/// Throws unless `root` is a map: an empty file (or one of comments only) says so, since it has
+/// no position to point at; anything else gets `expected` at its position.
+void requireTopLevelMap(const YAML::Node& root, Diags& d, const std::string& expected);
+
 /// What a file is meant to be, judged from its top-level keys.
 enum class FileKind { kPipeline, kSweep };
 

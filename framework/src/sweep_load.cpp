@@ -354,12 +354,8 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   Diags d;
   d.file = path;
   const YAML::Node root = detail::loadYamlFile(path, d, "file");
-  if (!root.IsMap()) {
-    d.add(root.Mark(),
-          "expected a sweep (a map with version, datasets, split, feature_sets, "
-          "optimisers)");
-    d.throwIfAny();
-  }
+  detail::requireTopLevelMap(
+      root, d, "expected a sweep (a map with version, datasets, split, feature_sets, optimisers)");
   detail::refuseOtherKind(root, detail::FileKind::kSweep, d);
   detail::checkKeys(d, root, kSweepKeys, "the sweep", kKeyHint);
   detail::checkVersion(root, d);

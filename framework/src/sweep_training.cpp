@@ -292,10 +292,8 @@ TrainResult trainModel(const TrainOptions& o) {
   Diags d;
   d.file = o.config_path;
   const YAML::Node root = detail::loadYamlFile(o.config_path, d, "file");
-  if (!root.IsMap()) {
-    d.add(root.Mark(), "expected a pipeline config (a map with version, grid, source, stages)");
-    d.throwIfAny();
-  }
+  detail::requireTopLevelMap(
+      root, d, "expected a pipeline config (a map with version, grid, source, stages)");
   detail::refuseOtherKind(root, detail::FileKind::kPipeline, d);
   detail::checkKeys(d, root, detail::kPipelineKeys, "the config", kKeyHint);
   detail::checkVersion(root, d);

@@ -154,6 +154,16 @@ TEST(Config, SectionsOfTheWrongShapeAreDiagnosticsNotYamlCppErrors) {
         << grid << "\n"
         << joined(errs);
   }
+  // A file of comments only has no position to point at: it says what it holds instead.
+  for (const char* text : {"", "# all commented out\n# version: 1\n"}) {
+    const auto e = errorsOf(f, text);
+    ASSERT_EQ(e.size(), 1u) << joined(e);
+    EXPECT_EQ(e[0], f.dir.str() +
+                        "/c.yaml: the file holds nothing (empty, or comments only); "
+                        "expected a map with keys version, grid, source, stages, outputs");
+  }
+  EXPECT_TRUE(contains(errorsOf(f, "just words\n"),
+                       "c.yaml:1:1: expected a map with keys version, grid, source, stages"));
   const auto errs = errorsOf(
       f, "plugin_path: [[a, b], " + f.dir.str() + "]\n" + test::ConfigFixture::validPipeline());
   EXPECT_TRUE(contains(errs, "c.yaml:1:15: plugin_path entries must be folder names"))
