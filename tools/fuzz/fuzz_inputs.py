@@ -67,13 +67,22 @@ class Fuzzer:
         return self.configs
 
     # ---- mutations ---------------------------------------------------------------------------
-    def mutate_yaml(self, text):
-        rng = self.rng
+    def edit_lines(self, text, edit, encoding):
+        """`text` with one to three random lines edited by `edit(lines, i)`, which returns the
+        new list of lines, or bytes to end with."""
         lines = text.split('\n')
-        for _ in range(rng.randint(1, 3)):
+        for _ in range(self.rng.randint(1, 3)):
             if not lines:
                 lines = ['']
-            i = rng.randrange(len(lines))
+            lines = edit(lines, self.rng.randrange(len(lines)))
+            if isinstance(lines, bytes):
+                return lines
+        return '\n'.join(lines).encode(encoding)
+
+    def mutate_yaml(self, text):
+        rng = self.rng
+
+        def edit(lines, i):
             op = rng.random()
             if op < 0.55:  # a value after "key:", block or flow style
                 ms = list(re.finditer(r'(\b\w+\s*:\s*)([^,{}\[\]#\n]+|\[[^\]]*\]|\{[^}]*\})',
@@ -101,10 +110,12 @@ class Fuzzer:
                 if m and types:
                     lines[i] = lines[i][:m.start(2)] + rng.choice(types) + lines[i][m.end(2):]
             elif op < 0.96:
-                lines = lines[:i]
+                del lines[i:]
             else:
                 return self.flip_bytes('\n'.join(lines).encode(), 4)
-        return '\n'.join(lines).encode()
+            return lines
+
+        return self.edit_lines(text, edit, 'utf-8')
 
     def flip_bytes(self, b, most):
         b = bytearray(b)
@@ -115,17 +126,14 @@ class Fuzzer:
 
     def mutate_text(self, text):
         rng = self.rng
-        lines = text.split('\n')
-        for _ in range(rng.randint(1, 3)):
-            if not lines:
-                lines = ['']
-            i = rng.randrange(len(lines))
+
+        def edit(lines, i):
             op = rng.randrange(8)
             toks = lines[i].split(' ')
             if op == 0:
                 del lines[i]
             elif op == 1:
-                lines = lines[:i]
+                del lines[i:]
             elif op == 2:
                 toks[rng.randrange(len(toks))] = rng.choice(
                     ['nan', 'inf', '-inf', '1e308', 'abc', '', '0', '1e-320', '--1', '0x1p3'])
@@ -140,7 +148,9 @@ class Fuzzer:
                 lines[i] = lines[i].replace(':', '', 1)
             else:
                 return self.flip_bytes('\n'.join(lines).encode('latin-1'), 5)
-        return '\n'.join(lines).encode('latin-1')
+            return lines
+
+        return self.edit_lines(text, edit, 'latin-1')
 
     def mutate_records(self, b, record):
         rng = self.rng
