@@ -230,7 +230,12 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
                              "); the first, " + r.failed[0].first + ": " + r.failed[0].second);
   if (r.labelled_frames == 0) {
     std::string what;
-    for (const auto& it : r.items) what += (what.empty() ? "" : ", ") + it.label;
+    // A sweep item has a label; `terramrf train` reads one source, labelled by its folder if
+    // anything: name it by what it is.
+    for (const auto& it : r.items)
+      what += (what.empty() ? "" : "; ") +
+              (it.label.empty() || it.label == it.path ? "source " + it.source_type : it.label) +
+              (it.path.empty() ? "" : " at " + it.path) + ", label map " + it.label_map;
     throw std::runtime_error("no labelled frame in the training data (" + what +
                              "): a model needs per-point ground truth");
   }

@@ -1258,6 +1258,43 @@ TEST(Train, ASplitWithoutTrainIsAnErrorNotANoSplitNote) {
   EXPECT_FALSE(fs::exists(o.model_out));
 }
 
+TEST(Train, UnlabelledDataIsAnErrorNamingTheSourceItsFolderAndLabelMap) {
+  // Frames 3–5 of the seq 00 folder have no .label files. `terramrf train` reads one unnamed
+  // source, and the message said "no labelled frame in the training data ()" (found by fuzzing).
+  test::TempDir dir;
+  const std::string data = test::dataPath("semantickitti_seq00_000000-000005");
+  const std::string map = test::sourceDir() + "/configs/label_maps/semantickitti.yaml";
+  const std::string config = put(dir, "train.yaml",
+                                 R"(version: 1
+source: {type: semantickitti, params: {path: )" +
+                                     data + ", label_map: " + map + R"(}}
+split: {train: [{frames: [3, 4]}]}
+stages:
+  - {name: hdiff, type: height_difference}
+outputs:
+  - {type: feature_stats, params: {features: [height_diff], min_sigma: [0.02]}}
+)");
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/m.yaml";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  std::ostringstream log;
+  o.log = &log;
+  try {
+    trainModel(o);
+    FAIL() << "trained on unlabelled frames";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("no labelled frame in the training data (source "
+                                         "semantickitti at " +
+                                         data + ", label map " + map +
+                                         "): a model needs per-point ground truth"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(o.model_out));
+}
+
 TEST(Train, ALabelMapMissingAnIdOfTheDataFailsEveryFrameAndSaysWhichFileAndId) {
   // The label map without road's id 40: every scan of seq 00 holds road points.
   test::TempDir dir;
