@@ -78,9 +78,6 @@ class Progress {
   bool enabled_, tty_;
 };
 
-}  // namespace
-
-namespace {
 /// Adds the frame's dropped points to the run's counts. Non-finite points mean a damaged or
 /// badly converted file, so each such frame is named; no-returns are normal and only counted.
 void noteDroppedPoints(const Frame& f, RunResult& res, std::ostream& log, bool progress_bar) {
