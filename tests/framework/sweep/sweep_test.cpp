@@ -1258,37 +1258,38 @@ TEST(Train, ASplitWithoutTrainIsAnErrorNotANoSplitNote) {
   EXPECT_FALSE(fs::exists(o.model_out));
 }
 
-TEST(Train, UnlabelledDataIsAnErrorNamingTheSourceItsFolderAndLabelMap) {
-  // Frames 3–5 of the seq 00 folder have no .label files. `terramrf train` reads one unnamed
-  // source, and the message said "no labelled frame in the training data ()" (found by fuzzing).
-  test::TempDir dir;
-  const std::string data = test::dataPath("semantickitti_seq00_000000-000005");
-  const std::string map = test::sourceDir() + "/configs/label_maps/semantickitti.yaml";
-  const std::string config = put(dir, "train.yaml",
-                                 R"(version: 1
-source: {type: semantickitti, params: {path: )" +
-                                     data + ", label_map: " + map + R"(}}
-split: {train: [{frames: [3, 4]}]}
+/// A train config reading SemanticKITTI seq 00 `frames` ("[a, b]") through `label_map`.
+std::string seq00TrainConfig(test::TempDir& dir, const std::string& label_map,
+                             const std::string& frames) {
+  return put(dir, "train.yaml", R"(version: 1
+grid: {size_m: 40, cell_m: 0.5}
+source:
+  type: semantickitti
+  params: {path: )" + test::dataPath("semantickitti_seq00_000000-000005") +
+                                    R"(, label_map: )" + label_map + R"(}
+split: {train: [{frames: )" + frames + R"(}]}
 stages:
   - {name: hdiff, type: height_difference}
 outputs:
   - {type: feature_stats, params: {features: [height_diff], min_sigma: [0.02]}}
 )");
-  TrainOptions o;
-  o.config_path = config;
-  o.model_out = dir.str() + "/m.yaml";
-  o.progress = false;
-  o.plugin_dirs = {test::pluginDir()};
+}
+
+TEST(Train, UnlabelledDataIsAnErrorNamingTheSourceItsFolderAndLabelMap) {
+  // Frames 3–5 of the seq 00 folder have no .label files. `terramrf train` reads one unnamed
+  // source, and the message said "no labelled frame in the training data ()" (found by fuzzing).
+  test::TempDir dir;
+  const std::string map = test::sourceDir() + "/configs/label_maps/semantickitti.yaml";
   std::ostringstream log;
-  o.log = &log;
+  const TrainOptions o = quietTraining(seq00TrainConfig(dir, map, "[3, 4]"), dir, log);
   try {
     trainModel(o);
     FAIL() << "trained on unlabelled frames";
   } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("no labelled frame in the training data (source "
-                                         "semantickitti at " +
-                                         data + ", label map " + map +
-                                         "): a model needs per-point ground truth"),
+    EXPECT_NE(std::string(e.what()).find(
+                  "no labelled frame in the training data (source semantickitti at " +
+                  test::dataPath("semantickitti_seq00_000000-000005") + ", label map " + map +
+                  "): a model needs per-point ground truth"),
               std::string::npos)
         << e.what();
   }
@@ -1303,25 +1304,8 @@ TEST(Train, ALabelMapMissingAnIdOfTheDataFailsEveryFrameAndSaysWhichFileAndId) {
   ASSERT_NE(at, std::string::npos);
   map.replace(at, 11, "road: [");
   const std::string map_path = put(dir, "no_road_id.yaml", map);
-  const std::string config = put(dir, "train.yaml", R"(version: 1
-grid: {size_m: 40, cell_m: 0.5}
-source:
-  type: semantickitti
-  params: {path: )" + test::dataPath("semantickitti_seq00_000000-000005") +
-                                                      R"(, label_map: )" + map_path + R"(}
-split: {train: [{frames: [0, 1]}]}
-stages:
-  - {name: hdiff, type: height_difference}
-outputs:
-  - {type: feature_stats, params: {features: [height_diff], min_sigma: [0.02]}}
-)");
-  TrainOptions o;
-  o.config_path = config;
-  o.model_out = dir.str() + "/m.yaml";
-  o.progress = false;
-  o.plugin_dirs = {test::pluginDir()};
   std::ostringstream log;
-  o.log = &log;
+  const TrainOptions o = quietTraining(seq00TrainConfig(dir, map_path, "[0, 1]"), dir, log);
   try {
     trainModel(o);
     FAIL() << "expected the training to fail";
