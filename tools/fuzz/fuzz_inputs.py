@@ -14,7 +14,7 @@ Flagged cases are kept, with the command and its output, under WORK/cases/. Pyth
 library only. Examples:
 
   tools/fuzz/fuzz_inputs.py config-validate -n 500
-  tools/fuzz/fuzz_inputs.py kitti rellis pcd -n 300 --bin build-asan/bin/terramrf
+  tools/fuzz/fuzz_inputs.py kitti rellis pcd kitti-object -n 300 --bin build-asan/bin/terramrf
 """
 import argparse
 import collections
@@ -249,15 +249,38 @@ class Fuzzer:
         return [s + '/velodyne/000000.bin', s + '/labels/000000.label', s + '/calib.txt',
                 s + '/poses.txt', case + '/lm.yaml', case + '/model.yaml']
 
+    def mesh_config(self, case, name, path):
+        """configs/<name> (a textured-mesh run) reading its source from `path`."""
+        text = open(os.path.join(CONFIGS, name)).read()
+        text, n = re.subn(r'(\n    path: ).*', r'\g<1>' + path, text)
+        assert n == 1, name
+        text = text.replace('label_maps/', os.path.join(CONFIGS, 'label_maps') + '/')
+        open(case + '/config.yaml', 'w').write(text)
+
     def scen_rellis(self, case):
         r = case + '/rellis'
         shutil.copytree(self.data_path('rellis3d_example_000104'), r,
                         ignore=shutil.ignore_patterns('PROVENANCE.md', 'vel*'))
         shutil.copy(os.path.join(CONFIGS, 'label_maps/rellis3d.yaml'), case + '/lm.yaml')
-        self.classify_config(case, 'source:\n  type: rellis3d\n  params: {path: %s, label_map: '
-                             '%s/lm.yaml, use_images: %s, use_image_labels: true}\n'
-                             % (r, case, self.rng.choice(['true', 'false'])))
+        if self.rng.random() < 0.3:  # the textured mesh reads the image and its calibration too
+            self.mesh_config(case, 'mesh_rellis.yaml', r)
+        else:
+            self.classify_config(case, 'source:\n  type: rellis3d\n  params: {path: %s, '
+                                 'label_map: %s/lm.yaml, use_images: %s, use_image_labels: '
+                                 'true}\n' % (r, case, self.rng.choice(['true', 'false'])))
         return [os.path.join(r, f) for f in sorted(os.listdir(r))] + [case + '/lm.yaml']
+
+    def scen_kitti_object(self, case):
+        """KITTI object frame 000000 (scan, image_2 PNG, calib/*.txt) meshed with its image."""
+        src = self.data_path('kitti_object_fusion', 'training')
+        t = case + '/training'
+        files = []
+        for sub in ('velodyne/000000.bin', 'image_2/000000.png', 'calib/000000.txt'):
+            os.makedirs(os.path.dirname(os.path.join(t, sub)), exist_ok=True)
+            shutil.copy(os.path.join(src, sub), os.path.join(t, sub))
+            files.append(os.path.join(t, sub))
+        self.mesh_config(case, 'mesh_kitti.yaml', t)
+        return files
 
     def pcd_seeds(self):
         """PCD (binary and ASCII) and PLY files made from seq 00 scan 0, once per run."""
@@ -336,7 +359,8 @@ class Fuzzer:
         seeds = {
             'config-validate': glob.glob(configs + '/*.yaml') + glob.glob(configs + '/train/*.yaml'),
             'config-run': [configs + '/demo.yaml', configs + '/semantickitti.yaml',
-                           configs + '/mesh_demo.yaml'],
+                           configs + '/mesh_demo.yaml', configs + '/mesh_kitti.yaml',
+                           configs + '/mesh_rellis.yaml'],
             'sweep': glob.glob(configs + '/sweeps/*.yaml'),
             'train': glob.glob(configs + '/train/*.yaml'),
             'compare': [configs + '/sweeps/simulator.yaml'],
@@ -372,7 +396,7 @@ class Fuzzer:
         case = os.path.join(self.work, 'case')
         shutil.rmtree(case, ignore_errors=True)
         os.makedirs(case)
-        targets = getattr(self, 'scen_' + mode)(case)
+        targets = getattr(self, 'scen_' + mode.replace('-', '_'))(case)
         victims = self.rng.sample(targets, min(len(targets), self.rng.choice([1, 1, 1, 2])))
         for v in victims:
             self.mutate_file(v)
@@ -386,7 +410,8 @@ class Fuzzer:
 
 
 def main():
-    modes = ['config-validate', 'config-run', 'sweep', 'train', 'compare', 'kitti', 'rellis', 'pcd']
+    modes = ['config-validate', 'config-run', 'sweep', 'train', 'compare', 'kitti', 'rellis', 'pcd',
+             'kitti-object']
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('modes', nargs='+', choices=modes, metavar='MODE',
                     help='what to mutate: ' + ', '.join(modes))
