@@ -261,14 +261,15 @@ class Fuzzer:
         r = case + '/rellis'
         shutil.copytree(self.data_path('rellis3d_example_000104'), r,
                         ignore=shutil.ignore_patterns('PROVENANCE.md', 'vel*'))
-        shutil.copy(os.path.join(CONFIGS, 'label_maps/rellis3d.yaml'), case + '/lm.yaml')
+        files = [os.path.join(r, f) for f in sorted(os.listdir(r))]
         if self.rng.random() < 0.3:  # the textured mesh reads the image and its calibration too
             self.mesh_config(case, 'mesh_rellis.yaml', r)
-        else:
-            self.classify_config(case, 'source:\n  type: rellis3d\n  params: {path: %s, '
-                                 'label_map: %s/lm.yaml, use_images: %s, use_image_labels: '
-                                 'true}\n' % (r, case, self.rng.choice(['true', 'false'])))
-        return [os.path.join(r, f) for f in sorted(os.listdir(r))] + [case + '/lm.yaml']
+            return files  # the mesh reads no label map: mutating one would test nothing
+        shutil.copy(os.path.join(CONFIGS, 'label_maps/rellis3d.yaml'), case + '/lm.yaml')
+        self.classify_config(case, 'source:\n  type: rellis3d\n  params: {path: %s, label_map: '
+                             '%s/lm.yaml, use_images: %s, use_image_labels: true}\n'
+                             % (r, case, self.rng.choice(['true', 'false'])))
+        return files + [case + '/lm.yaml']
 
     def scen_kitti_object(self, case):
         """KITTI object frame 000000 (scan, image_2 PNG, calib/*.txt) meshed with its image."""
