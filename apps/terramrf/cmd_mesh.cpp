@@ -1,4 +1,5 @@
-// terramrf mesh CONFIG [--out DIR] [--data DIR] [--first N] [--limit N] [--no-progress]:
+// terramrf mesh CONFIG [--out DIR] [--data DIR] [--first N] [--limit N] [--read-ahead N]
+// [--no-progress]:
 // runs the config with the textured_mesh output (paper 004) ensured — added with its defaults
 // when the config does not list one — and prints where the mesh went.
 #include <filesystem>

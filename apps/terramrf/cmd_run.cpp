@@ -70,6 +70,13 @@ int parseRunArgs(const Args& args, const char* command, RunArgs& out) {
   if (!takeCount(a, "--first", command, 0, out.run.first) ||
       !takeCount(a, "--limit", command, 1, out.run.limit))
     return kUsage;
+  if (!takeCount(a, "--read-ahead", command, 0, out.run.read_ahead)) return kUsage;
+  if (out.run.read_ahead != RunOptions::kAutoReadAhead && out.run.read_ahead > 64) {
+    // Each frame read ahead is held in memory (a KITTI scan with its image: ~3 MB).
+    std::cerr << "terramrf " << command << ": --read-ahead: expected 0 to 64 frames, got "
+              << out.run.read_ahead << "\n";
+    return kUsage;
+  }
   out.run.progress = !takeFlag(a, "--no-progress");
   if (!a.empty()) {
     std::cerr << "terramrf " << command << ": unexpected argument '" << a[0] << "'\n";

@@ -27,13 +27,18 @@ CachedSource::CachedSource(std::unique_ptr<Source> inner, std::shared_ptr<FrameB
 }
 
 Frame CachedSource::read(std::size_t i) {
-  if (auto it = frames_.find(i); it != frames_.end()) {
-    ++hits_;
-    return it->second;
+  {
+    std::lock_guard<std::mutex> lock(m_);
+    if (auto it = frames_.find(i); it != frames_.end()) {
+      ++hits_;
+      return it->second;
+    }
   }
-  Frame f = inner_->read(i);
+  Frame f = inner_->read(i);  // unlocked: concurrent reads of other frames go on
   const std::size_t bytes = frameBytes(f);
-  if (budget_ && bytes <= budget_->left) {
+  std::lock_guard<std::mutex> lock(m_);
+  // The budget is shared by the sweep's items, whose runs are sequential: one run reads one item.
+  if (budget_ && bytes <= budget_->left && frames_.count(i) == 0) {
     budget_->left -= bytes;
     bytes_ += bytes;
     frames_.emplace(i, f);

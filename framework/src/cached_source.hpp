@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <map>
 #include <memory>
+#include <mutex>
 
 #include "terramrf/plugin.hpp"
 
@@ -33,7 +34,10 @@ class CachedSource final : public Source {
   /// A copy of the kept frame, or the inner source's (kept if the budget allows). A frame that
   /// fails to read is not kept: it fails again, with the same error, on every run.
   Frame read(std::size_t i) override;
+  /// As the inner source: the cache itself is locked.
+  bool concurrentReads() const override { return inner_->concurrentReads(); }
 
+  /// Counts once the sweep's runs are over (not locked).
   std::size_t hits() const { return hits_; }
   std::size_t kept() const { return frames_.size(); }
   std::size_t keptBytes() const { return bytes_; }
@@ -41,6 +45,7 @@ class CachedSource final : public Source {
  private:
   std::unique_ptr<Source> inner_;
   std::shared_ptr<FrameBudget> budget_;
+  std::mutex m_;  ///< guards frames_, the counts and the budget
   std::map<std::size_t, Frame> frames_;
   std::size_t hits_ = 0, bytes_ = 0;
 };

@@ -269,6 +269,16 @@ EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const st
   }
   if (checks.unique_names && !checks.unique_names->insert(name).second)
     d.add(e.Mark(), "duplicate stage name '" + name + "' (give each a unique name:)", name, type);
+  // The runner times its own steps under these names (timing.md, compare's runtime table).
+  const bool stage_entry = std::none_of(kinds.begin(), kinds.end(), [](PluginKind k) {
+    return k == PluginKind::kSource || k == PluginKind::kOutput;
+  });
+  if (stage_entry && (name == "read" || name == "read wait" || name == "grid" || name == "total"))
+    d.add(e["name"] ? e["name"].Mark() : e.Mark(),
+          "stage name '" + name +
+              "' is the runner's own (read, read wait, grid, total in the "
+              "timing table); give the stage another name:",
+          name, type);
   const PluginInfo* info = reg.find(type);
   if (!info) {
     ep.unknown_type = true;

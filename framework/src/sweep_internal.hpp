@@ -220,7 +220,9 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
                   const std::vector<YAML::Node>& output_entries,
                   std::vector<std::unique_ptr<Output>> extra_outputs, const std::string& run_dir);
 /// Runs the item's frames (after range and limit) without a progress bar of the runner's own.
-RunOptions runOptions(const Item& it, std::ostream* log);
+/// A `timed` run (one whose stage times make the runtime tables) reads each frame when it needs
+/// it, so no reader thread competes with its stages; others read ahead (RunOptions::read_ahead).
+RunOptions runOptions(const Item& it, std::ostream* log, bool timed);
 /// `given`, or the registry's default folders when empty.
 std::vector<std::string> pluginDirs(const std::vector<std::string>& given);
 
@@ -376,6 +378,7 @@ struct RunSpec {
   std::string model;
   YAML::Node energy_params;  ///< overrides of the energy's parameters (select:), may be null
   bool with_outputs = true;  ///< the sweep's `outputs:` (test runs only)
+  bool timed = true;         ///< its times make the runtime tables: frames read in place
 };
 
 /// Runs one item × feature set × optimiser and fills `rec` (status, counts, times, energies);

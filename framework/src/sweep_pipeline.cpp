@@ -139,12 +139,13 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
   return p;
 }
 
-RunOptions runOptions(const Item& it, std::ostream* log) {
+RunOptions runOptions(const Item& it, std::ostream* log, bool timed) {
   RunOptions ro;
   ro.progress = false;
   ro.log = log;
   ro.first = it.first;
   ro.limit = it.count;
+  if (timed) ro.read_ahead = 0;
   return ro;
 }
 

@@ -146,7 +146,7 @@ RunTimes runTimes(const RunResult& r, const Pipeline& p) {
   for (const auto& s : r.timings) {
     if (s.ms.size() != n) continue;
     const bool is_total = s.name == "total";
-    const bool is_io = s.name == "read" || s.name.rfind("output:", 0) == 0;
+    const bool is_io = s.name == "read" || s.name == "read wait" || s.name.rfind("output:", 0) == 0;
     for (std::size_t f = 0; f < n; ++f) {
       if (is_total) {
         t.total[f] = s.ms[f];
@@ -264,7 +264,7 @@ void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec) {
     RunResult rr;
     {
       SourceLoan loan(t, p);
-      rr = runPipeline(p, runOptions(t, &run.log));
+      rr = runPipeline(p, runOptions(t, &run.log, spec.timed));
     }
     rec.frames_ok = rr.summary.frames_ok;
     rec.failed = rr.summary.failed;

@@ -56,6 +56,7 @@ std::string validate(SweepRun& run, const FeatureSet& f, const Candidate& cand,
         spec.model = model;
         spec.energy_params = cand.energy;
         spec.with_outputs = false;
+        spec.timed = false;
         executeRun(run, spec, rec);
         if (rec.status == RunRecord::Status::kFailed)
           note = "validation run on '" + v->label + "' failed: " + rec.reason;

@@ -216,7 +216,7 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
       // runPipeline writes resolved_config.yaml into the output folder; keep it per item.
       p.output_dir = job.run_root + "/" + sanitize(it->label);
       SourceLoan loan(*it, p);
-      rr = runPipeline(p, runOptions(*it, &log));
+      rr = runPipeline(p, runOptions(*it, &log, /*timed=*/false));
     }
     progress.advanceTo(0, job.what + it->label);
     rec.failed_frames = rr.summary.failed.size();

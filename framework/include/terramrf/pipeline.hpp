@@ -26,12 +26,23 @@ struct RunOptions {
   std::ostream* log = nullptr;   ///< where failures and the summary go (default std::cerr)
   std::size_t first = 0;         ///< first frame index
   std::size_t limit = 0;         ///< 0 = all frames
+  /// Frames read ahead of the one being processed, on reader threads: 0 reads each frame on the
+  /// calling thread when it is needed; kAutoReadAhead is 1 for a source that reads one frame at
+  /// a time and the number of hardware threads (≤ 8) for one that allows concurrent reads.
+  /// Results do not depend on it.
+  std::size_t read_ahead = kAutoReadAhead;
+  static constexpr std::size_t kAutoReadAhead = static_cast<std::size_t>(-1);
 };
 
 struct RunResult {
   RunSummary summary;
   std::size_t frames_total = 0;
-  std::vector<StageTiming> timings;  ///< read, egomotion…, grid, stages…, outputs…, total
+  /// read, read wait, egomotion…, grid, stages…, outputs…, total. "read" is the read's own
+  /// duration, "read wait" the part of it the run waited for (less when reads ran ahead), and
+  /// "total" the run's time per frame from its wait for the frame to its last output.
+  std::vector<StageTiming> timings;
+  std::size_t read_ahead = 0;    ///< frames read ahead (0: read when needed)
+  std::size_t read_threads = 0;  ///< reader threads (0: read on the calling thread)
   std::vector<std::string> output_errors;
   /// Points the source dropped while reading, over the frames read (Frame::dropped_*_points).
   std::size_t points_dropped_nonfinite = 0;

@@ -77,8 +77,13 @@ class Source : public Plugin {
   virtual std::size_t size() const = 0;
   /// Short id of frame i (file stem), known without reading it.
   virtual std::string frameId(std::size_t i) const = 0;
-  /// Reads frame i. Throws InputError naming the file on bad data.
+  /// Reads frame i. Throws InputError naming the file on bad data. The pipeline reads ahead on a
+  /// thread of its own, so read() must not touch state the stages or outputs share.
   virtual Frame read(std::size_t i) = 0;
+  /// True if read(i) and read(j) may run at the same time on different threads (read changes no
+  /// state). The pipeline then reads several frames at once; otherwise one after another, in
+  /// order. Frames reach the stages in order either way.
+  virtual bool concurrentReads() const { return false; }
 };
 
 /// Everything a stage sees for one frame. Stages read what earlier stages wrote.

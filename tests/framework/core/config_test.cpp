@@ -92,6 +92,26 @@ TEST(Config, LayerReadThatNoEarlierStageWrites) {
       << joined(errs);
 }
 
+// The runner times its own steps under these names; a stage of the same name would share their row
+// in timing.md and be counted as reading in compare's runtime table.
+TEST(Config, StageNamesOfTheRunnersOwnTimingAreRejected) {
+  test::ConfigFixture f;
+  for (const std::string name : {"read", "read wait", "grid", "total"}) {
+    std::string text = test::ConfigFixture::validPipeline();
+    text.replace(text.find("name: hdiff"), 11, "name: '" + name + "'");
+    text.replace(text.find("features: [height_diff]"), 23, "features: [height_diff]");
+    const auto errs = errorsOf(f, text);
+    EXPECT_TRUE(contains(errs, "c.yaml:6:12: stage '" + name +
+                                   "' (height_difference): stage name '" + name +
+                                   "' is the runner's own"))
+        << joined(errs);
+  }
+  // Outputs are timed as "output:<name>", so the names stay free there.
+  std::string text = test::ConfigFixture::validPipeline();
+  text.replace(text.find("outputs: []"), 11, "outputs: [{name: grid, type: grid_png}]");
+  EXPECT_TRUE(errorsOf(f, text).empty()) << joined(errorsOf(f, text));
+}
+
 TEST(Config, OptimiserWithoutEnergyIsRejected) {
   test::ConfigFixture f;
   const auto errs = errorsOf(f, "version: 1\nsource: {type: test_synthetic}\nstages:\n  - {type: icm}\n");

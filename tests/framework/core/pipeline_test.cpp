@@ -53,10 +53,10 @@ TEST(Pipeline, ClassifiesPlaneAndBox) {
   EXPECT_EQ(r.exitCode(), 0);
   EXPECT_EQ(r.summary.frames_ok, 1u);
   EXPECT_TRUE(std::filesystem::exists(lo.output_dir + "/resolved_config.yaml"));
-  // Timing slots: read, grid, 4 stages, total.
-  ASSERT_EQ(r.timings.size(), 7u);
-  EXPECT_EQ(r.timings[1].name, "grid");
-  EXPECT_EQ(r.timings[1].ms.size(), 1u);
+  // Timing slots: read, read wait, grid, 4 stages, total.
+  ASSERT_EQ(r.timings.size(), 8u);
+  EXPECT_EQ(r.timings[2].name, "grid");
+  EXPECT_EQ(r.timings[2].ms.size(), 1u);
 
   // The same stages driven by hand: the box's cells are obstacles, the plane is not.
   Frame frame = p.source->read(0);

@@ -440,6 +440,10 @@ TEST(SweepRun, TinySimulatorSweepWritesTheTables) {
   const std::string rt = readFile(out + "/runtime.md");
   EXPECT_NE(rt.find("| Mode | Mean | Std. dev. | Max | Min |"), std::string::npos) << rt;
   EXPECT_NE(rt.find("| L0 (icm) |"), std::string::npos) << rt;
+  // Test runs are timed for that table: no reader thread ran beside their stages.
+  const std::string timing = readFile(out + "/runs/sim_test__L__icm/timing.md");
+  EXPECT_NE(timing.find("| read wait |"), std::string::npos) << timing;
+  EXPECT_EQ(timing.find("read up to"), std::string::npos) << timing;
   const std::string summary = readFile(out + "/summary.md");
   EXPECT_NE(summary.find("alpha_expansion_not_built' is not installed"), std::string::npos);
   EXPECT_NE(summary.find("Point-wise"), std::string::npos);  // paper 001 tables

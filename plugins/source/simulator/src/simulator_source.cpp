@@ -33,6 +33,9 @@ class SimulatorSource : public Source {
     return sim_->frame(i);
   }
 
+  /// Simulation::frame is const and seeds all noise from the frame index.
+  bool concurrentReads() const override { return true; }
+
  private:
   sim::SimulationConfig config_;
   std::unique_ptr<sim::Simulation> sim_;
