@@ -1,6 +1,6 @@
 #pragma once
 // Internal to the framework: reads a run's frames ahead of the pipeline, on threads of its own.
-// Decoding a scan (KITTI: ~1.5 ms with the ring recovery) or simulating one (~0.3 s) then
+// Decoding a scan (KITTI: 1–2 ms with the ring recovery) or simulating one (~0.3 s) then
 // overlaps the stages of the frame before, and a source whose reads are independent
 // (Source::concurrentReads) reads several frames at once. Frames still reach the pipeline one
 // at a time and in order, so results do not depend on it; only the timing does.
