@@ -20,6 +20,12 @@ classes:
   obstacle: {height_diff: {mean: 1.0, sigma: 0.8}}
 )";
   }
+  /// The synthetic test pipeline (validPipeline) with `source_params`, outputs in `<dir>/out`.
+  Pipeline loadSynthetic(const std::string& source_params) {
+    LoadOptions lo;
+    lo.output_dir = dir.str() + "/out";
+    return loadPipeline(write("c.yaml", validPipeline(source_params)), lo, registry);
+  }
   std::string write(const std::string& name, const std::string& text) {
     const std::string p = dir.str() + "/" + name;
     std::ofstream(p) << text;

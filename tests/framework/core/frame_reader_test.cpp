@@ -105,10 +105,7 @@ struct Observed {
 
 Observed runWith(test::ConfigFixture& f, const std::string& source_params, RunOptions ro,
                  bool concurrent, bool await_overlap = false) {
-  LoadOptions lo;
-  lo.output_dir = f.dir.str() + "/out";
-  Pipeline p = loadPipeline(f.write("c.yaml", test::ConfigFixture::validPipeline(source_params)),
-                            lo, f.registry);
+  Pipeline p = f.loadSynthetic(source_params);
   auto probe = std::make_unique<ProbeSource>(std::move(p.source), concurrent, await_overlap);
   ProbeSource& pr = *probe;
   p.source = std::move(probe);
@@ -220,10 +217,7 @@ TEST(ReadAhead, ReadsOnlyTheFramesOfTheRun) {
 
 TEST(FrameReader, ReadsNoFurtherThanItsDepthAndStopsWhenDestroyed) {
   test::ConfigFixture f;
-  LoadOptions lo;
-  lo.output_dir = f.dir.str() + "/out";
-  Pipeline p = loadPipeline(f.write("c.yaml", test::ConfigFixture::validPipeline("{frames: 100}")),
-                            lo, f.registry);
+  Pipeline p = f.loadSynthetic("{frames: 100}");
   ProbeSource probe(std::move(p.source), false);
   {
     FrameReader reader(probe, 0, 100, 3, 1);

@@ -15,10 +15,7 @@ namespace {
 /// Runs the synthetic test pipeline with `source_params` quietly (progress off, log to `log`);
 /// outputs go to `<fixture>/out`.
 RunResult runSynthetic(test::ConfigFixture& f, const std::string& source_params, std::ostream& log) {
-  LoadOptions lo;
-  lo.output_dir = f.dir.str() + "/out";
-  Pipeline p = loadPipeline(f.write("c.yaml", test::ConfigFixture::validPipeline(source_params)), lo,
-                            f.registry);
+  Pipeline p = f.loadSynthetic(source_params);
   RunOptions ro;
   ro.progress = false;
   ro.log = &log;
