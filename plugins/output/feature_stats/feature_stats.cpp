@@ -119,6 +119,7 @@ class FeatureStats final : public Output {
       << "\"\n";
     o << "classes:\n";
     const std::size_t K = info_.labels->size(), F = features_.size();
+    checkEveryFeatureMeasured(K, F);
     o.precision(6);
     for (std::size_t k = 1; k < K; ++k) {
       std::ostringstream cls;
@@ -167,6 +168,31 @@ class FeatureStats final : public Output {
     std::size_t cells = 0;
     std::vector<Gaussian> g;  ///< per feature
   };
+
+  /// A class learnt without one of the features would give a model the energy stage refuses
+  /// ("not in model for class …"), which hides the cause: the feature was NaN in every training
+  /// cell of that class. Say so here, before any model is written.
+  void checkEveryFeatureMeasured(std::size_t K, std::size_t F) const {
+    std::string missing;
+    for (std::size_t k = 1; k < K; ++k) {
+      std::size_t cells = 0;
+      for (std::size_t f = 0; f < F; ++f) cells = std::max(cells, n_[k * F + f]);
+      if (cells < 2) continue;  // class absent from the training data: left out of the model
+      for (std::size_t f = 0; f < F; ++f)
+        if (n_[k * F + f] < 2)
+          missing += std::string(missing.empty() ? "" : "; ") + "class '" +
+                     info_.labels->name(static_cast<LabelId>(k)) + "' has a value of feature '" +
+                     features_[f] + "' in " + std::to_string(n_[k * F + f]) + " of its " +
+                     std::to_string(cells) + " training cells";
+    }
+    if (!missing.empty())
+      throw std::runtime_error(
+          "cannot learn the model: " + missing +
+          " (at least 2 needed). The feature is NaN (no data) there: not measured by this data, "
+          "e.g. the intensity of scans that store none (Open3D-ML's SemanticKITTI) or a camera "
+          "feature of a class never seen by a camera. Train on data that has it, or drop it "
+          "from the feature list");
+  }
 
   double sigmaFloor(std::size_t f) const {
     return min_sigma_.empty() ? 0 : min_sigma_[min_sigma_.size() == 1 ? 0 : f];

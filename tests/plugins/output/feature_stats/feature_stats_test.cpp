@@ -132,4 +132,29 @@ TEST(FeatureStats, SmallClassStaysOneGaussian) {
   EXPECT_NEAR(m["classes"]["road"]["f"]["mean"].as<double>(), 0.02, 1e-6);
 }
 
+// A feature measured for road but NaN in every rough cell (the intensity of scans that store none,
+// a camera feature of a class no camera sees): no model, and an error that names the class, the
+// feature and the counts; a class absent from the data altogether (obstacle) is no error.
+TEST(FeatureStats, FeatureNeverMeasuredInAClassIsAnErrorNamingBoth) {
+  Scene s({kRoad, kRoad, kRoad, kRoad, kRoad, kRough, kRough, kRough, kRough, kRough},
+          {0.f, 0.f, 0.f, 0.f, 0.f, 0.1f, 0.1f, 0.1f, 0.1f, 0.1f}, kRough);
+  Layer& g = s.grid.add("g");
+  const Eigen::Vector2d o = s.geom.origin();
+  for (int i = 0; i < 5; ++i) g[s.geom.cellOf(o.x() + 0.5, o.y() + i + 0.5)] = 0.2f;
+  EXPECT_NEAR(s.learn("{features: [f], min_labelled_points: 1}")["classes"]["rough"]["f"]["mean"]
+                  .as<double>(),
+              0.1, 1e-6);
+  try {
+    s.learn("{features: [f, g], min_labelled_points: 1}");
+    FAIL() << "expected an error";
+  } catch (const std::exception& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("class 'rough' has a value of feature 'g' in 0 of its 5 training cells"),
+              std::string::npos)
+        << m;
+    EXPECT_EQ(m.find("'road'"), std::string::npos) << m;
+    EXPECT_EQ(m.find("'obstacle'"), std::string::npos) << m;
+  }
+}
+
 }  // namespace terramrf
