@@ -11,7 +11,8 @@
 //                     split into road and rough at their median roughness): it sets what the
 //                     optimiser has to do, not an accuracy (the sweeps measure that)
 //   BM_L_G            laser part + relative_height + height_above_ground (sweep feature set L+G)
-//   BM_HeightAboveGround, BM_RelativeHeight, BM_EigenPreclass, BM_HeightDifference, BM_Roughness
+//   BM_HeightAboveGround, BM_RelativeHeight, BM_EigenPreclass, BM_HeightDifference, BM_Roughness,
+//   BM_Intensity (mean and standard deviation)
 //                     one stage alone on an already binned grid
 //   BM_Img_*          the image part alone (camera_fusion + the feature) on an already binned grid
 //                     (…HomogeneityLocalMean: homogeneity with definition: local_mean)
@@ -48,6 +49,7 @@ struct FeatureFixture {
   PluginContext pctx;
   std::vector<std::unique_ptr<Plugin>> laser;
   std::vector<std::unique_ptr<Plugin>> ground;  // the G of L+G
+  std::unique_ptr<Plugin> intensity;
   std::unique_ptr<Plugin> fusion, haralick, homogeneity, homogeneity_local_mean, colour_rgb,
       colour_hsv, colour_lab;
   /// Energy + ICM per feature set ("L", "L+H", "L+FH", "L+C").
@@ -70,6 +72,7 @@ struct FeatureFixture {
     laser.push_back(make("roughness", "{}"));
     ground.push_back(make("relative_height", "{}"));
     ground.push_back(make("height_above_ground", "{}"));
+    intensity = make("intensity", "{std_layer: intensity_std}");
     fusion = make("camera_fusion", "{}");
     haralick = make("haralick", "{}");
     homogeneity = make("homogeneity", "{}");
@@ -220,6 +223,7 @@ void BM_RelativeHeight(benchmark::State& s) { bench(s, false, fixture().ground[0
 void BM_EigenPreclass(benchmark::State& s) { bench(s, false, fixture().laser[0].get(), false); }
 void BM_HeightDifference(benchmark::State& s) { bench(s, false, fixture().laser[1].get(), false); }
 void BM_Roughness(benchmark::State& s) { bench(s, false, fixture().laser[2].get(), false); }
+void BM_Intensity(benchmark::State& s) { bench(s, false, fixture().intensity.get(), false); }
 void BM_L_H(benchmark::State& s) { bench(s, true, fixture().haralick.get()); }
 void BM_L_FH(benchmark::State& s) { bench(s, true, fixture().homogeneity.get()); }
 void BM_L_C(benchmark::State& s) { bench(s, true, fixture().colour_rgb.get()); }
@@ -252,6 +256,7 @@ TERRAMRF_BENCH(BM_RelativeHeight);
 TERRAMRF_BENCH(BM_EigenPreclass);
 TERRAMRF_BENCH(BM_HeightDifference);
 TERRAMRF_BENCH(BM_Roughness);
+TERRAMRF_BENCH(BM_Intensity);
 TERRAMRF_BENCH(BM_RoughnessColumnOrder);
 TERRAMRF_BENCH(BM_L_H);
 TERRAMRF_BENCH(BM_L_FH);
