@@ -1,5 +1,8 @@
 #include "terramrf/energy_model.hpp"
 
+#include <stdexcept>
+#include <string>
+
 namespace terramrf {
 
 void EnergyModel::resize(int r, int c, int k) {
@@ -88,6 +91,15 @@ int icmSweeps(const EnergyModel& em, PaddedLabels& lab, int max_sweeps, std::vec
   }
   converged = !changed;
   return sweep;
+}
+
+void EnergyModel::writeGridLabels(const std::vector<uint8_t>& lab,
+                                  std::vector<LabelId>& out) const {
+  if (out.size() != cells())
+    throw std::logic_error("energy model has " + std::to_string(cells()) + " cells, the grid " +
+                           std::to_string(out.size()));
+  for (std::size_t i = 0; i < out.size(); ++i)
+    out[i] = fixed[i] ? labels::kUnknown : active[lab[i]];
 }
 
 }  // namespace terramrf

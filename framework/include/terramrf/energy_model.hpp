@@ -36,6 +36,11 @@ struct EnergyModel {
   /// Energy of cell `c` taking label index `k` with its neighbours as in `labelling`
   /// (eq. 12 for one cell: unary + Σ_N w·δ).
   double localEnergy(const std::vector<uint8_t>& labelling, int c, int k) const;
+  /// The grid's labels for a labelling: each non-fixed cell its active label, each fixed cell
+  /// unknown (no data, no classification). `grid_labels` must hold cells() entries: a grid of
+  /// another size was not the one this model was built for (std::logic_error naming both sizes).
+  void writeGridLabels(const std::vector<uint8_t>& labelling,
+                       std::vector<LabelId>& grid_labels) const;
 };
 
 /// What an optimiser reports (printed in the timing report and saved with the outputs).

@@ -181,12 +181,7 @@ class AlphaExpansion final : public Stage {
   void writeOutputs(FrameContext& ctx, const std::vector<uint8_t>& lab) {
     const EnergyModel& em = ctx.energy;
     auto& out = ctx.grid->labels();
-    out.assign(ctx.grid->cells(), labels::kUnknown);
-    if (out.size() != em.cells())
-      throw std::logic_error(name() + ": energy model has " + std::to_string(em.cells()) +
-                             " cells, the grid " + std::to_string(out.size()));
-    for (std::size_t i = 0; i < em.cells(); ++i)
-      if (!em.fixed[i]) out[i] = em.active[lab[i]];
+    em.writeGridLabels(lab, out);
     if (!ctx.labels) return;
     std::vector<Layer> scores = localEnergyScores(em, out, ctx.labels->size());
     for (LabelId id : em.active)

@@ -174,12 +174,9 @@ class GibbsSampler final : public Stage {
   void writeOutputs(FrameContext& ctx, const std::vector<uint8_t>& lab,
                     const std::vector<float>& marg) const {
     const EnergyModel& em = ctx.energy;
-    auto& out = ctx.grid->labels();
-    out.assign(ctx.grid->cells(), labels::kUnknown);
-    const std::size_t n = std::min(out.size(), em.cells());
-    for (std::size_t i = 0; i < n; ++i)
-      if (!em.fixed[i]) out[i] = em.active[lab[i]];
+    em.writeGridLabels(lab, ctx.grid->labels());
     if (marg.empty() || !ctx.labels) return;
+    const std::size_t n = em.cells();
     const int K = em.numLabels();
     for (int k = 0; k < K; ++k) {
       Layer& l = ctx.grid->add(layers::score(ctx.labels->name(em.active[k])));

@@ -34,9 +34,7 @@ class Icm final : public Stage {
     rep.iterations = sweep;
     rep.converged = converged;
     rep.final_energy = report_energy_ ? em.energy(lab) : kNotComputed;
-    auto& out = ctx.grid->labels();
-    for (std::size_t i = 0; i < em.cells(); ++i)
-      out[i] = em.fixed[i] ? labels::kUnknown : em.active[lab[i]];
+    em.writeGridLabels(lab, ctx.grid->labels());
     ctx.metrics[name() + ".sweeps"] = sweep;
     if (report_energy_) {
       ctx.metrics[name() + ".energy"] = rep.final_energy;

@@ -1,8 +1,10 @@
+#include "terramrf/energy_model.hpp"
+
 #include <gtest/gtest.h>
 
 #include <random>
-
-#include "terramrf/energy_model.hpp"
+#include <stdexcept>
+#include <string>
 
 namespace terramrf {
 
@@ -45,6 +47,23 @@ TEST(EnergyModel, LocalChangeEqualsTotalChange) {
     const double local_after = em.localEnergy(lab, i, k);
     lab[i] = static_cast<uint8_t>(k);
     EXPECT_NEAR(em.energy(lab) - before, local_after - local_before, 1e-4);
+  }
+}
+
+TEST(EnergyModel, GridLabelsMapActiveLabelsAndLeaveFixedCellsUnknown) {
+  EnergyModel em;
+  em.resize(1, 3, 2);
+  em.active = {5, 2};  // label index 0 is project label 5, index 1 is label 2
+  em.fixed = {0, 1, 0};
+  std::vector<LabelId> grid(3, 9);
+  em.writeGridLabels({1, 1, 0}, grid);
+  EXPECT_EQ(grid, (std::vector<LabelId>{2, labels::kUnknown, 5}));
+  std::vector<LabelId> other_grid(4);
+  try {
+    em.writeGridLabels({1, 1, 0}, other_grid);
+    FAIL() << "expected std::logic_error";
+  } catch (const std::logic_error& e) {
+    EXPECT_NE(std::string(e.what()).find("3 cells, the grid 4"), std::string::npos) << e.what();
   }
 }
 
