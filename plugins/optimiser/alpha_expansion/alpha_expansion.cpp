@@ -17,6 +17,7 @@
 #include "block_moves.hpp"
 #include "expansion_cuts.hpp"
 #include "frame_graph.hpp"
+#include "strip_moves.hpp"
 #include "terramrf/padded_labels.hpp"
 #include "terramrf/plugin.hpp"
 #include "terramrf/roc.hpp"
@@ -27,6 +28,7 @@ using expansion::BlockMoves;
 using expansion::isDiagonal;
 using expansion::kDc;
 using expansion::kDr;
+using expansion::StripMoves;
 
 class AlphaExpansion final : public Stage {
  public:
@@ -44,6 +46,10 @@ class AlphaExpansion final : public Stage {
     d.add("block_moves", block_moves_,
           "when no expansion improves, give each 2×2 block of cells its best joint labelling "
           "(moves in which two labels enter at once), then expand again; up to 8 labels");
+    d.add("strip_moves", strip_moves_,
+          "when neither expansions nor 2×2 blocks improve, give each strip of two rows or two "
+          "columns its best joint labelling (dynamic programming; patches such as 4 × 2 that two "
+          "labels enter), then expand again; up to 6 labels");
   }
   std::vector<std::string> reads() const override { return {artefacts::kEnergy}; }
   std::vector<std::string> writes() const override { return {artefacts::kLabels}; }
@@ -80,7 +86,9 @@ class AlphaExpansion final : public Stage {
 
     double e = em.energy(lab);
     blocks_.beginFrame(em.cells());
-    int cycle = 0, expansions = 0, accepted = 0, block_passes = 0;
+    const bool strips = strip_moves_ && K >= 2 && K <= StripMoves::kMaxLabels;
+    if (strips) strips_.beginFrame(em.rows, em.cols);
+    int cycle = 0, expansions = 0, accepted = 0, block_passes = 0, strip_passes = 0;
     // An expansion that changed nothing need not be repeated until another one changes the
     // labelling: `version` counts accepted moves, failed_at[α] remembers when α last failed.
     int version = 0;
@@ -101,6 +109,7 @@ class AlphaExpansion final : public Stage {
               lab[i] = static_cast<uint8_t>(alpha);
               cuts_.labelChanged(i);
               if (block_moves_) blocks_.touch(i, em.rows, em.cols);
+              if (strips) strips_.touch(i);
             }
             e += de;
             better = improved = true;
@@ -115,11 +124,29 @@ class AlphaExpansion final : public Stage {
       if (!improved && block_moves_ && K >= 2 && K <= BlockMoves::kMaxLabels) {
         relabelled_.clear();
         const double de = blocks_.pass(em, lab, relabelled_);
-        for (int i : relabelled_) cuts_.labelChanged(i);
+        for (int i : relabelled_) {
+          cuts_.labelChanged(i);
+          if (strips) strips_.touch(i);
+        }
         if (de < 0) {
           e += de;
           improved = true;
           ++block_passes;
+          ++version;
+        }
+      }
+      // Then strips two cells wide, which hold the patches no 2×2 block holds.
+      if (!improved && strips) {
+        relabelled_.clear();
+        const double de = strips_.pass(em, lab, relabelled_);
+        for (int i : relabelled_) {
+          cuts_.labelChanged(i);
+          if (block_moves_) blocks_.touch(i, em.rows, em.cols);
+        }
+        if (de < 0) {
+          e += de;
+          improved = true;
+          ++strip_passes;
           ++version;
         }
       }
@@ -143,6 +170,9 @@ class AlphaExpansion final : public Stage {
     ctx.metrics[name() + ".icm_sweeps"] = icm_sweeps;
     ctx.metrics[name() + ".block_passes"] = block_passes;
     ctx.metrics[name() + ".block_moves"] = blocks_.taken();
+    ctx.metrics[name() + ".strip_passes"] = strip_passes;
+    ctx.metrics[name() + ".strip_moves"] = strips ? strips_.taken() : 0;
+    ctx.metrics[name() + ".strip_stretches"] = strips ? strips_.searched() : 0;
     ctx.metrics[name() + ".max_flows"] = cuts_.maxFlows();
     ctx.metrics[name() + ".max_flow_nodes_per_cut"] =
         cuts_.maxFlows() ? double(cuts_.maxFlowNodes()) / cuts_.maxFlows() : 0.0;
@@ -193,9 +223,11 @@ class AlphaExpansion final : public Stage {
   std::string init_ = "initial";
   bool pre_icm_ = true;
   bool block_moves_ = true;
+  bool strip_moves_ = true;
 
   expansion::ExpansionCuts cuts_;
   BlockMoves blocks_;
+  StripMoves strips_;
   std::vector<int> relabelled_;  ///< cells a block pass relabelled, in order
   std::vector<uint8_t> lab_, dirty_, in_move_;
   PaddedLabels pad_;  ///< the ICM start's labels

@@ -327,7 +327,8 @@ TEST(AlphaExpansion, MatchesATextbookImplementationOnLargerGrids) {
     int ref_cycles = 0;
     const auto ref = textbookExpansion(em, &ref_cycles);
     const auto r =
-        h.run("alpha_expansion", "{pre_icm: false, max_cycles: 50, block_moves: false}", em);
+        h.run("alpha_expansion",
+              "{pre_icm: false, max_cycles: 50, block_moves: false, strip_moves: false}", em);
     EXPECT_EQ(OptimiserHarness::labelling(r, em), ref) << "grid " << n;
     EXPECT_EQ(r.report.iterations, ref_cycles) << "grid " << n;
     EXPECT_NEAR(r.report.final_energy, em.energy(ref), 1e-6) << "grid " << n;
@@ -383,7 +384,8 @@ TEST(AlphaExpansion, BlockMovesMatchEnumeratingEveryBlock) {
     }
     int ref_cycles = 0, ref_moves = 0;
     const auto ref = textbookExpansion(em, &ref_cycles, true, &ref_moves);
-    const auto r = h.run("alpha_expansion", "{pre_icm: false, max_cycles: 50}", em);
+    const auto r =
+        h.run("alpha_expansion", "{pre_icm: false, max_cycles: 50, strip_moves: false}", em);
     EXPECT_EQ(OptimiserHarness::labelling(r, em), ref) << "grid " << n;
     EXPECT_EQ(r.report.iterations, ref_cycles) << "grid " << n;
     EXPECT_EQ(r.metrics.at("alpha_expansion.block_moves"), ref_moves) << "grid " << n;
@@ -405,16 +407,18 @@ EnergyModel labelZeroGrid(float other) {
   return em;
 }
 
-/// Runs α-expansion on `em` without block moves, which must stay at the initial labelling, and
-/// with them, which must reach `want` and lower the energy by `gain`; returns the second run.
-test::OptimiserRun expectOnlyBlockMovesReach(const EnergyModel& em,
-                                             const std::vector<uint8_t>& want, double gain,
-                                             const std::string& what) {
+/// Runs α-expansion on `em` without the moves `on` switches on, which must stay at the initial
+/// labelling, and with them, which must reach `want` and lower the energy by `gain`; returns the
+/// second run. Block moves by default (strips, which contain them, off in both runs).
+test::OptimiserRun expectOnlyBlockMovesReach(
+    const EnergyModel& em, const std::vector<uint8_t>& want, double gain, const std::string& what,
+    const std::string& off = "{block_moves: false, strip_moves: false}",
+    const std::string& on = "{strip_moves: false}") {
   const double e0 = em.energy(em.initial);
   OptimiserHarness h;
-  const auto stuck = h.run("alpha_expansion", "{block_moves: false}", em);
+  const auto stuck = h.run("alpha_expansion", off, em);
   EXPECT_NEAR(stuck.report.final_energy, e0, 1e-9) << what;
-  const auto r = h.run("alpha_expansion", "{}", em);
+  const auto r = h.run("alpha_expansion", on, em);
   test::expectValidResult(r, em, what);
   EXPECT_EQ(OptimiserHarness::labelling(r, em), want) << what;
   EXPECT_NEAR(r.report.final_energy, e0 - gain, 1e-5) << what;
@@ -522,8 +526,9 @@ TEST(AlphaExpansion, ResultIsALocalMinimumOfEveryBlockMove) {
   int lower = 0;
   for (int n = 0; n < 20; ++n) {
     const EnergyModel em = plantedPairs(700 + n, 10, 3 + n % 2, 4);
-    const auto r = h.run("alpha_expansion", "{max_cycles: 100}", em);
-    const auto plain = h.run("alpha_expansion", "{max_cycles: 100, block_moves: false}", em);
+    const auto r = h.run("alpha_expansion", "{max_cycles: 100, strip_moves: false}", em);
+    const auto plain =
+        h.run("alpha_expansion", "{max_cycles: 100, block_moves: false, strip_moves: false}", em);
     test::expectValidResult(r, em, "grid " + std::to_string(n));
     ASSERT_TRUE(r.report.converged);
     EXPECT_LE(r.report.final_energy, plain.report.final_energy + 1e-9) << "grid " << n;
@@ -545,6 +550,105 @@ TEST(AlphaExpansion, ResultIsALocalMinimumOfEveryBlockMove) {
       }
   }
   EXPECT_GE(lower, 5) << "the block moves found too little on grids planted for them";
+}
+
+// A 2 × 3 patch of a 7 × 7 grid of label 0 (w = 1): its top row prefers label 1 and its bottom
+// row label 2 by 11.2 each. The whole patch gains 67.2 and pays 66 (26 boundary pairs and 7
+// pairs between its rows, 2 each); its 2 × 2 blocks gain 44.8 and pay 48, a row alone gains
+// 33.6 and pays 40. No expansion and no 2 × 2 block move pays, so only a strip move reaches it
+// (the pattern of the SemanticKITTI scans on which annealed Gibbs ended lower, 3 × 2 and 4 × 2
+// patches that two labels enter: docs/optimisers.md).
+TEST(AlphaExpansion, StripMovesLetTwoLabelsEnterA2x3Patch) {
+  for (const bool transposed : {false, true}) {
+    EnergyModel em;
+    const int C = 7;
+    em.resize(C, C, 3);
+    for (int k = 0; k < 3; ++k) em.active[k] = static_cast<LabelId>(k + 1);
+    for (std::size_t i = 0; i < em.cells(); ++i) {
+      em.unary[i * 3] = 0.f;
+      em.unary[i * 3 + 1] = em.unary[i * 3 + 2] = 10.f;
+      em.initial[i] = 0;
+    }
+    em.beta = em.beta_diagonal = 1.f;
+    std::vector<uint8_t> want = em.initial;
+    for (int row = 0; row < 2; ++row)
+      for (int col = 2; col < 5; ++col) {
+        const int i = transposed ? col * C + (2 + row) : (2 + row) * C + col;
+        const int l = row == 0 ? 1 : 2;
+        em.unary[std::size_t(i) * 3 + l] = -11.2f;
+        want[i] = static_cast<uint8_t>(l);
+      }
+    const std::string what = transposed ? "3 × 2 patch" : "2 × 3 patch";
+    const auto r = expectOnlyBlockMovesReach(em, want, 1.2, what, "{strip_moves: false}", "{}");
+    EXPECT_EQ(r.metrics.at("alpha_expansion.strip_moves"), 1.0) << what;
+    EXPECT_EQ(r.metrics.at("alpha_expansion.block_moves"), 0.0) << what;
+  }
+}
+
+// A grid two cells wide is one strip, so at convergence (no expansion, 2 × 2 block or strip move
+// improves) α-expansion has its global optimum: the strip's search is exact, the labels it leaves
+// out are dominated and the stretches it skips could only take expansion moves. Checked against
+// all 3^12 labellings on 6 × 6 grids whose cells outside two rows (or two columns) have no
+// points: label 0 everywhere at first, a run of 3–4 positions whose two sides prefer labels 1
+// and 2 by about what entering costs (weights 0.7–1.3, diagonals weaker or stronger), sometimes
+// a cell without points inside the strip too.
+TEST(AlphaExpansion, TwoCellWideGridsReachTheirGlobalOptimum) {
+  OptimiserHarness h;
+  std::mt19937 rng(4242);
+  std::normal_distribution<double> noise(0, 0.5);
+  std::uniform_real_distribution<double> weight(0.7, 1.3), gain(4.6, 5.9);
+  int beaten_without_strips = 0;
+  for (int n = 0; n < 16; ++n) {
+    EnergyModel em;
+    em.resize(6, 6, 3);
+    const bool tall = n % 2;  // free: columns 2–3, else rows 2–3
+    std::vector<int> free_cells;
+    // Label 0 everywhere at first and cheapest outside a run of positions along the strip, in
+    // which one side prefers label 1 and the other label 2, by about what entering costs.
+    const double w = weight(rng);
+    const int run0 = static_cast<int>(rng() % 3), run1 = run0 + 2 + static_cast<int>(rng() % 2);
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) {
+        const int i = r * 6 + c, side = (tall ? c : r) - 2, along = tall ? r : c;
+        em.unary[i * 3] = 0.f;
+        for (int k = 1; k < 3; ++k)
+          em.unary[i * 3 + k] = static_cast<float>(w * (4 + std::abs(noise(rng))));
+        if (along >= run0 && along <= run1 && (side == 0 || side == 1))
+          em.unary[i * 3 + 1 + side] = static_cast<float>(-w * gain(rng));
+        em.initial[i] = 0;
+        em.fixed[i] = side < 0 || side > 1;
+        if (!em.fixed[i]) free_cells.push_back(i);
+      }
+    for (int k = 0; k < 3; ++k) em.active[k] = static_cast<LabelId>(k + 1);
+    if (n % 4 == 3) {
+      const int i = free_cells[rng() % free_cells.size()];
+      em.fixed[i] = 1;
+      free_cells.erase(std::find(free_cells.begin(), free_cells.end(), i));
+    }
+    em.beta = static_cast<float>(w);
+    em.beta_diagonal = static_cast<float>(w * weight(rng));
+    double optimum = INFINITY;
+    std::vector<uint8_t> lab = em.initial;
+    long codes = 1;
+    for (std::size_t j = 0; j < free_cells.size(); ++j) codes *= 3;
+    for (long code = 0; code < codes; ++code) {
+      long c = code;
+      for (const int i : free_cells) {
+        lab[i] = static_cast<uint8_t>(c % 3);
+        c /= 3;
+      }
+      optimum = std::min(optimum, em.energy(lab));
+    }
+    const std::string what = "grid " + std::to_string(n);
+    const auto r = h.run("alpha_expansion", "{max_cycles: 100}", em);
+    test::expectValidResult(r, em, what);
+    ASSERT_TRUE(r.report.converged) << what;
+    EXPECT_NEAR(r.report.final_energy, optimum, 1e-5) << what;
+    const auto plain = h.run("alpha_expansion", "{max_cycles: 100, strip_moves: false}", em);
+    beaten_without_strips += plain.report.final_energy > optimum + 1e-6;
+  }
+  // The grids must be hard enough that expansions and 2 × 2 blocks alone miss some optima.
+  EXPECT_GE(beaten_without_strips, 2) << "too easy: every optimum was found without strips";
 }
 
 TEST(AlphaExpansion, TwoLabelsFromAConstantStartGiveTheGlobalOptimum) {

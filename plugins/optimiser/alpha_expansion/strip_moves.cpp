@@ -1,0 +1,311 @@
+#include "strip_moves.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+#include "frame_graph.hpp"
+
+namespace terramrf::expansion {
+namespace {
+
+inline double dl(int a, int b) { return a == b ? -1.0 : 1.0; }
+/// Bits set in a label mask (8 bits); the build targets x86-64 without POPCNT.
+inline int popcount(unsigned m) {
+  m = m - (m >> 1 & 0x55u);
+  m = (m & 0x33u) + (m >> 2 & 0x33u);
+  return static_cast<int>((m + (m >> 4)) & 0x0Fu);
+}
+
+/// One step of the recursion: cur[x] = local[x] + min_y (prev[y] + T[y·SP + x]) for x < S, with
+/// T's rows padded to SP = S rounded up to even (+∞ in the padding). S is a compile-time
+/// constant so that the running minima stay in registers, two per SSE2 register.
+template <int S>
+void minPlus(const double* __restrict prev, const double* __restrict T,
+             const double* __restrict local, double* __restrict cur) {
+  constexpr int SP = (S + 1) & ~1, H = SP / 2;
+#if defined(__SSE2__)
+  __m128d acc[H];
+  for (int h = 0; h < H; ++h) acc[h] = _mm_set1_pd(INFINITY);
+  for (int y = 0; y < S; ++y) {
+    const double py = prev[y];
+    if (!(py < INFINITY)) continue;  // a state ruled out: no path through it
+    const __m128d p = _mm_set1_pd(py);
+    const double* Ty = T + y * SP;
+    for (int h = 0; h < H; ++h)
+      acc[h] = _mm_min_pd(acc[h], _mm_add_pd(p, _mm_loadu_pd(Ty + 2 * h)));
+  }
+  alignas(16) double m[SP];
+  for (int h = 0; h < H; ++h) _mm_store_pd(m + 2 * h, acc[h]);
+#else
+  double m[SP];
+  for (int x = 0; x < SP; ++x) m[x] = INFINITY;
+  for (int y = 0; y < S; ++y) {
+    const double py = prev[y];
+    if (!(py < INFINITY)) continue;
+    for (int x = 0; x < SP; ++x) m[x] = std::min(m[x], py + T[y * SP + x]);
+  }
+#endif
+  for (int x = 0; x < S; ++x) cur[x] = m[x] + local[x];
+}
+
+}  // namespace
+
+void StripMoves::beginFrame(int R, int C) {
+  R_ = R;
+  C_ = C;
+  dirty_rows_.assign(std::max(0, R - 1), 1);
+  dirty_cols_.assign(std::max(0, C - 1), 1);
+  taken_ = searched_ = 0;
+}
+
+void StripMoves::touch(int i) {
+  const int r = i / C_, c = i % C_;
+  for (int s = std::max(0, r - 2); s <= std::min(R_ - 2, r + 1); ++s) dirty_rows_[s] = 1;
+  for (int s = std::max(0, c - 2); s <= std::min(C_ - 2, c + 1); ++s) dirty_cols_[s] = 1;
+}
+
+void StripMoves::relabel(const EnergyModel& em, std::vector<uint8_t>& lab, int i, int to,
+                         std::vector<int>& changed) {
+  const int K = em.numLabels(), from = lab[i], r = i / C_, c = i % C_;
+  lab[i] = static_cast<uint8_t>(to);
+  changed.push_back(i);
+  for (int d = 0; d < 8; ++d) {
+    const int rr = r + kDr[d], cc = c + kDc[d];
+    if (rr < 0 || rr >= R_ || cc < 0 || cc >= C_ || em.fixed[rr * C_ + cc]) continue;
+    const double w = isDiagonal(d) ? em.beta_diagonal : em.beta;
+    double* s = &nsum_[std::size_t(rr * C_ + cc) * K];
+    s[from] += 2 * w;
+    s[to] -= 2 * w;
+    updateAllowed(em, lab, rr * C_ + cc);
+  }
+  updateAllowed(em, lab, i);
+  touch(i);
+}
+
+void StripMoves::updateAllowed(const EnergyModel& em, const std::vector<uint8_t>& lab, int i) {
+  const int K = em.numLabels();
+  unsigned mask = 1u << lab[i];
+  if (!em.fixed[i]) {
+    const double* ns = &nsum_[std::size_t(i) * K];
+    // The cheapest label always stays: the dominated ones are left out in its favour.
+    const int best = static_cast<int>(std::min_element(ns, ns + K) - ns);
+    for (int k = 0; k < K; ++k)
+      if (k == best || ns[k] - ns[best] < reach_) mask |= 1u << k;
+  }
+  allowed_[i] = static_cast<uint8_t>(mask);
+}
+
+double StripMoves::pass(const EnergyModel& em, std::vector<uint8_t>& lab,
+                        std::vector<int>& changed) {
+  const int K = em.numLabels();
+  const double wb = em.beta, wd = em.beta_diagonal;
+  nsum_.assign(em.cells() * std::size_t(K), 0.0);
+  for (int r = 0; r < R_; ++r)
+    for (int c = 0; c < C_; ++c) {
+      const int i = r * C_ + c;
+      if (em.fixed[i]) continue;
+      double* s = &nsum_[std::size_t(i) * K];
+      const float* u = &em.unary[std::size_t(i) * K];
+      double all = 0;
+      for (int d = 0; d < 8; ++d) {
+        const int rr = r + kDr[d], cc = c + kDc[d];
+        if (rr < 0 || rr >= R_ || cc < 0 || cc >= C_ || em.fixed[rr * C_ + cc]) continue;
+        const double w = isDiagonal(d) ? wd : wb;
+        all += w;
+        s[lab[rr * C_ + cc]] -= 2 * w;
+      }
+      for (int k = 0; k < K; ++k) s[k] += u[k] + all;
+    }
+  // A cell's pairs inside a strip (three edges, two diagonals at most) move the difference of
+  // two labels' outside costs against their eq. 12 sums by 2·Σ|w| at most, and dominance needs
+  // the outside costs 2·Σ|w| apart: so the sums 4·Σ|w| apart. The same for every strip.
+  reach_ = 4 * (3 * std::abs(wb) + 2 * std::abs(wd));
+  allowed_.resize(em.cells());
+  for (std::size_t i = 0; i < em.cells(); ++i) updateAllowed(em, lab, static_cast<int>(i));
+  double total = 0;
+  for (const bool rows : {true, false}) {
+    std::vector<uint8_t>& dirty = rows ? dirty_rows_ : dirty_cols_;
+    const int strips = rows ? R_ - 1 : C_ - 1, length = rows ? C_ : R_;
+    for (int s = 0; s < strips; ++s) {
+      if (!dirty[s]) continue;
+      auto cell = [&](int t, int j) { return rows ? (s + j) * C_ + t : t * C_ + s + j; };
+      auto open = [&](int t) {
+        return popcount(allowed_[cell(t, 0)]) + popcount(allowed_[cell(t, 1)]) > 2;
+      };
+      for (int t = 0; t < length;) {
+        if (!open(t)) {
+          ++t;
+          continue;
+        }
+        int t1 = t;
+        while (t1 + 1 < length && open(t1 + 1)) ++t1;
+        // The labels the stretch's cells may change to: with fewer than two, any move is an
+        // expansion, which no longer improves.
+        unsigned entering = 0;
+        for (int u = t; u <= t1; ++u)
+          for (int j = 0; j < 2; ++j) {
+            const int i = cell(u, j);
+            entering |= allowed_[i] & ~(1u << lab[i]);
+          }
+        if (popcount(entering) >= 2) total += solveStretch(em, lab, rows, s, t, t1, changed);
+        t = t1 + 1;
+      }
+      dirty[s] = 0;  // its own moves marked it; it is now best given the cells around it
+    }
+  }
+  return total;
+}
+
+double StripMoves::solveStretch(const EnergyModel& em, std::vector<uint8_t>& lab, bool rows, int s,
+                                int t0, int t1, std::vector<int>& changed) {
+  switch (em.numLabels()) {
+    case 2:
+      return solveStretchK<2>(em, lab, rows, s, t0, t1, changed);
+    case 3:
+      return solveStretchK<3>(em, lab, rows, s, t0, t1, changed);
+    case 4:
+      return solveStretchK<4>(em, lab, rows, s, t0, t1, changed);
+    case 5:
+      return solveStretchK<5>(em, lab, rows, s, t0, t1, changed);
+    case 6:
+      return solveStretchK<6>(em, lab, rows, s, t0, t1, changed);
+    case 7:
+      return solveStretchK<7>(em, lab, rows, s, t0, t1, changed);
+    default:
+      return solveStretchK<8>(em, lab, rows, s, t0, t1, changed);  // kMaxLabels
+  }
+}
+
+template <int K>
+double StripMoves::solveStretchK(const EnergyModel& em, std::vector<uint8_t>& lab, bool rows, int s,
+                                 int t0, int t1, std::vector<int>& changed) {
+  constexpr int S = K * K;
+  const int n = t1 - t0 + 1;
+  const double wb = em.beta, wd = em.beta_diagonal;
+  ++searched_;
+  auto cell = [&](int t, int j) { return rows ? (s + j) * C_ + t : t * C_ + s + j; };
+  // Per position u and state x = a·K + b (labels of its two cells): the cost of the cells there,
+  // their outside pairs (eq. 12 sums less the pairs with the stretch's other non-fixed cells) and
+  // their pair with each other; +∞ for labels ruled out. A fixed cell has one label and no pairs.
+  local_.resize(std::size_t(n) * S);
+  fixed_.resize(std::size_t(n) * 2);
+  double o[2][kMaxLabels];
+  for (int u = 0; u < n; ++u) {
+    const int t = t0 + u;
+    for (int j = 0; j < 2; ++j) {
+      const int i = cell(t, j);
+      fixed_[2 * u + j] = em.fixed[i];
+      const unsigned mask = allowed_[i];
+      if (em.fixed[i]) {
+        for (int k = 0; k < K; ++k) o[j][k] = mask >> k & 1 ? 0.0 : INFINITY;
+        continue;
+      }
+      // Less the pairs inside the stretch: w·δ(k, l_n) is −w for k = l_n and +w otherwise. (Summed
+      // per label in registers: adding into the row entry by entry stalls on store forwarding.)
+      int nb[5];
+      double nw[5];
+      int m = 0;
+      auto inside = [&](int c, double w) {
+        if (em.fixed[c]) return;
+        nb[m] = lab[c];
+        nw[m++] = w;
+      };
+      inside(cell(t, 1 - j), wb);
+      for (const int tt : {t - 1, t + 1}) {
+        if (tt < t0 || tt > t1) continue;
+        inside(cell(tt, j), wb);
+        inside(cell(tt, 1 - j), wd);
+      }
+      double w_in = 0;
+      for (int q = 0; q < m; ++q) w_in += nw[q];
+      const double* ns = &nsum_[std::size_t(i) * K];
+      double v[K];
+      for (int k = 0; k < K; ++k) v[k] = ns[k] - w_in;
+      for (int q = 0; q < m; ++q)
+        for (int k = 0; k < K; ++k) v[k] += nb[q] == k ? 2 * nw[q] : 0.0;
+      for (int k = 0; k < K; ++k) o[j][k] = mask >> k & 1 ? v[k] : INFINITY;
+    }
+    const double inner = fixed_[2 * u] || fixed_[2 * u + 1] ? 0.0 : wb;
+    double* l = &local_[std::size_t(u) * S];
+    for (int a = 0; a < K; ++a)
+      for (int b = 0; b < K; ++b) l[a * K + b] = o[0][a] + o[1][b] + inner * dl(a, b);
+  }
+  // Pairs between consecutive positions, state y before x: the two edges along the strip and the
+  // two diagonals, each only between non-fixed cells.
+  const int SP = (S + 1) & ~1;  // T's row stride: S rounded up to even, +∞ in the padding
+  auto fill = [&](std::vector<double>& T, bool p0, bool q0, bool p1, bool q1) {
+    T.assign(std::size_t(S) * SP, INFINITY);
+    for (int y = 0; y < S; ++y)
+      for (int x = 0; x < S; ++x) {
+        const int pa = y / K, pb = y % K, a = x / K, b = x % K;
+        double v = 0;
+        if (p0 && p1) v += wb * dl(pa, a);
+        if (q0 && q1) v += wb * dl(pb, b);
+        if (p0 && q1) v += wd * dl(pa, b);
+        if (q0 && p1) v += wd * dl(pb, a);
+        T[std::size_t(y) * SP + x] = v;
+      }
+  };
+  // One matrix per pattern of fixed cells at the two positions (bit 0: p at u − 1, 1: q at
+  // u − 1, 2: p at u, 3: q at u), made once for the weights and label count.
+  if (trans_k_ != K || trans_wb_ != wb || trans_wd_ != wd) {
+    trans_.resize(16);
+    for (int f = 0; f < 16; ++f) fill(trans_[f], !(f & 1), !(f & 2), !(f & 4), !(f & 8));
+    trans_k_ = K;
+    trans_wb_ = wb;
+    trans_wd_ = wd;
+  }
+  auto transAt = [&](int u) -> const double* {  // u ≥ 1: between u − 1 and u
+    const int f =
+        fixed_[2 * u - 2] | fixed_[2 * u - 1] << 1 | fixed_[2 * u] << 2 | fixed_[2 * u + 1] << 3;
+    return trans_[f].data();
+  };
+  // Forward: cost_[u][x] = local[u][x] + min_y (cost_[u − 1][y] + T[y][x]). The argmins are
+  // found again on the way back, for one state per position.
+  cost_.resize(std::size_t(n) * S);
+  std::copy(local_.begin(), local_.begin() + S, cost_.begin());
+  for (int u = 1; u < n; ++u)
+    minPlus<S>(&cost_[std::size_t(u - 1) * S], transAt(u), &local_[std::size_t(u) * S],
+               &cost_[std::size_t(u) * S]);
+  // The current labelling's cost by the same sums.
+  auto stateOf = [&](int u) { return lab[cell(t0 + u, 0)] * K + lab[cell(t0 + u, 1)]; };
+  double now = local_[stateOf(0)];
+  for (int u = 1; u < n; ++u)
+    now += transAt(u)[std::size_t(stateOf(u - 1)) * SP + stateOf(u)] +
+           local_[std::size_t(u) * S + stateOf(u)];
+  const double* last = &cost_[std::size_t(n - 1) * S];
+  const int best_x = static_cast<int>(std::min_element(last, last + S) - last);
+  const double best = last[best_x];
+  if (!(best < now - 1e-9 * (1.0 + std::abs(now)))) return 0.0;
+  // Back along the recursion: at each position the previous state that gave the minimum.
+  stretch_states_.assign(n, 0);
+  stretch_states_[n - 1] = best_x;
+  for (int u = n - 1; u > 0; --u) {
+    const int x = stretch_states_[u];
+    const double* T = transAt(u);
+    const double* prev = &cost_[std::size_t(u - 1) * S];
+    int arg = 0;
+    double m = INFINITY;
+    for (int y = 0; y < S; ++y) {
+      const double v = prev[y] + T[std::size_t(y) * SP + x];
+      if (v < m) {
+        m = v;
+        arg = y;
+      }
+    }
+    stretch_states_[u - 1] = arg;
+  }
+  for (int u = 0; u < n; ++u)
+    for (int j = 0; j < 2; ++j) {
+      const int i = cell(t0 + u, j), to = j == 0 ? stretch_states_[u] / K : stretch_states_[u] % K;
+      if (lab[i] != to) relabel(em, lab, i, to, changed);
+    }
+  ++taken_;
+  return best - now;
+}
+
+}  // namespace terramrf::expansion
