@@ -171,10 +171,14 @@ void BM_AlphaExpansion(benchmark::State& s) { runOptimiser(s, "alpha_expansion",
 void BM_AlphaExpansionNoPreIcm(benchmark::State& s) {
   runOptimiser(s, "alpha_expansion", "{pre_icm: false}");
 }
-// The expansions alone: the difference to BM_AlphaExpansion is what the 2×2 block moves cost
-// (their passes and the expansions after the moves they take).
+// The expansions alone, and the expansions with 2×2 block moves: the differences to
+// BM_AlphaExpansion are what the block and strip moves cost (their passes and the expansions
+// after the moves they take).
 void BM_AlphaExpansionNoBlockMoves(benchmark::State& s) {
-  runOptimiser(s, "alpha_expansion", "{block_moves: false}");
+  runOptimiser(s, "alpha_expansion", "{block_moves: false, strip_moves: false}");
+}
+void BM_AlphaExpansionNoStripMoves(benchmark::State& s) {
+  runOptimiser(s, "alpha_expansion", "{strip_moves: false}");
 }
 void BM_Gibbs100Sweeps(benchmark::State& s) { runOptimiser(s, "gibbs", "{sweeps: 100, seed: 1}"); }
 // The annealing alone: the scores averaged over its sweeps instead of the marginal sweeps, so the
@@ -193,6 +197,10 @@ BENCHMARK(BM_AlphaExpansionNoPreIcm)
     ->Repetitions(10)
     ->ReportAggregatesOnly(true);
 BENCHMARK(BM_AlphaExpansionNoBlockMoves)
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(10)
+    ->ReportAggregatesOnly(true);
+BENCHMARK(BM_AlphaExpansionNoStripMoves)
     ->Unit(benchmark::kMillisecond)
     ->Repetitions(10)
     ->ReportAggregatesOnly(true);

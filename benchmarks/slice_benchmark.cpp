@@ -8,7 +8,8 @@
 //   BM_LG_Icm / BM_LG_AlphaExpansion:
 //       configs/semantickitti.yaml: height difference, roughness on a log scale, relative height,
 //       height above ground (no eq. 1 pre-classification), + energy + optimiser;
-//       BM_LG_AlphaExpansionNoBlockMoves without the 2×2 block moves
+//       BM_LG_AlphaExpansionNoBlockMoves with the expansions alone, and
+//       BM_LG_AlphaExpansionNoStripMoves without the strip moves (expansions and 2×2 blocks)
 //   BM_ReadScan: the semantickitti reader alone (.bin read + ring recovery), as the CLI runs it
 //   BM_FileToLabels_LG_Icm: BM_ReadScan + BM_LG_Icm, file to labelled grid (what a ground
 //       segmenter that reads the same file is held against, docs/benchmarks.md)
@@ -93,8 +94,10 @@ struct SliceFixture {
                                                {opt, params}});
       chains[std::string("LG_") + opt] = lg(opt, params);
     }
-    // The block moves' share of α-expansion on a real scan.
-    chains["LG_alpha_expansion_no_block_moves"] = lg("alpha_expansion", "{block_moves: false}");
+    // The block and strip moves' share of α-expansion on a real scan.
+    chains["LG_alpha_expansion_no_block_moves"] =
+        lg("alpha_expansion", "{block_moves: false, strip_moves: false}");
+    chains["LG_alpha_expansion_no_strip_moves"] = lg("alpha_expansion", "{strip_moves: false}");
   }
   ~SliceFixture() {
     std::error_code ec;
@@ -180,6 +183,9 @@ void BM_ReadScan(benchmark::State& state) {
 void BM_LG_AlphaExpansionNoBlockMoves(benchmark::State& s) {
   runChain(s, "LG_alpha_expansion_no_block_moves");
 }
+void BM_LG_AlphaExpansionNoStripMoves(benchmark::State& s) {
+  runChain(s, "LG_alpha_expansion_no_strip_moves");
+}
 
 #define TERRAMRF_BENCH(fn) \
   BENCHMARK(fn)->Unit(benchmark::kMillisecond)->Repetitions(10)->ReportAggregatesOnly(true)
@@ -191,6 +197,7 @@ TERRAMRF_BENCH(BM_L_AlphaExpansion);
 TERRAMRF_BENCH(BM_LG_Icm);
 TERRAMRF_BENCH(BM_LG_AlphaExpansion);
 TERRAMRF_BENCH(BM_LG_AlphaExpansionNoBlockMoves);
+TERRAMRF_BENCH(BM_LG_AlphaExpansionNoStripMoves);
 TERRAMRF_BENCH(BM_ReadScan);
 TERRAMRF_BENCH(BM_FileToLabels_LG_Icm);
 TERRAMRF_BENCH(BM_FileToLabels_LG_Icm_RingsGiven);
