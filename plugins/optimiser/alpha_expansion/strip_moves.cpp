@@ -162,22 +162,18 @@ double StripMoves::pass(const EnergyModel& em, std::vector<uint8_t>& lab,
 
 double StripMoves::solveStretch(const EnergyModel& em, std::vector<uint8_t>& lab, bool rows, int s,
                                 int t0, int t1, std::vector<int>& changed) {
-  switch (em.numLabels()) {
-    case 2:
-      return solveStretchK<2>(em, lab, rows, s, t0, t1, changed);
-    case 3:
-      return solveStretchK<3>(em, lab, rows, s, t0, t1, changed);
-    case 4:
-      return solveStretchK<4>(em, lab, rows, s, t0, t1, changed);
-    case 5:
-      return solveStretchK<5>(em, lab, rows, s, t0, t1, changed);
-    case 6:
-      return solveStretchK<6>(em, lab, rows, s, t0, t1, changed);
-    case 7:
-      return solveStretchK<7>(em, lab, rows, s, t0, t1, changed);
-    default:
-      return solveStretchK<8>(em, lab, rows, s, t0, t1, changed);  // kMaxLabels
-  }
+  using Solve = double (StripMoves::*)(const EnergyModel&, std::vector<uint8_t>&, bool, int, int,
+                                       int, std::vector<int>&);
+  static constexpr Solve kByLabels[kMaxLabels + 1] = {nullptr,
+                                                      nullptr,
+                                                      &StripMoves::solveStretchK<2>,
+                                                      &StripMoves::solveStretchK<3>,
+                                                      &StripMoves::solveStretchK<4>,
+                                                      &StripMoves::solveStretchK<5>,
+                                                      &StripMoves::solveStretchK<6>,
+                                                      &StripMoves::solveStretchK<7>,
+                                                      &StripMoves::solveStretchK<8>};
+  return (this->*kByLabels[em.numLabels()])(em, lab, rows, s, t0, t1, changed);
 }
 
 template <int K>
