@@ -5,8 +5,9 @@
 // V(a, b) = 2w·[a ≠ b] minus the constant w per pair, so minimising one minimises the other and
 // α-expansion applies, with its factor-2 bound on the shifted energy (docs/optimisers.md). A move
 // is kept only if the exact EnergyModel energy drops, so the result never lies above the start.
-// Once no expansion improves, exact 2×2 block moves follow (`block_moves`, block_moves.hpp);
-// after any accepted block move the expansions run again.
+// Once no expansion improves, exact 2×2 block moves follow (`block_moves`, block_moves.hpp), and
+// once those do not improve either, exact moves over strips two cells wide (`strip_moves`,
+// strip_moves.hpp); after any accepted block or strip move the expansions run again.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -49,7 +50,7 @@ class AlphaExpansion final : public Stage {
     d.add("strip_moves", strip_moves_,
           "when neither expansions nor 2×2 blocks improve, give each strip of two rows or two "
           "columns its best joint labelling (dynamic programming; patches such as 4 × 2 that two "
-          "labels enter), then expand again; up to 6 labels");
+          "labels enter), then expand again; up to 8 labels");
   }
   std::vector<std::string> reads() const override { return {artefacts::kEnergy}; }
   std::vector<std::string> writes() const override { return {artefacts::kLabels}; }
@@ -228,7 +229,7 @@ class AlphaExpansion final : public Stage {
   expansion::ExpansionCuts cuts_;
   BlockMoves blocks_;
   StripMoves strips_;
-  std::vector<int> relabelled_;  ///< cells a block pass relabelled, in order
+  std::vector<int> relabelled_;  ///< cells a block or strip pass relabelled, in order
   std::vector<uint8_t> lab_, dirty_, in_move_;
   PaddedLabels pad_;  ///< the ICM start's labels
 };
