@@ -18,60 +18,31 @@ double BlockMoves::pass(const EnergyModel& em, std::vector<uint8_t>& lab,
                         std::vector<int>& changed) {
   const int R = em.rows, C = em.cols, K = em.numLabels();
   const double wb = em.beta, wd = em.beta_diagonal;
-  // nsum_[i·K + k]: eq. 12 for cell i under k given all its current neighbours; a block's cells
-  // then need only their three inner pairs taken back out, and a taken move updates the sums of
-  // its cells' neighbours. Computed when a searched block first needs the cell (a pass after
-  // the first searches only the blocks around what changed since).
-  nsum_.resize(em.cells() * std::size_t(K));
-  nsum_valid_.assign(em.cells(), 0);
-  pad_.assign(em, lab);
-  const int W = pad_.stride();
-  const std::ptrdiff_t off[8] = {-W - 1, -W, -W + 1, -1, 1, W - 1, W, W + 1};
-  auto sums = [&](int i) -> const double* {
-    double* s = &nsum_[std::size_t(i) * K];
-    if (nsum_valid_[i]) return s;
-    nsum_valid_[i] = 1;
-    // w·δ(k, l_n) summed over the neighbours: +w for every k, −2w more for the neighbour's
-    // own label. The pad and fixed cells hold K, whose slot t[K] is scratch.
-    const uint8_t* p = pad_.at(i / C, i % C);
-    double t[kMaxLabels + 1] = {}, all = 0;
-    for (int d = 0; d < 8; ++d) {
-      const double w = isDiagonal(d) ? wd : wb;
-      all += p[off[d]] < K ? w : 0.0;
-      t[p[off[d]]] -= 2 * w;
-    }
-    const float* u = &em.unary[std::size_t(i) * K];
-    for (int k = 0; k < K; ++k) s[k] = u[k] + all + t[k];
-    return s;
-  };
+  // Each cell's eq. 12 sums given all its current neighbours; a block's cells then need only
+  // their three inner pairs taken back out, and a taken move updates the sums of its cells'
+  // neighbours. Computed when a searched block first needs the cell (a pass after the first
+  // searches only the blocks around what changed since).
+  sums_.begin(em, lab);
+  auto sums = [&](int i) { return sums_.at(em, i); };
   // A cell's margin: how far its second-best label's sum lies above its own label's.
   margin_.resize(em.cells());
+  margin_valid_.assign(em.cells(), 0);
   auto margin = [&](int i) {
-    if (nsum_valid_[i] == 2) return margin_[i];
+    if (margin_valid_[i]) return margin_[i];
     const double* s = sums(i);
     const int l = lab[i];
     double m = INFINITY;
     for (int k = 0; k < K; ++k)
       if (k != l) m = std::min(m, s[k]);
-    nsum_valid_[i] = 2;
+    margin_valid_[i] = 1;
     return margin_[i] = m - s[l];
   };
   auto relabel = [&](int i, int to) {
-    const int from = lab[i], ri = i / C, ci = i % C;
+    const int from = lab[i];
     lab[i] = static_cast<uint8_t>(to);
-    *pad_.at(ri, ci) = static_cast<uint8_t>(to);  // the sums computed later read it
-    if (nsum_valid_[i]) nsum_valid_[i] = 1;       // a margin is from the cell's label
+    margin_valid_[i] = 0;  // a margin is from the cell's label
     changed.push_back(i);
-    for (int d = 0; d < 8; ++d) {
-      const int rr = ri + kDr[d], cc = ci + kDc[d];
-      if (rr < 0 || rr >= R || cc < 0 || cc >= C || em.fixed[rr * C + cc]) continue;
-      if (!nsum_valid_[rr * C + cc]) continue;  // computed from the new labels when needed
-      nsum_valid_[rr * C + cc] = 1;             // its margin is not
-      const double w = isDiagonal(d) ? wd : wb;
-      double* s = &nsum_[std::size_t(rr * C + cc) * K];
-      s[from] += 2 * w;
-      s[to] -= 2 * w;
-    }
+    sums_.relabel(em, i, from, to, [&](int n) { margin_valid_[n] = 0; });
     touch(i, R, C);
   };
   // Inner neighbours of block cell j (cells 0 1 / 2 3): edge, edge, diagonal.

@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "label_sums.hpp"
 #include "terramrf/energy_model.hpp"
-#include "terramrf/padded_labels.hpp"
 
 namespace terramrf::expansion {
 
@@ -42,10 +42,9 @@ class BlockMoves {
 
  private:
   std::vector<uint8_t> dirty_;       ///< per block (top-left cell): its best move may have changed
-  std::vector<double> nsum_;         ///< per cell and label: eq. 12 given the current neighbours
-  std::vector<uint8_t> nsum_valid_;  ///< per cell: 1 nsum_ computed in this pass, 2 and margin_
-  std::vector<double> margin_;       ///< per cell: second-best label's nsum_ minus its label's
-  PaddedLabels pad_;
+  LabelSums sums_;
+  std::vector<double> margin_;         ///< per cell: second-best label's sum minus its label's
+  std::vector<uint8_t> margin_valid_;  ///< per cell: margin_ is from the current labels
   int taken_ = 0;
 };
 

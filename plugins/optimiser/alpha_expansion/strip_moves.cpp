@@ -70,18 +70,10 @@ void StripMoves::touch(int i) {
 
 void StripMoves::relabel(const EnergyModel& em, std::vector<uint8_t>& lab, int i, int to,
                          std::vector<int>& changed) {
-  const int K = em.numLabels(), from = lab[i], r = i / C_, c = i % C_;
+  const int from = lab[i];
   lab[i] = static_cast<uint8_t>(to);
   changed.push_back(i);
-  for (int d = 0; d < 8; ++d) {
-    const int rr = r + kDr[d], cc = c + kDc[d];
-    if (rr < 0 || rr >= R_ || cc < 0 || cc >= C_ || em.fixed[rr * C_ + cc]) continue;
-    const double w = isDiagonal(d) ? em.beta_diagonal : em.beta;
-    double* s = &nsum_[std::size_t(rr * C_ + cc) * K];
-    s[from] += 2 * w;
-    s[to] -= 2 * w;
-    updateAllowed(em, lab, rr * C_ + cc);
-  }
+  sums_.relabel(em, i, from, to, [&](int n) { updateAllowed(em, lab, n); });
   updateAllowed(em, lab, i);
   touch(i);
 }
@@ -90,7 +82,7 @@ void StripMoves::updateAllowed(const EnergyModel& em, const std::vector<uint8_t>
   const int K = em.numLabels();
   unsigned mask = 1u << lab[i];
   if (!em.fixed[i]) {
-    const double* ns = &nsum_[std::size_t(i) * K];
+    const double* ns = sums_.at(em, i);
     // The cheapest label always stays: the dominated ones are left out in its favour.
     const int best = static_cast<int>(std::min_element(ns, ns + K) - ns);
     for (int k = 0; k < K; ++k)
@@ -101,25 +93,8 @@ void StripMoves::updateAllowed(const EnergyModel& em, const std::vector<uint8_t>
 
 double StripMoves::pass(const EnergyModel& em, std::vector<uint8_t>& lab,
                         std::vector<int>& changed) {
-  const int K = em.numLabels();
   const double wb = em.beta, wd = em.beta_diagonal;
-  nsum_.assign(em.cells() * std::size_t(K), 0.0);
-  for (int r = 0; r < R_; ++r)
-    for (int c = 0; c < C_; ++c) {
-      const int i = r * C_ + c;
-      if (em.fixed[i]) continue;
-      double* s = &nsum_[std::size_t(i) * K];
-      const float* u = &em.unary[std::size_t(i) * K];
-      double all = 0;
-      for (int d = 0; d < 8; ++d) {
-        const int rr = r + kDr[d], cc = c + kDc[d];
-        if (rr < 0 || rr >= R_ || cc < 0 || cc >= C_ || em.fixed[rr * C_ + cc]) continue;
-        const double w = isDiagonal(d) ? wd : wb;
-        all += w;
-        s[lab[rr * C_ + cc]] -= 2 * w;
-      }
-      for (int k = 0; k < K; ++k) s[k] += u[k] + all;
-    }
+  sums_.begin(em, lab);  // computed for every non-fixed cell by updateAllowed below
   // A cell's pairs inside a strip (three edges, two diagonals at most) move the difference of
   // two labels' outside costs against their eq. 12 sums by 2·Σ|w| at most, and dominance needs
   // the outside costs 2·Σ|w| apart: so the sums 4·Σ|w| apart. The same for every strip.
@@ -218,7 +193,7 @@ double StripMoves::solveStretchK(const EnergyModel& em, std::vector<uint8_t>& la
       }
       double w_in = 0;
       for (int q = 0; q < m; ++q) w_in += nw[q];
-      const double* ns = &nsum_[std::size_t(i) * K];
+      const double* ns = sums_.at(em, i);
       double v[K];
       for (int k = 0; k < K; ++k) v[k] = ns[k] - w_in;
       for (int q = 0; q < m; ++q)

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "label_sums.hpp"
 #include "terramrf/energy_model.hpp"
 
 namespace terramrf::expansion {
@@ -58,7 +59,7 @@ class StripMoves {
 
   int R_ = 0, C_ = 0;
   std::vector<uint8_t> dirty_rows_, dirty_cols_;  ///< per strip: to be searched
-  std::vector<double> nsum_;      ///< per cell and label: eq. 12 given the current neighbours
+  LabelSums sums_;
   std::vector<uint8_t> allowed_;  ///< per cell: the labels it may take (updateAllowed)
   double reach_ = 0;              ///< 4·Σ|w| of a cell's pairs inside a strip
   // A stretch's search, per position u and state x = a·K + b (its two cells' labels): the cost
