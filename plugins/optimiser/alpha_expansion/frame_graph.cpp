@@ -14,22 +14,30 @@ void FrameGraph::build(const EnergyModel& em) {
       node_of[p] = static_cast<int>(cells.size());
       cells.push_back(p);
     }
-  for (int p : cells) {
-    const int r = p / C, c = p % C;
+  // At most four forward pairs per node, written by index (no growth checks in the loop).
+  pair_p.resize(4 * cells.size());
+  pair_q.resize(4 * cells.size());
+  pair_w.resize(4 * cells.size());
+  pair_np.resize(4 * cells.size());
+  pair_nq.resize(4 * cells.size());
+  const uint8_t* fixed = em.fixed.data();
+  const int* node = node_of.data();
+  std::size_t k = 0;
+  for (std::size_t n = 0; n < cells.size(); ++n) {
+    const int p = cells[n], r = p / C, c = p % C;
     for (int d = 4; d < 8; ++d) {  // forward directions: each unordered pair once
-      const int rr = r + kDr[d], cc = c + kDc[d];
-      if (rr < 0 || rr >= R || cc < 0 || cc >= C || em.fixed[rr * C + cc]) continue;
-      pair_p.push_back(p);
-      pair_q.push_back(rr * C + cc);
-      pair_w.push_back(isDiagonal(d) ? em.beta_diagonal : em.beta);
+      const int rr = r + kDr[d], cc = c + kDc[d], q = rr * C + cc;
+      if (rr >= R || cc < 0 || cc >= C || fixed[q]) continue;
+      pair_p[k] = p;
+      pair_q[k] = q;
+      pair_w[k] = isDiagonal(d) ? em.beta_diagonal : em.beta;
+      pair_np[k] = static_cast<int>(n);
+      pair_nq[k] = node[q];
+      ++k;
     }
   }
-  pair_np.resize(pair_p.size());
-  pair_nq.resize(pair_p.size());
-  for (std::size_t k = 0; k < pair_p.size(); ++k) {
-    pair_np[k] = node_of[pair_p[k]];
-    pair_nq[k] = node_of[pair_q[k]];
-  }
+  for (auto* v : {&pair_p, &pair_q, &pair_np, &pair_nq}) v->resize(k);
+  pair_w.resize(k);
   pairs_off.assign(cells.size() + 1, 0);
   for (std::size_t k = 0; k < pair_p.size(); ++k) {
     ++pairs_off[pair_np[k] + 1];
