@@ -174,6 +174,7 @@ class AlphaExpansion final : public Stage {
     ctx.metrics[name() + ".strip_passes"] = strip_passes;
     ctx.metrics[name() + ".strip_moves"] = strips ? strips_.taken() : 0;
     ctx.metrics[name() + ".strip_stretches"] = strips ? strips_.searched() : 0;
+    ctx.metrics[name() + ".strip_positions"] = strips ? strips_.searchedPositions() : 0;
     ctx.metrics[name() + ".max_flows"] = cuts_.maxFlows();
     ctx.metrics[name() + ".max_flow_nodes_per_cut"] =
         cuts_.maxFlows() ? double(cuts_.maxFlowNodes()) / cuts_.maxFlows() : 0.0;

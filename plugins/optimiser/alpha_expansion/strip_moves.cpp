@@ -8,6 +8,7 @@
 #endif
 
 #include "frame_graph.hpp"
+#include "terramrf/simd.hpp"
 
 namespace terramrf::expansion {
 namespace {
@@ -20,14 +21,19 @@ inline int popcount(unsigned m) {
   return static_cast<int>((m + (m >> 4)) & 0x0Fu);
 }
 
-/// One step of the recursion: cur[x] = local[x] + min_y (prev[y] + T[y·SP + x]) for x < S, with
-/// T's rows padded to SP = S rounded up to even (+∞ in the padding). S is a compile-time
-/// constant so that the running minima stay in registers, two per SSE2 register.
+/// Row stride of the transition matrices for S states: S rounded up to a multiple of four (one
+/// AVX register of doubles), +∞ in the padding.
+constexpr int stride(int S) { return (S + 3) & ~3; }
+
+/// One step of the recursion: cur[x] = local[x] + min_y (prev[y] + T[y·SP + x]) for x < S, SP =
+/// stride(S). S is a compile-time constant so that the running minima stay in registers, two per
+/// SSE2 register.
 template <int S>
 void minPlus(const double* __restrict prev, const double* __restrict T,
              const double* __restrict local, double* __restrict cur) {
-  constexpr int SP = (S + 1) & ~1, H = SP / 2;
+  constexpr int SP = stride(S);
 #if defined(__SSE2__)
+  constexpr int H = SP / 2;
   __m128d acc[H];
   for (int h = 0; h < H; ++h) acc[h] = _mm_set1_pd(INFINITY);
   for (int y = 0; y < S; ++y) {
@@ -52,6 +58,33 @@ void minPlus(const double* __restrict prev, const double* __restrict T,
   for (int x = 0; x < S; ++x) cur[x] = m[x] + local[x];
 }
 
+#if defined(TERRAMRF_SIMD_DISPATCH)
+/// The same four states per register (AVX): the same sums and minima, so the same bits.
+template <int S>
+TERRAMRF_TARGET_AVX void minPlusAvx(const double* __restrict prev, const double* __restrict T,
+                                    const double* __restrict local, double* __restrict cur) {
+  constexpr int SP = stride(S), Q = SP / 4;
+  __m256d acc[Q];
+  for (int q = 0; q < Q; ++q) acc[q] = _mm256_set1_pd(INFINITY);
+  for (int y = 0; y < S; ++y) {
+    const double py = prev[y];
+    if (!(py < INFINITY)) continue;
+    const __m256d p = _mm256_set1_pd(py);
+    const double* Ty = T + y * SP;
+    for (int q = 0; q < Q; ++q)
+      acc[q] = _mm256_min_pd(acc[q], _mm256_add_pd(p, _mm256_loadu_pd(Ty + 4 * q)));
+  }
+  if constexpr (S == SP) {
+    for (int q = 0; q < Q; ++q)
+      _mm256_storeu_pd(cur + 4 * q, _mm256_add_pd(acc[q], _mm256_loadu_pd(local + 4 * q)));
+  } else {
+    alignas(32) double m[SP];
+    for (int q = 0; q < Q; ++q) _mm256_store_pd(m + 4 * q, acc[q]);
+    for (int x = 0; x < S; ++x) cur[x] = m[x] + local[x];
+  }
+}
+#endif
+
 }  // namespace
 
 void StripMoves::beginFrame(int R, int C) {
@@ -59,7 +92,7 @@ void StripMoves::beginFrame(int R, int C) {
   C_ = C;
   dirty_rows_.assign(std::max(0, R - 1), 1);
   dirty_cols_.assign(std::max(0, C - 1), 1);
-  taken_ = searched_ = 0;
+  taken_ = searched_ = searched_positions_ = 0;
 }
 
 void StripMoves::touch(int i) {
@@ -94,6 +127,7 @@ void StripMoves::updateAllowed(const EnergyModel& em, const std::vector<uint8_t>
 double StripMoves::pass(const EnergyModel& em, std::vector<uint8_t>& lab,
                         std::vector<int>& changed) {
   const double wb = em.beta, wd = em.beta_diagonal;
+  avx_ = useAvx();
   sums_.begin(em, lab);  // computed for every non-fixed cell by updateAllowed below
   // A cell's pairs inside a strip (three edges, two diagonals at most) move the difference of
   // two labels' outside costs against their eq. 12 sums by 2·Σ|w| at most, and dominance needs
@@ -158,6 +192,7 @@ double StripMoves::solveStretchK(const EnergyModel& em, std::vector<uint8_t>& la
   const int n = t1 - t0 + 1;
   const double wb = em.beta, wd = em.beta_diagonal;
   ++searched_;
+  searched_positions_ += n;
   auto cell = [&](int t, int j) { return rows ? (s + j) * C_ + t : t * C_ + s + j; };
   // Per position u and state x = a·K + b (labels of its two cells): the cost of the cells there,
   // their outside pairs (eq. 12 sums less the pairs with the stretch's other non-fixed cells) and
@@ -207,7 +242,7 @@ double StripMoves::solveStretchK(const EnergyModel& em, std::vector<uint8_t>& la
   }
   // Pairs between consecutive positions, state y before x: the two edges along the strip and the
   // two diagonals, each only between non-fixed cells.
-  const int SP = (S + 1) & ~1;  // T's row stride: S rounded up to even, +∞ in the padding
+  constexpr int SP = stride(S);
   auto fill = [&](std::vector<double>& T, bool p0, bool q0, bool p1, bool q1) {
     T.assign(std::size_t(S) * SP, INFINITY);
     for (int y = 0; y < S; ++y)
@@ -239,9 +274,16 @@ double StripMoves::solveStretchK(const EnergyModel& em, std::vector<uint8_t>& la
   // found again on the way back, for one state per position.
   cost_.resize(std::size_t(n) * S);
   std::copy(local_.begin(), local_.begin() + S, cost_.begin());
-  for (int u = 1; u < n; ++u)
-    minPlus<S>(&cost_[std::size_t(u - 1) * S], transAt(u), &local_[std::size_t(u) * S],
-               &cost_[std::size_t(u) * S]);
+#if defined(TERRAMRF_SIMD_DISPATCH)
+  if (avx_) {
+    for (int u = 1; u < n; ++u)
+      minPlusAvx<S>(&cost_[std::size_t(u - 1) * S], transAt(u), &local_[std::size_t(u) * S],
+                    &cost_[std::size_t(u) * S]);
+  } else
+#endif
+    for (int u = 1; u < n; ++u)
+      minPlus<S>(&cost_[std::size_t(u - 1) * S], transAt(u), &local_[std::size_t(u) * S],
+                 &cost_[std::size_t(u) * S]);
   // The current labelling's cost by the same sums.
   auto stateOf = [&](int u) { return lab[cell(t0 + u, 0)] * K + lab[cell(t0 + u, 1)]; };
   double now = local_[stateOf(0)];

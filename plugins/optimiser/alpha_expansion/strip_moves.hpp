@@ -43,6 +43,8 @@ class StripMoves {
   /// Strips relabelled since beginFrame, and strip stretches searched.
   long taken() const { return taken_; }
   long searched() const { return searched_; }
+  /// Strip positions (pairs of cells) in those stretches, summed.
+  long searchedPositions() const { return searched_positions_; }
 
  private:
   /// The stretch [t0, t1] of strip `s` (rows s, s + 1 if `rows`, else columns s, s + 1): its best
@@ -71,8 +73,9 @@ class StripMoves {
   /// of fixed cells among the four, for the weights and label count they were made for.
   std::vector<std::vector<double>> trans_;
   int trans_k_ = 0;
+  bool avx_ = false;  ///< the recursion four states per instruction (useAvx())
   double trans_wb_ = 0, trans_wd_ = 0;
-  long taken_ = 0, searched_ = 0;
+  long taken_ = 0, searched_ = 0, searched_positions_ = 0;
 };
 
 }  // namespace terramrf::expansion

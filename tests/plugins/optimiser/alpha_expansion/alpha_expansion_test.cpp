@@ -310,7 +310,7 @@ EnergyModel blockyModel(uint32_t seed, int size, int labels, int block, double s
       em.initial[i] = static_cast<uint8_t>(std::min_element(u, u + labels) - u);
       em.fixed[i] = coin(rng) < fixed_fraction;
     }
-  em.beta = em.beta_diagonal = 0.8f;
+  em.beta = em.beta_diagonal = 0.6f;
   return em;
 }
 
@@ -585,48 +585,54 @@ TEST(AlphaExpansion, StripMovesLetTwoLabelsEnterA2x3Patch) {
   }
 }
 
+/// A 6 × 6 grid whose cells outside two rows (or, for odd n, two columns) have no points: label 0
+/// everywhere at first and cheapest outside a run of 3–4 positions along the strip, in which one
+/// side prefers label 1 and the other label 2 (of K ≥ 3), by about what entering costs (weights
+/// 0.7–1.3, diagonals weaker or stronger); for n % 4 == 3 a cell without points inside the strip
+/// too. The free cells go to `free_cells`.
+EnergyModel twoCellWideModel(std::mt19937& rng, int n, int K, std::vector<int>& free_cells) {
+  std::normal_distribution<double> noise(0, 0.5);
+  std::uniform_real_distribution<double> weight(0.7, 1.3), gain(4.6, 5.9);
+  EnergyModel em;
+  em.resize(6, 6, K);
+  const bool tall = n % 2;  // free: columns 2–3, else rows 2–3
+  free_cells.clear();
+  const double w = weight(rng);
+  const int run0 = static_cast<int>(rng() % 3), run1 = run0 + 2 + static_cast<int>(rng() % 2);
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) {
+      const int i = r * 6 + c, side = (tall ? c : r) - 2, along = tall ? r : c;
+      em.unary[i * K] = 0.f;
+      for (int k = 1; k < K; ++k)
+        em.unary[i * K + k] = static_cast<float>(w * (4 + std::abs(noise(rng))));
+      if (along >= run0 && along <= run1 && (side == 0 || side == 1))
+        em.unary[i * K + 1 + side] = static_cast<float>(-w * gain(rng));
+      em.initial[i] = 0;
+      em.fixed[i] = side < 0 || side > 1;
+      if (!em.fixed[i]) free_cells.push_back(i);
+    }
+  for (int k = 0; k < K; ++k) em.active[k] = static_cast<LabelId>(k + 1);
+  if (n % 4 == 3) {
+    const int i = free_cells[rng() % free_cells.size()];
+    em.fixed[i] = 1;
+    free_cells.erase(std::find(free_cells.begin(), free_cells.end(), i));
+  }
+  em.beta = static_cast<float>(w);
+  em.beta_diagonal = static_cast<float>(w * weight(rng));
+  return em;
+}
+
 // A grid two cells wide is one strip, so at convergence (no expansion, 2 × 2 block or strip move
 // improves) α-expansion has its global optimum: the strip's search is exact, the labels it leaves
 // out are dominated and the stretches it skips could only take expansion moves. Checked against
-// all 3^12 labellings on 6 × 6 grids whose cells outside two rows (or two columns) have no
-// points: label 0 everywhere at first, a run of 3–4 positions whose two sides prefer labels 1
-// and 2 by about what entering costs (weights 0.7–1.3, diagonals weaker or stronger), sometimes
-// a cell without points inside the strip too.
+// all 3^12 labellings of 16 such grids (twoCellWideModel, 3 labels).
 TEST(AlphaExpansion, TwoCellWideGridsReachTheirGlobalOptimum) {
   OptimiserHarness h;
   std::mt19937 rng(4242);
-  std::normal_distribution<double> noise(0, 0.5);
-  std::uniform_real_distribution<double> weight(0.7, 1.3), gain(4.6, 5.9);
   int beaten_without_strips = 0;
+  std::vector<int> free_cells;
   for (int n = 0; n < 16; ++n) {
-    EnergyModel em;
-    em.resize(6, 6, 3);
-    const bool tall = n % 2;  // free: columns 2–3, else rows 2–3
-    std::vector<int> free_cells;
-    // Label 0 everywhere at first and cheapest outside a run of positions along the strip, in
-    // which one side prefers label 1 and the other label 2, by about what entering costs.
-    const double w = weight(rng);
-    const int run0 = static_cast<int>(rng() % 3), run1 = run0 + 2 + static_cast<int>(rng() % 2);
-    for (int r = 0; r < 6; ++r)
-      for (int c = 0; c < 6; ++c) {
-        const int i = r * 6 + c, side = (tall ? c : r) - 2, along = tall ? r : c;
-        em.unary[i * 3] = 0.f;
-        for (int k = 1; k < 3; ++k)
-          em.unary[i * 3 + k] = static_cast<float>(w * (4 + std::abs(noise(rng))));
-        if (along >= run0 && along <= run1 && (side == 0 || side == 1))
-          em.unary[i * 3 + 1 + side] = static_cast<float>(-w * gain(rng));
-        em.initial[i] = 0;
-        em.fixed[i] = side < 0 || side > 1;
-        if (!em.fixed[i]) free_cells.push_back(i);
-      }
-    for (int k = 0; k < 3; ++k) em.active[k] = static_cast<LabelId>(k + 1);
-    if (n % 4 == 3) {
-      const int i = free_cells[rng() % free_cells.size()];
-      em.fixed[i] = 1;
-      free_cells.erase(std::find(free_cells.begin(), free_cells.end(), i));
-    }
-    em.beta = static_cast<float>(w);
-    em.beta_diagonal = static_cast<float>(w * weight(rng));
+    const EnergyModel em = twoCellWideModel(rng, n, 3, free_cells);
     double optimum = INFINITY;
     std::vector<uint8_t> lab = em.initial;
     long codes = 1;
@@ -649,6 +655,43 @@ TEST(AlphaExpansion, TwoCellWideGridsReachTheirGlobalOptimum) {
   }
   // The grids must be hard enough that expansions and 2 × 2 blocks alone miss some optima.
   EXPECT_GE(beaten_without_strips, 2) << "too easy: every optimum was found without strips";
+}
+
+// The strips' recursion runs four states per instruction where the CPU has AVX and two (SSE2)
+// otherwise: the same sums and minima, so the same labelling and energy to the bit, for state
+// counts that fill the registers (K = 2, 4) and that leave padding (K = 3).
+TEST(AlphaExpansion, StripMovesAreTheSameWithEveryVectorWidth) {
+  OptimiserHarness h;
+  std::mt19937 rng(777);
+  std::vector<int> free_cells;
+  long moves = 0;
+  for (int n = 0; n < 24; ++n) {
+    const int K = 2 + n % 3;
+    EnergyModel em = twoCellWideModel(rng, n / 3, std::max(K, 3), free_cells);
+    if (K == 2) {  // two labels: keep the first two (a strip move then swaps them)
+      EnergyModel two;
+      two.resize(em.rows, em.cols, 2);
+      for (int k = 0; k < 2; ++k) two.active[k] = em.active[k];
+      for (std::size_t i = 0; i < em.cells(); ++i)
+        for (int k = 0; k < 2; ++k) two.unary[i * 2 + k] = em.unary[i * 3 + k];
+      two.fixed = em.fixed;
+      two.initial = em.initial;
+      two.beta = em.beta;
+      two.beta_diagonal = em.beta_diagonal;
+      em = two;
+    }
+    const std::string what = "grid " + std::to_string(n) + ", K = " + std::to_string(K);
+    const auto wide = h.run("alpha_expansion", "{}", em);
+    test::ScopedEnv sse2("TERRAMRF_SIMD", "sse2");
+    const auto narrow = h.run("alpha_expansion", "{}", em);
+    EXPECT_EQ(wide.indices, narrow.indices) << what;
+    EXPECT_EQ(wide.report.final_energy, narrow.report.final_energy) << what;
+    EXPECT_EQ(wide.metrics.at("alpha_expansion.strip_positions"),
+              narrow.metrics.at("alpha_expansion.strip_positions"))
+        << what;
+    if (K > 2) moves += static_cast<long>(wide.metrics.at("alpha_expansion.strip_moves"));
+  }
+  EXPECT_GE(moves, 4) << "the grids must make the strips move";
 }
 
 TEST(AlphaExpansion, TwoLabelsFromAConstantStartGiveTheGlobalOptimum) {
