@@ -134,7 +134,13 @@ double StripMoves::pass(const EnergyModel& em, std::vector<uint8_t>& lab,
   // the outside costs 2·Σ|w| apart: so the sums 4·Σ|w| apart. The same for every strip.
   reach_ = 4 * (3 * std::abs(wb) + 2 * std::abs(wd));
   allowed_.resize(em.cells());
-  for (std::size_t i = 0; i < em.cells(); ++i) updateAllowed(em, lab, static_cast<int>(i));
+  // A cell's mask is made with its sums, when a strip first reads it (a pass after a few moves
+  // reads only the strips they touched), and follows its neighbours' changes from then on.
+  auto mask = [&](int i) -> unsigned {
+    if (em.fixed[i]) return 1u << lab[i];
+    if (!sums_.computed(i)) updateAllowed(em, lab, i);
+    return allowed_[i];
+  };
   double total = 0;
   for (const bool rows : {true, false}) {
     std::vector<uint8_t>& dirty = rows ? dirty_rows_ : dirty_cols_;
@@ -143,7 +149,7 @@ double StripMoves::pass(const EnergyModel& em, std::vector<uint8_t>& lab,
       if (!dirty[s]) continue;
       auto cell = [&](int t, int j) { return rows ? (s + j) * C_ + t : t * C_ + s + j; };
       auto open = [&](int t) {
-        return popcount(allowed_[cell(t, 0)]) + popcount(allowed_[cell(t, 1)]) > 2;
+        return popcount(mask(cell(t, 0))) + popcount(mask(cell(t, 1))) > 2;
       };
       for (int t = 0; t < length;) {
         if (!open(t)) {
@@ -158,7 +164,7 @@ double StripMoves::pass(const EnergyModel& em, std::vector<uint8_t>& lab,
         for (int u = t; u <= t1; ++u)
           for (int j = 0; j < 2; ++j) {
             const int i = cell(u, j);
-            entering |= allowed_[i] & ~(1u << lab[i]);
+            entering |= mask(i) & ~(1u << lab[i]);
           }
         if (popcount(entering) >= 2) total += solveStretch(em, lab, rows, s, t, t1, changed);
         t = t1 + 1;
@@ -193,20 +199,27 @@ double StripMoves::solveStretchK(const EnergyModel& em, std::vector<uint8_t>& la
   const double wb = em.beta, wd = em.beta_diagonal;
   ++searched_;
   searched_positions_ += n;
-  auto cell = [&](int t, int j) { return rows ? (s + j) * C_ + t : t * C_ + s + j; };
+  // Per position u: its two cells (2u, 2u + 1), their fixed flags and labels.
+  const int dt = rows ? 1 : C_, dj = rows ? C_ : 1;
+  idx_.resize(std::size_t(n) * 2);
+  fixed_.resize(std::size_t(n) * 2);
+  labs_.resize(std::size_t(n) * 2);
+  for (int u = 0, i = (rows ? s * C_ : s) + t0 * dt; u < n; ++u, i += dt)
+    for (int j = 0; j < 2; ++j) {
+      idx_[2 * u + j] = i + j * dj;
+      fixed_[2 * u + j] = em.fixed[i + j * dj];
+      labs_[2 * u + j] = lab[i + j * dj];
+    }
   // Per position u and state x = a·K + b (labels of its two cells): the cost of the cells there,
   // their outside pairs (eq. 12 sums less the pairs with the stretch's other non-fixed cells) and
   // their pair with each other; +∞ for labels ruled out. A fixed cell has one label and no pairs.
   local_.resize(std::size_t(n) * S);
-  fixed_.resize(std::size_t(n) * 2);
   double o[2][kMaxLabels];
   for (int u = 0; u < n; ++u) {
-    const int t = t0 + u;
     for (int j = 0; j < 2; ++j) {
-      const int i = cell(t, j);
-      fixed_[2 * u + j] = em.fixed[i];
-      const unsigned mask = allowed_[i];
-      if (em.fixed[i]) {
+      const int slot = 2 * u + j, i = idx_[slot];
+      const unsigned mask = fixed_[slot] ? 1u << labs_[slot] : allowed_[i];
+      if (fixed_[slot]) {
         for (int k = 0; k < K; ++k) o[j][k] = mask >> k & 1 ? 0.0 : INFINITY;
         continue;
       }
@@ -215,16 +228,19 @@ double StripMoves::solveStretchK(const EnergyModel& em, std::vector<uint8_t>& la
       int nb[5];
       double nw[5];
       int m = 0;
-      auto inside = [&](int c, double w) {
-        if (em.fixed[c]) return;
-        nb[m] = lab[c];
+      auto inside = [&](int other, double w) {
+        if (fixed_[other]) return;
+        nb[m] = labs_[other];
         nw[m++] = w;
       };
-      inside(cell(t, 1 - j), wb);
-      for (const int tt : {t - 1, t + 1}) {
-        if (tt < t0 || tt > t1) continue;
-        inside(cell(tt, j), wb);
-        inside(cell(tt, 1 - j), wd);
+      inside(slot ^ 1, wb);
+      if (u > 0) {
+        inside(slot - 2, wb);
+        inside((slot - 2) ^ 1, wd);
+      }
+      if (u + 1 < n) {
+        inside(slot + 2, wb);
+        inside((slot + 2) ^ 1, wd);
       }
       double w_in = 0;
       for (int q = 0; q < m; ++q) w_in += nw[q];
@@ -285,7 +301,7 @@ double StripMoves::solveStretchK(const EnergyModel& em, std::vector<uint8_t>& la
       minPlus<S>(&cost_[std::size_t(u - 1) * S], transAt(u), &local_[std::size_t(u) * S],
                  &cost_[std::size_t(u) * S]);
   // The current labelling's cost by the same sums.
-  auto stateOf = [&](int u) { return lab[cell(t0 + u, 0)] * K + lab[cell(t0 + u, 1)]; };
+  auto stateOf = [&](int u) { return labs_[2 * u] * K + labs_[2 * u + 1]; };
   double now = local_[stateOf(0)];
   for (int u = 1; u < n; ++u)
     now += transAt(u)[std::size_t(stateOf(u - 1)) * SP + stateOf(u)] +
@@ -314,7 +330,7 @@ double StripMoves::solveStretchK(const EnergyModel& em, std::vector<uint8_t>& la
   }
   for (int u = 0; u < n; ++u)
     for (int j = 0; j < 2; ++j) {
-      const int i = cell(t0 + u, j), to = j == 0 ? stretch_states_[u] / K : stretch_states_[u] % K;
+      const int i = idx_[2 * u + j], to = j == 0 ? stretch_states_[u] / K : stretch_states_[u] % K;
       if (lab[i] != to) relabel(em, lab, i, to, changed);
     }
   ++taken_;

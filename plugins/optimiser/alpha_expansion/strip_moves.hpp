@@ -66,7 +66,9 @@ class StripMoves {
   double reach_ = 0;              ///< 4·Σ|w| of a cell's pairs inside a strip
   // A stretch's search, per position u and state x = a·K + b (its two cells' labels): the cost
   // of the cells at u, the best cost of the stretch up to u, and the best labelling found.
-  std::vector<uint8_t> fixed_;  ///< per position u: its two cells' fixed flags (2u, 2u + 1)
+  std::vector<int> idx_;        ///< per position u: its two cells (2u, 2u + 1)
+  std::vector<uint8_t> fixed_;  ///< per position u: its two cells' fixed flags
+  std::vector<uint8_t> labs_;   ///< per position u: its two cells' labels at the search
   std::vector<double> local_, cost_;
   std::vector<int> stretch_states_;
   /// Pairs between consecutive positions (state before × state after), one matrix per pattern
