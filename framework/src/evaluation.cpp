@@ -49,27 +49,32 @@ double ClassScores::f1() const { return ratio(2 * tp, 2 * tp + fp + fn); }
 uint64_t ConfusionMatrix::total() const {
   uint64_t s = 0;
   for (uint64_t v : m_) s += v;
+  for (uint64_t v : x_) s += v;
+  return s;
+}
+
+uint64_t ConfusionMatrix::excusedOf(LabelId truth) const {
+  uint64_t s = 0;
+  for (std::size_t p = 0; p < k_ && truth < k_; ++p) s += x_[truth * k_ + p];
   return s;
 }
 
 ClassScores ConfusionMatrix::scores(LabelId c) const {
   ClassScores s;
   if (c >= k_) return s;
-  uint64_t all = 0;
   for (std::size_t t = 0; t < k_; ++t) {
     for (std::size_t p = 0; p < k_; ++p) {
-      const uint64_t v = m_[t * k_ + p];
-      all += v;
-      if (t == c && p == c) {
-        s.tp += v;
+      const uint64_t v = m_[t * k_ + p], x = x_[t * k_ + p];
+      if (t == c) {
+        (p == c ? s.tp : s.fn) += v;
+        s.fn += x;
       } else if (p == c) {
-        s.fp += v;
-      } else if (t == c) {
-        s.fn += v;
+        s.fp += v;  // excused items x: neither a false positive nor a true negative
+      } else {
+        s.tn += v + x;
       }
     }
   }
-  s.tn = all - s.tp - s.fp - s.fn;
   return s;
 }
 
@@ -80,6 +85,7 @@ ConfusionMatrix& ConfusionMatrix::operator+=(const ConfusionMatrix& o) {
                                 " classes) cannot be added");
   }
   for (std::size_t i = 0; i < m_.size(); ++i) m_[i] += o.m_[i];
+  for (std::size_t i = 0; i < x_.size(); ++i) x_[i] += o.x_[i];
   return *this;
 }
 
@@ -245,12 +251,14 @@ EvalCounts Evaluator::addFrame(const TerrainGrid& grid, const Frame& frame) {
     }
 
     // Points: scored against the cell's class, except non-obstacle points in a cell that is
-    // rightly an obstacle (it holds a GT obstacle point and is predicted obstacle).
+    // rightly an obstacle (it holds a GT obstacle point and is predicted obstacle): "not
+    // considered a FP", but still missed as their own class, as paper 001's tables count them.
     const bool excuse = holds_obstacle && pred == obstacle_id;
     for (std::size_t c = 1; c < k; ++c) {
       if (per_class[c] == 0) continue;
       if (excuse && static_cast<int>(c) != obstacle_id) {
         f.excused_points += per_class[c];
+        f.point_wise.addExcused(static_cast<LabelId>(c), pred, per_class[c]);
       } else {
         f.point_wise.add(static_cast<LabelId>(c), pred, per_class[c]);
       }
@@ -296,7 +304,12 @@ void jsonScores(std::ostringstream& o, const ConfusionMatrix& m, const LabelSet&
     }
     o << "]" << (t + 1 < labels.size() ? "," : "") << "\n";
   }
-  o << indent << "]\n";
+  o << indent << "],\n";
+  // Per true class: its items excused in obstacle cells (false negatives outside "confusion").
+  o << indent << "\"excused\": [";
+  for (std::size_t t = 0; t < labels.size(); ++t)
+    o << (t ? ", " : "") << m.excusedOf(static_cast<LabelId>(t));
+  o << "]\n";
 }
 
 }  // namespace
@@ -393,17 +406,21 @@ void scoreTable(std::ostringstream& o, const std::string& title, const Confusion
 void confusionTable(std::ostringstream& o, const std::string& title, const ConfusionMatrix& m,
                     const LabelSet& labels) {
   // Predicted "unknown" is shown as its own column: labelled items left unclassified.
+  // Excused items (point-wise only) are a last column: false negatives of their row's class.
+  const bool excused = title == "Point-wise";
   o << "| " << title << ": true \\ predicted |";
   for (std::size_t p = 1; p < labels.size(); ++p) o << " " << labels.name(p) << " |";
-  o << " unclassified |\n|---|";
-  for (std::size_t p = 0; p < labels.size(); ++p) o << "---:|";
+  o << " unclassified |" << (excused ? " excused in obstacle cells (FN) |" : "") << "\n|---|";
+  for (std::size_t p = 0; p < labels.size() + (excused ? 1 : 0); ++p) o << "---:|";
   o << "\n";
   for (std::size_t t = 1; t < labels.size(); ++t) {
     o << "| " << labels.name(t) << " |";
     for (std::size_t p = 1; p < labels.size(); ++p) {
       o << " " << grouped(m.at(static_cast<LabelId>(t), static_cast<LabelId>(p))) << " |";
     }
-    o << " " << grouped(m.at(static_cast<LabelId>(t), labels::kUnknown)) << " |\n";
+    o << " " << grouped(m.at(static_cast<LabelId>(t), labels::kUnknown)) << " |";
+    if (excused) o << " " << grouped(m.excusedOf(static_cast<LabelId>(t))) << " |";
+    o << "\n";
   }
 }
 
@@ -435,7 +452,8 @@ std::string toTable(const EvalCounts& c, const LabelSet& labels, EvalRules rules
   o << "- Scored points: " << grouped(c.scoredPoints()) << "; labelled points outside the grid "
     << "(not scored): " << grouped(c.labelled_points_outside_grid)
     << "; labelled points in unclassified cells (FN): " << grouped(c.labelled_points_unclassified)
-    << "; non-obstacle points excused in obstacle cells: " << grouped(c.excused_points) << "\n";
+    << "; non-obstacle points excused in obstacle cells (FN of their class, not FP of "
+    << "obstacle): " << grouped(c.excused_points) << "\n";
   o << "- Cells labelled but unclassified (FN): " << grouped(c.cells_labelled_unclassified)
     << "; cells made obstacle by a minority of obstacle points: " << grouped(c.cells_obstacle_rule)
     << "; cells decided by the tie rule: " << grouped(c.cells_tied) << "\n";

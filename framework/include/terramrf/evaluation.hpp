@@ -50,24 +50,38 @@ struct ClassScores {
 /// Square matrix of counts indexed [true LabelId][predicted LabelId]. The predicted column
 /// labels::kUnknown holds items in cells that were left unclassified; the true row kUnknown is
 /// always zero because unknown ground truth is not scored.
+///
+/// Beside it, a second matrix of the same shape holds excused items (paper 001 §VI-B: a
+/// non-obstacle point in a cell rightly predicted obstacle "is not considered a FP"): each is a
+/// false negative of its true class, as the paper's tables count it, but neither a false
+/// positive nor a true negative of the class predicted.
 class ConfusionMatrix {
  public:
-  explicit ConfusionMatrix(std::size_t labels = 0) : k_(labels), m_(labels * labels, 0) {}
+  explicit ConfusionMatrix(std::size_t labels = 0)
+      : k_(labels), m_(labels * labels, 0), x_(labels * labels, 0) {}
 
   std::size_t size() const { return k_; }
   uint64_t at(LabelId truth, LabelId predicted) const { return m_[truth * k_ + predicted]; }
   void add(LabelId truth, LabelId predicted, uint64_t n = 1) { m_[truth * k_ + predicted] += n; }
-  /// Number of scored items (sum of all entries).
+  /// Excused items of true class `truth` in cells predicted `predicted` (see above).
+  uint64_t excusedAt(LabelId truth, LabelId predicted) const { return x_[truth * k_ + predicted]; }
+  void addExcused(LabelId truth, LabelId predicted, uint64_t n = 1) {
+    x_[truth * k_ + predicted] += n;
+  }
+  /// Excused items of true class `truth`, whatever was predicted.
+  uint64_t excusedOf(LabelId truth) const;
+  /// Number of scored items (sum of all entries, excused ones included).
   uint64_t total() const;
   /// One-vs-rest counts of class `c`.
   ClassScores scores(LabelId c) const;
   /// Element-wise sum; throws std::invalid_argument if the sizes differ.
   ConfusionMatrix& operator+=(const ConfusionMatrix& o);
-  bool operator==(const ConfusionMatrix& o) const { return k_ == o.k_ && m_ == o.m_; }
+  bool operator==(const ConfusionMatrix& o) const { return k_ == o.k_ && m_ == o.m_ && x_ == o.x_; }
 
  private:
   std::size_t k_;
   std::vector<uint64_t> m_;
+  std::vector<uint64_t> x_;  ///< excused items, [true][predicted]
 };
 
 /// Rule sets an evaluation can follow. Only paper 001's for now; the enum keeps the door open.
@@ -116,7 +130,7 @@ struct EvalCounts {
   uint64_t labelled_points_outside_grid = 0;  ///< not scored
   uint64_t labelled_points_unclassified = 0;  ///< in cells predicted unknown; scored as FN
   uint64_t excused_points = 0;  ///< non-obstacle points in predicted-obstacle cells holding GT
-                                ///< obstacle points: not scored
+                                ///< obstacle points: FN of their class, not FP of obstacle
   // ---- cells --------------------------------------------------------------------------------
   uint64_t cells_scored = 0;                 ///< cells holding at least one labelled point
   uint64_t cells_labelled_unclassified = 0;  ///< scored cells predicted unknown (FN)

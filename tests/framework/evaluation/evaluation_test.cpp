@@ -173,13 +173,18 @@ TEST(Evaluator, ObstacleAnyRuleAndExcusedPoints) {
   EXPECT_EQ(c.cell_wise.at(kObstacle, kObstacle), 1u);
   EXPECT_EQ(c.cell_wise.at(kObstacle, kRoad), 1u);
   EXPECT_EQ(c.cell_wise.total(), 2u);
-  // Point-wise: cell 0 → obstacle point TP, 3 road points excused. Cell 1 → obstacle point
-  // (obstacle, road), 3 road points (road, road). Scored 5.
+  // Point-wise: cell 0 → obstacle point TP, 3 road points excused ("not considered a FP" of
+  // obstacle, but missed as road, as paper 001's tables count them: their FN exceed their FP by
+  // about the points in such cells). Cell 1 → obstacle point (obstacle, road), 3 road points
+  // (road, road). Scored 8.
   EXPECT_EQ(c.excused_points, 3u);
   EXPECT_EQ(c.point_wise.at(kObstacle, kObstacle), 1u);
   EXPECT_EQ(c.point_wise.at(kObstacle, kRoad), 1u);
   EXPECT_EQ(c.point_wise.at(kRoad, kRoad), 3u);
-  EXPECT_EQ(c.scoredPoints(), 5u);
+  EXPECT_EQ(c.point_wise.at(kRoad, kObstacle), 0u);
+  EXPECT_EQ(c.point_wise.excusedAt(kRoad, kObstacle), 3u);
+  EXPECT_EQ(c.point_wise.excusedOf(kRoad), 3u);
+  EXPECT_EQ(c.scoredPoints(), 8u);
 
   // Point-wise obstacle: TP 1, FP 0, FN 1, TN 3 → P 1, R 0.5, FPR 0/3 = 0.
   ClassScores o = c.point_wise.scores(kObstacle);
@@ -190,17 +195,28 @@ TEST(Evaluator, ObstacleAnyRuleAndExcusedPoints) {
   EXPECT_DOUBLE_EQ(o.precision(), 1.0);
   EXPECT_DOUBLE_EQ(o.recall(), 0.5);
   EXPECT_DOUBLE_EQ(o.fpr(), 0.0);
-  // Point-wise road: TP 3, FP 1, FN 0, TN 1 → P 0.75, R 1, FPR 1/2.
+  // Point-wise road: TP 3, FP 1, FN 3 (the excused points), TN 1 → P 0.75, R 0.5, FPR 1/2.
   ClassScores r = c.point_wise.scores(kRoad);
   EXPECT_EQ(r.tp, 3u);
   EXPECT_EQ(r.fp, 1u);
-  EXPECT_EQ(r.fn, 0u);
+  EXPECT_EQ(r.fn, 3u);
   EXPECT_EQ(r.tn, 1u);
   EXPECT_DOUBLE_EQ(r.precision(), 0.75);
+  EXPECT_DOUBLE_EQ(r.recall(), 0.5);
   EXPECT_DOUBLE_EQ(r.fpr(), 0.5);
-  // Rough never occurs: TN 5, precision and recall undefined, FPR 0/5 = 0.
+  // Rough has no point: the excused road points are its true negatives.
+  // Summed over the classes, FN exceed FP by the excused points (every other error is one FN
+  // and one FP): the identity paper 001's Tables I–III satisfy with the points so excused.
+  uint64_t fn = 0, fp = 0;
+  for (const LabelId k : {kRoad, kRough, kObstacle}) {
+    fn += c.point_wise.scores(k).fn;
+    fp += c.point_wise.scores(k).fp;
+  }
+  EXPECT_EQ(fn - fp, c.excused_points);
+  // Rough never occurs: TN 8 (the excused road points too), precision and recall undefined,
+  // FPR 0/8 = 0.
   ClassScores g = c.point_wise.scores(kRough);
-  EXPECT_EQ(g.tn, 5u);
+  EXPECT_EQ(g.tn, 8u);
   EXPECT_TRUE(std::isnan(g.precision()));
   EXPECT_TRUE(std::isnan(g.recall()));
   EXPECT_DOUBLE_EQ(g.fpr(), 0.0);
@@ -387,7 +403,8 @@ TEST(Evaluator, AccumulationIsTheSumOfFrames) {
   EXPECT_EQ(t.point_wise.at(kRoad, kRoad), 2u);
   EXPECT_EQ(t.point_wise.at(kObstacle, kObstacle), 1u);
   EXPECT_EQ(t.point_wise.at(kRoad, kRough), 3u);
-  EXPECT_EQ(t.point_wise.total(), 6u);
+  EXPECT_EQ(t.point_wise.excusedAt(kRough, kObstacle), 1u);
+  EXPECT_EQ(t.point_wise.total(), 7u);  // the excused point included
   // Cells: (road, road), (obstacle, obstacle), (road, rough).
   EXPECT_EQ(t.cell_wise.at(kRoad, kRough), 1u);
   EXPECT_EQ(t.cell_wise.total(), 3u);
@@ -500,7 +517,7 @@ TEST(EvaluationJson, ParsesBackWithTheHandDerivedValues) {
   EXPECT_EQ(k["classified_points"].as<int>(), 8);
   EXPECT_EQ(k["points_outside_grid"].as<int>(), 1);
   EXPECT_EQ(k["excused_points"].as<int>(), 3);
-  EXPECT_EQ(k["scored_points"].as<int>(), 5);
+  EXPECT_EQ(k["scored_points"].as<int>(), 8);  // the excused points included
   EXPECT_EQ(k["cells_scored"].as<int>(), 2);
   EXPECT_DOUBLE_EQ(k["grid_size_m"].as<double>(), 1.0);
   EXPECT_DOUBLE_EQ(k["cell_m"].as<double>(), 0.5);
@@ -510,7 +527,9 @@ TEST(EvaluationJson, ParsesBackWithTheHandDerivedValues) {
   EXPECT_EQ(pw[0]["id"].as<int>(), 1);
   EXPECT_EQ(pw[0]["tp"].as<int>(), 3);
   EXPECT_EQ(pw[0]["fp"].as<int>(), 1);
+  EXPECT_EQ(pw[0]["fn"].as<int>(), 3);  // the excused road points
   EXPECT_DOUBLE_EQ(pw[0]["precision"].as<double>(), 0.75);
+  EXPECT_DOUBLE_EQ(pw[0]["recall"].as<double>(), 0.5);
   EXPECT_DOUBLE_EQ(pw[0]["fpr"].as<double>(), 0.5);
   EXPECT_EQ(pw[1]["name"].as<std::string>(), "rough");
   EXPECT_TRUE(pw[1]["precision"].IsNull());  // 0/0
@@ -527,6 +546,12 @@ TEST(EvaluationJson, ParsesBackWithTheHandDerivedValues) {
   EXPECT_EQ(pm[1][1].as<int>(), 3);
   EXPECT_EQ(pm[0][0].as<int>(), 0);
   EXPECT_EQ(n["cell_wise"]["confusion"][3][1].as<int>(), 1);
+  // Excused points per true class, beside the matrix: the 3 road points.
+  const YAML::Node px = n["point_wise"]["excused"];
+  ASSERT_EQ(px.size(), 4u);
+  EXPECT_EQ(px[1].as<int>(), 3);
+  EXPECT_EQ(px[3].as<int>(), 0);
+  EXPECT_EQ(n["cell_wise"]["excused"][1].as<int>(), 0);
 }
 
 TEST(EvaluationTable, ShapedLikePaper001) {

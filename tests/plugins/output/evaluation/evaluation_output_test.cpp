@@ -120,14 +120,19 @@ TEST_F(EvaluationOutputTest, WritesPerFrameAndSummaryFilesAndPrintsTheTable) {
   EXPECT_EQ(s["counts"]["scans"].as<int>(), 1);
   EXPECT_EQ(s["counts"]["frames_without_truth"].as<int>(), 1);
   EXPECT_EQ(s["counts"]["points"].as<int>(), 6);         // frame 000002 is not counted
-  EXPECT_EQ(s["counts"]["scored_points"].as<int>(), 3);  // 1 obstacle + 2 rough
-  // Point-wise rough: 2 × (rough, road) → recall 0; road: FP 2, TP 0 → precision 0.
+  EXPECT_EQ(s["counts"]["scored_points"].as<int>(), 6);  // 1 obstacle + 3 road excused + 2 rough
+  // Point-wise rough: 2 × (rough, road) → recall 0; road: FP 2, TP 0 → precision 0, and its 3
+  // excused points are false negatives (recall 0), not false positives of obstacle.
   EXPECT_DOUBLE_EQ(s["point_wise"]["classes"][1]["recall"].as<double>(), 0.0);
   EXPECT_DOUBLE_EQ(s["point_wise"]["classes"][0]["precision"].as<double>(), 0.0);
+  EXPECT_EQ(s["point_wise"]["classes"][0]["fn"].as<int>(), 3);
+  EXPECT_EQ(s["point_wise"]["classes"][2]["fp"].as<int>(), 0);
   EXPECT_EQ(s["cell_wise"]["confusion"][2][1].as<int>(), 1);
 
   EXPECT_NE(printed.find("| Number of scans | 1 |"), std::string::npos) << printed;
   EXPECT_NE(printed.find("1 frames without ground truth"), std::string::npos) << printed;
+  EXPECT_NE(printed.find("| road | 0 | 0 | 0 | 0 | 3 |"), std::string::npos)  // excused column
+      << printed;
   EXPECT_NE(printed.find("| obstacle | 1 | 0 | 0 | 1.000 | 1.000 | 1.000 | 0.000 |"),
             std::string::npos)
       << printed;
