@@ -10,8 +10,9 @@
 //   v(p) = standard deviation of I over the d × d window centred at p   (d = `window`)
 //   e(p) = |∇I(p)|, 3 × 3 Sobel
 //   H(p) = 1 − (e(p) / e_max) · (v(p) / v_max)
-// e_max, v_max: the largest values 8-bit grey can reach (`normalise: fixed`, the default: 1020·√2
-// and 127.5), or the image's maxima (`normalise: image`, as published), with which one strong
+// e_max, v_max: fixed bounds 8-bit grey cannot exceed (`normalise: fixed`, the default: 1020·√2,
+// from |Gx|, |Gy| ≤ 4·255, although e itself reaches at most 1140; and 127.5, which v reaches),
+// or the image's maxima (`normalise: image`, as published), with which one strong
 // edge anywhere in the image rescales every cell of it. Range [0, 1]; 1 where either factor is
 // zero. The default was chosen on the simulator's validation world
 // (docs/plugins/camera_features.md).
@@ -57,7 +58,7 @@ class Homogeneity final : public Stage {
         .range(3, 15);
     d.add("normalise", normalise_,
           "cheng_sun, local_std: divide the gradient (cheng_sun) and the standard deviation by "
-          "the largest values 8-bit grey allows (fixed: a cell's value does not depend on the "
+          "fixed bounds 8-bit grey cannot exceed (fixed: a cell's value does not depend on the "
           "rest of the image) or by the image's maxima (image, as published)")
         .choices({"image", "fixed"});
     d.add("contrast_scale", scale_,
@@ -157,8 +158,9 @@ class Homogeneity final : public Stage {
     const int band_rows = p1 - p0, r0 = v0 - p0, r1 = v1 - p0;
     float* h = m.h.ptr<float>(0);
     if (definition_ == "local_std") return localStd(band, r0, r1, h);
-    // E·V = √(e²·N²v²) / (e_max·N·v_max), with 8-bit grey's bounds (|Gx|, |Gy| ≤ 4·255; v ≤
-    // 127.5, half black, half white) or the image's maxima.
+    // E·V = √(e²·N²v²) / (e_max·N·v_max), with bounds 8-bit grey cannot exceed (|Gx|, |Gy| ≤
+    // 4·255, so e ≤ 1020·√2, though no 3 × 3 patch gets above 1140; v ≤ 127.5, half black, half
+    // white) or the image's maxima.
     if (normalise_ == "fixed") {
       const uint32_t area = uint32_t(window_) * uint32_t(window_);
       const float k = float(1.0 / (1020 * M_SQRT2 * area * 127.5));
