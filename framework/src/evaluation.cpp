@@ -403,11 +403,10 @@ void scoreTable(std::ostringstream& o, const std::string& title, const Confusion
   }
 }
 
+/// `excused`: a last column of each true class's excused items (point-wise tables).
 void confusionTable(std::ostringstream& o, const std::string& title, const ConfusionMatrix& m,
-                    const LabelSet& labels) {
+                    const LabelSet& labels, bool excused) {
   // Predicted "unknown" is shown as its own column: labelled items left unclassified.
-  // Excused items (point-wise only) are a last column: false negatives of their row's class.
-  const bool excused = title == "Point-wise";
   o << "| " << title << ": true \\ predicted |";
   for (std::size_t p = 1; p < labels.size(); ++p) o << " " << labels.name(p) << " |";
   o << " unclassified |" << (excused ? " excused in obstacle cells (FN) |" : "") << "\n|---|";
@@ -444,9 +443,9 @@ std::string toTable(const EvalCounts& c, const LabelSet& labels, EvalRules rules
   o << "\n";
   scoreTable(o, "Cell-wise", c.cell_wise, labels);
   o << "\n";
-  confusionTable(o, "Point-wise", c.point_wise, labels);
+  confusionTable(o, "Point-wise", c.point_wise, labels, /*excused=*/true);
   o << "\n";
-  confusionTable(o, "Cell-wise", c.cell_wise, labels);
+  confusionTable(o, "Cell-wise", c.cell_wise, labels, /*excused=*/false);
   o << "\n";
 
   o << "- Scored points: " << grouped(c.scoredPoints()) << "; labelled points outside the grid "
