@@ -214,24 +214,62 @@ CommonKeys readCommonKeys(const YAML::Node& root, const std::string& base_dir,
       num("cell_m", 0.05, 5, k.grid.cell_m);
     }
   }
-  // labels (optional): list of {name, color: [r,g,b]} starting with unknown
+  // labels (optional): list of {name, color: [r,g,b]} starting with unknown. Each fault is named
+  // at its entry: yaml-cpp's own conversion messages name no place a user could find.
   if (const YAML::Node l = root["labels"]) {
-    try {
-      std::vector<LabelInfo> infos;
-      for (const auto& e : l) {
+    const std::size_t before = d.list.size();
+    const std::string shape =
+        "expected a list of {name, color: [r, g, b]}, the first named 'unknown'";
+    std::vector<LabelInfo> infos;
+    if (!l.IsSequence() || l.size() == 0) {
+      d.add(l.Mark(), "'labels' must be a non-empty list: " + shape);
+    } else if (l.size() > 255) {
+      d.add(l.Mark(),
+            "labels: " + std::to_string(l.size()) + " classes; at most 255 (ids are bytes)");
+    } else {
+      for (std::size_t i = 0; i < l.size(); ++i) {
+        const YAML::Node e = l[i];
+        const std::string at = "labels[" + std::to_string(i) + "]";
+        if (!e.IsMap()) {
+          d.add(e.Mark(), at + ": " + shape);
+          continue;
+        }
+        checkKeys(d, e, {"name", "color"}, at, hint);
         LabelInfo li;
-        li.name = e["name"].as<std::string>();
-        const auto col = e["color"].as<std::vector<int>>();
-        if (col.size() != 3) throw std::runtime_error("color must be [r, g, b]");
-        for (int c = 0; c < 3; ++c) li.rgb[c] = static_cast<uint8_t>(col[c]);
+        const YAML::Node name = e["name"], col = e["color"];
+        if (!name || !name.IsScalar() || name.Scalar().empty()) {
+          d.add(name ? name.Mark() : e.Mark(), at + ": expected 'name: <class name>'");
+        } else {
+          li.name = name.Scalar();
+          for (const auto& prev : infos)
+            if (prev.name == li.name)
+              d.add(name.Mark(), at + ": class '" + li.name + "' is listed twice");
+          if (i == 0 && li.name != "unknown")
+            d.add(name.Mark(),
+                  at + ": the first class (id 0, no data) must be named 'unknown', got '" +
+                      li.name + "'");
+          if (i > 0 && li.name == "unknown")
+            d.add(name.Mark(), at + ": 'unknown' must be the first class (id 0)");
+        }
+        bool colour_ok = col && col.IsSequence() && col.size() == 3;
+        for (std::size_t c = 0; colour_ok && c < 3; ++c) {
+          int v = -1;
+          try {
+            v = col[c].as<int>();
+          } catch (const YAML::Exception&) {
+          }
+          if (v < 0 || v > 255) colour_ok = false;
+          li.rgb[c] = static_cast<uint8_t>(v);
+        }
+        if (!colour_ok)
+          d.add(col ? col.Mark() : e.Mark(),
+                at + ".color: expected [r, g, b], three integers from 0 to 255");
         infos.push_back(li);
       }
+    }
+    if (d.list.size() == before) {
       k.labels = std::make_shared<LabelSet>(infos);
       k.custom_labels = true;
-    } catch (const std::exception& e) {
-      d.add(l.Mark(), std::string("labels: expected a list of {name, color: [r, g, b]} starting "
-                                  "with 'unknown': ") +
-                          e.what());
     }
   }
   return k;
@@ -268,7 +306,8 @@ EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const st
     return ep;
   }
   if (checks.unique_names && !checks.unique_names->insert(name).second)
-    d.add(e.Mark(), "duplicate stage name '" + name + "' (give each a unique name:)", name, type);
+    d.add(e["name"] ? e["name"].Mark() : e.Mark(),
+          "duplicate stage name '" + name + "' (give each a unique name:)", name, type);
   // The runner times its own steps under these names (timing.md, compare's runtime table).
   const bool stage_entry = std::none_of(kinds.begin(), kinds.end(), [](PluginKind k) {
     return k == PluginKind::kSource || k == PluginKind::kOutput;

@@ -7,6 +7,7 @@
 //
 // A class of the model file may also be a mixture of Gaussians (feature_stats `components`); its
 // feature energy is then −log Σ_m w_m exp(−E_m), E_m being eq. 11 under component m.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -22,7 +23,9 @@ class PottsGaussian final : public Stage {
         .required().existingPath();
     d.add("features", features_, "grid layers used as features; each must be in the model for every class")
         .required();
-    d.add("classes", classes_, "labels the optimiser may assign (names from the label set)");
+    d.add("classes", classes_param_,
+          "labels the optimiser may assign (names from the label set); empty = every class of the "
+          "label set but 'unknown', in id order (road, rough, obstacle with the default set)");
     d.add("alpha", alpha_, "weight α of the feature energy (eq. 12)").unit("1").range(0, 1e6);
     d.add("beta", beta_, "Potts weight β of the 4 edge neighbours (eq. 10)").unit("1").range(0, 1e6);
     d.add("beta_diagonal", beta_diagonal_,
@@ -47,6 +50,12 @@ class PottsGaussian final : public Stage {
       throw ParamError("model", e.what());
     }
     if (features_.empty()) throw ParamError("features", "list at least one feature layer");
+    // A fixed default list would leave the extra classes of a config's own label set
+    // unpredicted without a word, so the default follows the label set.
+    classes_ = classes_param_;
+    if (classes_.empty())
+      for (std::size_t id = 1; id < ctx.labels->size(); ++id)
+        classes_.push_back(ctx.labels->name(static_cast<LabelId>(id)));
     if (!class_cost_.empty() && class_cost_.size() != classes_.size())
       throw ParamError("class_cost", "give one value per class of `classes` (" +
                                          std::to_string(classes_.size()) + "), or none");
@@ -56,6 +65,8 @@ class PottsGaussian final : public Stage {
       const int id = ctx.labels->find(c);
       if (id <= 0)
         throw ParamError("classes", "'" + c + "' is not a class of the label set (or is 'unknown')");
+      if (std::find(active_.begin(), active_.end(), static_cast<LabelId>(id)) != active_.end())
+        throw ParamError("classes", "'" + c + "' is listed twice; list each class once");
       if (c == "obstacle") obstacle_index_ = static_cast<int>(active_.size());
       active_.push_back(static_cast<LabelId>(id));
       auto it = model_.classes.find(c);
@@ -166,7 +177,8 @@ class PottsGaussian final : public Stage {
  private:
   std::string model_path_;
   std::vector<std::string> features_;
-  std::vector<std::string> classes_ = {"road", "rough", "obstacle"};
+  std::vector<std::string> classes_param_;  ///< as configured; empty = the label set's classes
+  std::vector<std::string> classes_;        ///< the classes in use, in unary order
   double alpha_ = 1.0;
   double beta_ = 0.8;  // paper 000 §5: β = 0.8 in all experiments
   double beta_diagonal_ = -1;

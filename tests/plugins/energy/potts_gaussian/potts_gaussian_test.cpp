@@ -210,3 +210,50 @@ TEST(PottsGaussian, AFileThatIsNoModelNamesTheFile) {
 }
 
 }  // namespace terramrf
+
+namespace terramrf {
+
+// With a config's own label set the energy must offer every class of it: a fixed default of road,
+// rough and obstacle left the extra class of such a set unpredicted, without a word.
+TEST(PottsGaussian, DefaultClassesAreTheLabelSetsAndARepeatIsRefused) {
+  test::TempDir d;
+  test::StageHarness h;
+  h.labels = LabelSet({{"unknown", {0, 0, 0}},
+                       {"road", {128, 128, 128}},
+                       {"sidewalk", {255, 0, 255}},
+                       {"rough", {139, 90, 43}},
+                       {"obstacle", {220, 30, 30}}});
+  h.frame.points.push_back(1.1f, 1.1f, -1.7f, 0);
+  h.bin();
+  h.grid.add("f")[h.geom.cellOf(1.1, 1.1)] = 0.5f;
+  const std::string m = d.str() + "/m.yaml";
+  std::ofstream(m) << "classes:\n"
+                      "  road:     {f: {mean: 0.0, sigma: 0.1}}\n"
+                      "  sidewalk: {f: {mean: 0.5, sigma: 0.1}}\n"
+                      "  rough:    {f: {mean: 1.0, sigma: 0.5}}\n"
+                      "  obstacle: {f: {mean: 5.0, sigma: 2.0}}\n";
+  h.make("potts_gaussian", "{model: " + m + ", features: [f]}")->process(h.ctx);
+  const EnergyModel& em = h.ctx.energy;
+  ASSERT_EQ(em.numLabels(), 4);
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(em.active[k], k + 1) << k;  // id order
+  EXPECT_EQ(em.active[em.initial[h.geom.cellOf(1.1, 1.1)]], 2);     // sidewalk fits best
+
+  // A class missing from the model is named, as for an explicit list.
+  std::ofstream(m) << "classes:\n  road: {f: {mean: 0, sigma: 1}}\n  rough: {f: {mean: 1, sigma: "
+                      "1}}\n  obstacle: {f: {mean: 5, sigma: 1}}\n";
+  try {
+    h.make("potts_gaussian", "{model: " + m + ", features: [f]}");
+    FAIL() << "a model without the label set's 'sidewalk' was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("has no entry for class 'sidewalk'"), std::string::npos)
+        << e.what();
+  }
+  try {
+    h.make("potts_gaussian", "{model: " + m + ", features: [f], classes: [road, rough, road]}");
+    FAIL() << "a class listed twice was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("'road' is listed twice"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace terramrf
