@@ -226,7 +226,10 @@ std::vector<ParamIssue> applyParams(Plugin& plugin, const YAML::Node& params,
   for (const auto& [key, text] : overrides) {
     const ParamSpec* spec = decl.find(key);
     if (!spec) {
-      issues.push_back({key, stage_mark, "cannot override '" + key + "': this plugin has no such parameter"});
+      issues.push_back({key, stage_mark,
+                        "cannot set '" + key +
+                            "' from the command line (--data sets 'path'): this plugin "
+                            "has no such parameter"});
       continue;
     }
     seen[key] = stage_mark;

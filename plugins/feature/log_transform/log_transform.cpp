@@ -22,6 +22,7 @@ class LogTransform final : public Stage {
     d.add("offset", offset_,
           "added before the logarithm, in the input's unit: keeps 0 finite; differences well "
           "below it are flattened (choose about the sensor's noise level)")
+        .unit("unit of input")
         .range(1e-9, 1e9);
   }
   void configure(const PluginContext&) override {

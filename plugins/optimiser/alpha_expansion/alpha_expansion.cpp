@@ -37,6 +37,7 @@ class AlphaExpansion final : public Stage {
     d.add("max_cycles", max_cycles_,
           "upper bound on cycles (one expansion per label); stops earlier when a cycle improves "
           "nothing")
+        .unit("cycles")
         .range(1, 1000);
     d.add("init", init_,
           "starting labelling: the energy stage's initial labelling, or the per-cell unary argmin")

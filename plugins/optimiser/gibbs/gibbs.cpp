@@ -39,6 +39,7 @@ class GibbsSampler final : public Stage {
         .range(0, 1e6);
     d.add("sweeps", sweeps_,
           "annealing sweeps over the grid; the result is the lowest-energy labelling they reach")
+        .unit("sweeps")
         .range(1, 100000);
     d.add("marginal_temperature", t_marg_,
           "temperature T_m of the score layers: they estimate the per-cell marginals of "
@@ -51,15 +52,19 @@ class GibbsSampler final : public Stage {
           "labelling. 0 = average the annealing sweeps after burn_in instead (cheaper, but with "
           "an annealing schedule that mixes temperatures: marginals of exp(−E/T0) only with "
           "schedule: constant)")
+        .unit("sweeps")
         .range(0, 100000);
     d.add("marginal_burn_in", marg_burn_in_,
           "sweeps at marginal_temperature before the marginal_sweeps, not averaged: the annealed "
           "state is usually colder than exp(−E/T_m)")
+        .unit("sweeps")
         .range(0, 100000);
     d.add("burn_in", burn_in_,
           "with marginal_sweeps: 0 only, annealing sweeps before their conditionals are averaged")
+        .unit("sweeps")
         .range(0, 100000);
     d.add("seed", seed_, "random seed; the same seed gives the same labelling and marginals")
+        .unit("1")
         .range(0, 4294967295.0);
   }
 

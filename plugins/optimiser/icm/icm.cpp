@@ -11,7 +11,9 @@ namespace terramrf {
 class Icm final : public Stage {
  public:
   void declare(ParamDecl& d) override {
-    d.add("max_sweeps", max_sweeps_, "upper bound on full sweeps over the grid").range(1, 10000);
+    d.add("max_sweeps", max_sweeps_, "upper bound on full sweeps over the grid")
+        .unit("sweeps")
+        .range(1, 10000);
     d.add("report_energy", report_energy_,
           "compute the initial and final total energy for the report (costs two passes); false "
           "reports both as NaN (not computed), never as a number that could be read as an energy");

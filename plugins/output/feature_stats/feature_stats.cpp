@@ -30,6 +30,7 @@ class FeatureStats final : public Output {
           "lower bound on σ per feature (one value for all, or one per feature, in the feature's "
           "unit): keeps a feature that is nearly constant in the training data from vetoing a "
           "class on unseen data")
+        .unit("unit of each feature")
         .min(0);
     d.add("estimator", estimator_,
           "how mean and σ are estimated: moments (sample mean and standard deviation, paper 000 "
@@ -41,6 +42,7 @@ class FeatureStats final : public Output {
           "learnt by classification EM (cells assigned to their most likely component, each "
           "component estimated with `estimator`), started from quantiles of the first feature; "
           "components left with fewer than 10 cells are dropped")
+        .unit("Gaussians")
         .range(1, 8);
     d.add("obstacle_rule", obstacle_rule_,
           "a cell holding at least one ground-truth obstacle point is an obstacle sample whatever "

@@ -26,6 +26,7 @@ class RocOutput final : public Output {
         .choices({"local_energy", "skip"});
     d.add("max_points", max_points_,
           "at most this many points per curve in the CSV/SVG (the AUC uses every sample)")
+        .unit("points")
         .range(2, 1e7);
     d.add("title", title_, "plot title; empty = the run's config file");
   }

@@ -12,8 +12,8 @@
 namespace terramrf::sim {
 
 void declareSimulationParams(ParamDecl& d, SimulationConfig& c) {
-  d.add("seed", c.seed, "seed of the world and of all sensor noise").min(0);
-  d.add("frames", c.frames, "number of frames (sweeps)").range(1, 1e6);
+  d.add("seed", c.seed, "seed of the world and of all sensor noise").unit("1").min(0);
+  d.add("frames", c.frames, "number of frames (sweeps)").unit("frames").range(1, 1e6);
   d.add("scene_length_m", c.scene_length_m,
         "minimum length of the generated road strip; extended to cover the drive plus the view "
         "distance at both ends")

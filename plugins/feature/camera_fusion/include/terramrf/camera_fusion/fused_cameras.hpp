@@ -17,6 +17,7 @@ inline void declareCameraChoice(ParamDecl& d, int& camera, int& min_pixels, int 
   d.add("camera", camera,
         "index into the frame's cameras; −1: per cell the fused camera that sees it with the "
         "most pixels")
+      .unit("index")
       .range(-1, 64);
   d.add("min_pixels", min_pixels, "cells with fewer pixels get NaN")
       .unit("px")

@@ -1,0 +1,145 @@
+// `terramrf plugins` and `describe` (apps/terramrf/cmd_run.cpp), and the parameter specs they
+// print: the brief promises that the specs are the documentation, so each must be complete.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+
+#include "commands.hpp"
+#include "terramrf/param_values.hpp"
+#include "terramrf/registry.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+namespace fs = std::filesystem;
+
+/// Every plugin folder of the source tree, plugins/<kind>/<type>, as {kind, type}.
+std::vector<std::pair<std::string, std::string>> pluginFolders() {
+  std::vector<std::pair<std::string, std::string>> v;
+  for (const auto& kind : fs::directory_iterator(test::sourceDir() + "/plugins"))
+    if (kind.is_directory())
+      for (const auto& p : fs::directory_iterator(kind.path()))
+        if (p.is_directory()) v.emplace_back(kind.path().filename(), p.path().filename());
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+double asNumber(const ParamValue& v) {
+  if (const auto* i = std::get_if<int64_t>(&v)) return static_cast<double>(*i);
+  return std::get<double>(v);
+}
+}  // namespace
+
+TEST(PluginsCli, ListsEveryPluginOfTheSourceTreeUnderItsKind) {
+  testing::internal::CaptureStdout();
+  const int rc = cli::cmdPlugins({});
+  const std::string out = testing::internal::GetCapturedStdout();
+  ASSERT_EQ(rc, cli::kOk);
+  const auto folders = pluginFolders();
+  ASSERT_GE(folders.size(), 27u) << out;  // as many as were shipped when this was written
+  for (const auto& [kind, type] : folders) {
+    const std::size_t section = out.find("\n" + kind + ":\n");
+    ASSERT_NE(section, std::string::npos) << kind << "\n" << out;
+    const std::size_t next = out.find(":\n", section + kind.size() + 3);
+    const std::size_t at = out.find("\n  " + type + " ", section);
+    EXPECT_TRUE(at != std::string::npos && (next == std::string::npos || at < next))
+        << type << " is not listed under " << kind << ":\n"
+        << out;
+  }
+}
+
+TEST(PluginsCli, EveryParameterSpecIsComplete) {
+  // Units for every number ("1" when dimensionless), a doc, a range, and a default inside its
+  // own range and choices: `describe` is the parameter documentation.
+  PluginRegistry reg(PluginRegistry::defaultSearchDirs());
+  const std::regex snake("[a-z][a-z0-9_]*");
+  std::size_t checked = 0;
+  for (const auto& [kind, type] : pluginFolders()) {
+    SCOPED_TRACE(type);
+    const PluginInfo* info = reg.find(type);
+    ASSERT_NE(info, nullptr);
+    EXPECT_EQ(toString(info->kind), kind);
+    EXPECT_FALSE(info->summary.empty());
+    auto plugin = reg.create(type);
+    std::set<std::string> names;
+    for (const ParamSpec& s : declaredParams(*plugin)) {
+      SCOPED_TRACE(s.name);
+      ++checked;
+      EXPECT_TRUE(std::regex_match(s.name, snake));
+      EXPECT_TRUE(names.insert(s.name).second) << "declared twice";
+      EXPECT_GE(s.doc.size(), 10u) << "no doc";
+      const bool number = s.type == ParamType::kInt || s.type == ParamType::kDouble;
+      if (number || s.type == ParamType::kDoubleList) EXPECT_FALSE(s.unit.empty()) << "no unit";
+      if (number) {
+        EXPECT_TRUE(s.min || s.max) << "no range";
+        if (!s.required) {
+          const double v = asNumber(s.default_value);
+          if (s.min) EXPECT_GE(v, *s.min) << "default below its range";
+          if (s.max) EXPECT_LE(v, *s.max) << "default above its range";
+        }
+      }
+      if (s.type == ParamType::kString && !s.choices.empty() && !s.required) {
+        const std::string& v = std::get<std::string>(s.default_value);
+        EXPECT_NE(std::find(s.choices.begin(), s.choices.end(), v), s.choices.end())
+            << "default '" << v << "' is not one of its choices";
+      }
+    }
+    testing::internal::CaptureStdout();
+    EXPECT_EQ(cli::cmdDescribe({type}), cli::kOk);
+    const std::string out = testing::internal::GetCapturedStdout();
+    EXPECT_EQ(out.rfind(type + " (" + kind + "): ", 0), 0u) << out;
+    for (const auto& n : names) EXPECT_NE(out.find("\n  " + n + " ("), std::string::npos) << n;
+  }
+  EXPECT_GE(checked, 200u);
+}
+
+TEST(PluginsCli, DescribeOfAnUnknownTypeIsAUsageError) {
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(cli::cmdDescribe({"no_such_plugin"}), cli::kUsage);
+  EXPECT_EQ(cli::cmdDescribe({}), cli::kUsage);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("unknown plugin type 'no_such_plugin'; run 'terramrf plugins'"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find("usage: terramrf describe TYPE"), std::string::npos) << err;
+}
+
+TEST(RunCli, BadArgumentsAreUsageErrorsAndRunNothing) {
+  test::TempDir dir;
+  const std::string config = dir.str() + "/c.yaml";
+  std::ofstream(config) << "version: 1\n"
+                           "grid: {size_m: 30, cell_m: 0.5}\n"
+                           "source: {type: simulator, params: {frames: 1, enable_camera: false}}\n"
+                           "stages:\n"
+                           "  - {name: hdiff, type: height_difference}\n"
+                           "outputs: []\n";
+  const std::string out = dir.str() + "/out";
+  struct Case {
+    cli::Args args;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      {{config, "--out", out, "--bogus"}, "terramrf run: unexpected argument '--bogus'"},
+      {{config, "--out", out, "--read-ahead", "99"},
+       "terramrf run: --read-ahead: expected 0 to 64 frames, got 99"},
+      {{"--out", out}, "usage: terramrf run CONFIG"},
+      // The simulator reads no folder: --data has nothing to replace.
+      {{config, "--out", out, "--data", dir.str()},
+       "c.yaml:3:9: stage 'simulator' (simulator): cannot set 'path' from the command line "
+       "(--data sets 'path'): this plugin has no such parameter"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.message);
+    testing::internal::CaptureStderr();
+    EXPECT_EQ(cli::cmdRun(c.args), cli::kUsage);
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_NE(err.find(c.message), std::string::npos) << err;
+    EXPECT_FALSE(fs::exists(out + "/resolved_config.yaml"));
+  }
+}
+
+}  // namespace terramrf
