@@ -1,9 +1,9 @@
 #pragma once
 // Paths every test may need. The real data is required: a test that needs it fails loudly.
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -26,6 +26,29 @@ inline std::string dataPath(const std::string& rel) {
 inline std::string pluginDir() { return TERRAMRF_PLUGIN_DIR; }
 inline std::string sourceDir() { return TERRAMRF_SOURCE_DIR; }
 inline std::string cli() { return TERRAMRF_CLI; }
+
+/// `text` with the first `from` replaced by `to` (a test failure if `from` is not there).
+inline std::string edited(std::string text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  if (at == std::string::npos)
+    ADD_FAILURE() << "'" << from << "' not in the test text";
+  else
+    text.replace(at, from.size(), to);
+  return text;
+}
+/// "line:col" (1-based, as diagnostics print them) of the `nth` occurrence of `token` in `text`.
+inline std::string positionOf(const std::string& text, const std::string& token, int nth = 1) {
+  std::size_t at = std::string::npos;
+  for (int k = 0; k < nth; ++k) at = text.find(token, at == std::string::npos ? 0 : at + 1);
+  if (at == std::string::npos) {
+    ADD_FAILURE() << "'" << token << "' not in the test text";
+    return "?";
+  }
+  const std::size_t nl = text.rfind('\n', at);
+  const std::size_t line_start = nl == std::string::npos ? 0 : nl + 1;
+  return std::to_string(1 + std::count(text.begin(), text.begin() + at, '\n')) + ":" +
+         std::to_string(1 + at - line_start);
+}
 
 /// A fresh temporary folder per test, removed at the end.
 class TempDir {

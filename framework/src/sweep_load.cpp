@@ -619,7 +619,9 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
     s->energy = YAML::Load("{name: mrf, type: potts_gaussian}");
   }
   if (!s->energy.IsMap()) {
-    d.add(s->energy.Mark(), "'energy' must be an entry {name, type, params}");
+    // The clone has no position; the sweep's own node has.
+    d.add(root["energy"] ? root["energy"].Mark() : root.Mark(),
+          "'energy' must be an entry {name, type, params}");
   } else {
     if (!s->energy["name"]) s->energy["name"] = "mrf";
     Made m = makePlugin(reg, s->energy, "energy", {PluginKind::kEnergy}, ctx, d, true, false);

@@ -206,31 +206,6 @@ TEST(Config, RepeatedKeysAreRejectedAtTheRepeat) {
       << joined(errs);
 }
 
-namespace {
-/// `text` with `from` replaced by `to` (which must be found).
-std::string edited(std::string text, const std::string& from, const std::string& to) {
-  const std::size_t at = text.find(from);
-  if (at == std::string::npos)
-    ADD_FAILURE() << "'" << from << "' not in the test config";
-  else
-    text.replace(at, from.size(), to);
-  return text;
-}
-/// "line:col" (1-based) of the `nth` occurrence of `token` in `text`.
-std::string positionOf(const std::string& text, const std::string& token, int nth = 1) {
-  std::size_t at = std::string::npos;
-  for (int k = 0; k < nth; ++k) at = text.find(token, at == std::string::npos ? 0 : at + 1);
-  if (at == std::string::npos) {
-    ADD_FAILURE() << "'" << token << "' not in the test config";
-    return "?";
-  }
-  const std::size_t line_start =
-      text.rfind('\n', at) == std::string::npos ? 0 : text.rfind('\n', at) + 1;
-  return std::to_string(1 + std::count(text.begin(), text.begin() + at, '\n')) + ":" +
-         std::to_string(1 + at - line_start);
-}
-}  // namespace
-
 // Each malformed entry of the common keys and the stage list is reported at that entry, in the
 // config's words: these paths had no test (coverage), and `labels:` reported yaml-cpp's own
 // conversion message at the list's start, and took a colour of 300 as 44.
@@ -246,31 +221,31 @@ TEST(Config, EachMalformedEntryIsNamedAtItsPlace) {
     std::string message;
   };
   const std::vector<Case> cases = {
-      {edited(base, "cell_m: 0.5", "cell_m: half"), "half", 1,
+      {test::edited(base, "cell_m: 0.5", "cell_m: half"), "half", 1,
        "grid.cell_m: expected a number in metres"},
       {"plugin_path: plugins\n" + base, "plugins", 1, "'plugin_path' must be a list of folders"},
       {"plugin_path: [no_such_folder]\n" + base, "no_such_folder", 1,
        "plugin_path entry '" + f.dir.str() + "/no_such_folder' is not a folder"},
-      {edited(base, grid, grid + "labels: road\n"), "road", 1,
+      {test::edited(base, grid, grid + "labels: road\n"), "road", 1,
        "'labels' must be a non-empty list: expected a list of {name, color: [r, g, b]}, the first "
        "named 'unknown'"},
-      {edited(base, grid, grid + "labels:\n  - {name: road, color: [1, 2, 3]}\n"), "road", 1,
+      {test::edited(base, grid, grid + "labels:\n  - {name: road, color: [1, 2, 3]}\n"), "road", 1,
        "labels[0]: the first class (id 0, no data) must be named 'unknown', got 'road'"},
-      {edited(base, grid, grid + labels_ok + "  - {name: rough, color: [300, 0, 0]}\n"), "[300", 1,
-       "labels[2].color: expected [r, g, b], three integers from 0 to 255"},
-      {edited(base, grid, grid + labels_ok + "  - {name: rough, color: [9, 9]}\n"), "[9, 9]", 1,
-       "labels[2].color: expected [r, g, b], three integers from 0 to 255"},
-      {edited(base, grid, grid + labels_ok + "  - {name: road, color: [9, 9, 9]}\n"), "road", 2,
-       "labels[2]: class 'road' is listed twice"},
-      {edited(base, grid, grid + labels_ok + "  - {name: rough, colour: [9, 9, 9]}\n"), "colour", 1,
-       "unknown key 'colour' in labels[2] (did you mean 'color'?)"},
-      {edited(base, grid, grid + labels_ok + "  - rough\n"), "rough", 1,
+      {test::edited(base, grid, grid + labels_ok + "  - {name: rough, color: [300, 0, 0]}\n"),
+       "[300", 1, "labels[2].color: expected [r, g, b], three integers from 0 to 255"},
+      {test::edited(base, grid, grid + labels_ok + "  - {name: rough, color: [9, 9]}\n"), "[9, 9]",
+       1, "labels[2].color: expected [r, g, b], three integers from 0 to 255"},
+      {test::edited(base, grid, grid + labels_ok + "  - {name: road, color: [9, 9, 9]}\n"), "road",
+       2, "labels[2]: class 'road' is listed twice"},
+      {test::edited(base, grid, grid + labels_ok + "  - {name: rough, colour: [9, 9, 9]}\n"),
+       "colour", 1, "unknown key 'colour' in labels[2] (did you mean 'color'?)"},
+      {test::edited(base, grid, grid + labels_ok + "  - rough\n"), "rough", 1,
        "labels[2]: expected a list of {name, color: [r, g, b]}"},
-      {edited(base, grid, grid + labels_ok + "  - {name: unknown, color: [9, 9, 9]}\n"), "unknown",
-       2, "labels[2]: 'unknown' must be the first class (id 0)"},
-      {edited(base, "  - {name: solve, type: icm}\n", "  - icm\n"), "icm", 1,
+      {test::edited(base, grid, grid + labels_ok + "  - {name: unknown, color: [9, 9, 9]}\n"),
+       "unknown", 2, "labels[2]: 'unknown' must be the first class (id 0)"},
+      {test::edited(base, "  - {name: solve, type: icm}\n", "  - icm\n"), "icm", 1,
        "stages entries must be maps {name, type, params}"},
-      {edited(base, "name: pre, type: eigen_preclass", "name: hdiff, type: eigen_preclass"),
+      {test::edited(base, "name: pre, type: eigen_preclass", "name: hdiff, type: eigen_preclass"),
        "hdiff", 2,
        "stage 'hdiff' (height_difference): duplicate stage name 'hdiff' (give each a unique "
        "name:)"},
@@ -278,8 +253,9 @@ TEST(Config, EachMalformedEntryIsNamedAtItsPlace) {
   for (const Case& c : cases) {
     SCOPED_TRACE(c.message);
     const auto errs = errorsOf(f, c.text);
-    EXPECT_TRUE(contains(errs, "c.yaml:" + positionOf(c.text, c.token, c.nth) + ": " + c.message))
-        << "expected at " << positionOf(c.text, c.token, c.nth) << ":\n"
+    EXPECT_TRUE(
+        contains(errs, "c.yaml:" + test::positionOf(c.text, c.token, c.nth) + ": " + c.message))
+        << "expected at " << test::positionOf(c.text, c.token, c.nth) << ":\n"
         << joined(errs) << "in:\n"
         << c.text;
   }
@@ -296,15 +272,15 @@ TEST(Config, OwnLabelSetIsUsedByTheEnergy) {
   obstacle: {height_diff: {mean: 1.0, sigma: 0.8}}
 )");
   std::string text =
-      edited(test::ConfigFixture::validPipeline(), "model: model.yaml", "model: model5.yaml");
-  text = edited(text, "grid: {size_m: 40, cell_m: 0.5}\n",
-                "grid: {size_m: 40, cell_m: 0.5}\n"
-                "labels:\n"
-                "  - {name: unknown, color: [0, 0, 0]}\n"
-                "  - {name: road, color: [128, 128, 128]}\n"
-                "  - {name: kerb, color: [255, 255, 0]}\n"
-                "  - {name: rough, color: [139, 90, 43]}\n"
-                "  - {name: obstacle, color: [220, 30, 30]}\n");
+      test::edited(test::ConfigFixture::validPipeline(), "model: model.yaml", "model: model5.yaml");
+  text = test::edited(text, "grid: {size_m: 40, cell_m: 0.5}\n",
+                      "grid: {size_m: 40, cell_m: 0.5}\n"
+                      "labels:\n"
+                      "  - {name: unknown, color: [0, 0, 0]}\n"
+                      "  - {name: road, color: [128, 128, 128]}\n"
+                      "  - {name: kerb, color: [255, 255, 0]}\n"
+                      "  - {name: rough, color: [139, 90, 43]}\n"
+                      "  - {name: obstacle, color: [220, 30, 30]}\n");
   LoadOptions lo;
   lo.output_dir = f.dir.str() + "/out";
   Pipeline p = loadPipeline(f.write("c.yaml", text), lo, f.registry);

@@ -244,6 +244,122 @@ optimisers: {icm: {type: icm}}
       << all;
 }
 
+// Each malformed part of a sweep is reported at its place before anything runs. These paths had
+// no test (coverage): one entry per check, each in a sweep that is otherwise the tiny one.
+TEST(SweepDiagnostics, EachMalformedPartIsReportedAtItsPlace) {
+  test::TempDir dir;
+  const std::string base = tinySweep("  icm: {type: icm}");
+  const std::string train = "train: [{dataset: sim_train, frames: [0, 1]}]";
+  const std::string l_set = "  L:\n    extends: L0\n";
+  const std::string energy =
+      "energy: {type: potts_gaussian, params: {alpha: 1.0, beta: 0.8, preclass_layer: preclass}}";
+  const std::string l0_features = "    features: [height_diff, normal_eigenvalue]\n";
+  struct Case {
+    std::string text, token;
+    int nth;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      // split
+      {test::edited(base, "frames: [0, 1]", "frames: [0, x]"), "x]", 1,
+       "frames: expected a frame index >= 0, got 'x'"},
+      {test::edited(base, "frames: [0, 1]", "frames: -1"), "-1", 1,
+       "frames: expected a frame index >= 0, got '-1'"},
+      {test::edited(base, "frames: [0, 1]", "frames: [0, 1, 2]"), "[0, 1, 2]", 1,
+       "frames: expected [first, last] (inclusive frame indices) or one index"},
+      {test::edited(base, "frames: [0, 1]", "frames: [1, 0]"), "[1, 0]", 1,
+       "frames: last (0) is before first (1)"},
+      {test::edited(base, "frames: [0, 1]}", "frames: [0, 1], params: three}"), "three", 1,
+       "split item 'params' must be a map of source parameters"},
+      {test::edited(base, "test: [sim_test]", "test: [[sim_test]]"), "[sim_test]", 1,
+       "split item: expected a dataset name or {dataset, frames, params}"},
+      {test::edited(base, "test: [sim_test]", "test: [{frames: 0}]"), "{frames: 0}", 1,
+       "split item needs 'dataset: <name>' (one of the datasets section)"},
+      {test::edited(base, "test: [sim_test]", "test: [{dataset: sim_test, path: nowhere}]"),
+       "{dataset: sim_test, path", 1, "data folder '" + dir.str() + "/nowhere' does not exist"},
+      {test::edited(base, "split:\n  " + train + "\n  test: [sim_test]\n", "split: three\n"),
+       "three", 1, "'split' must be a map {train: [...], test: [...]}"},
+      {test::edited(base, "  test: [sim_test]\n",
+                    "  test: [sim_test]\n  folds: [[{dataset: sim_train, frames: 0}], []]\n"),
+       "[]]", 1, "split.folds: fold 2 is empty"},
+      // stages and feature sets
+      {test::edited(base, "common_stages:\n  - {name: pre, type: eigen_preclass}",
+                    "common_stages: {name: pre, type: eigen_preclass}"),
+       "{name: pre", 1, "common_stages: expected a list of stage entries {name, type, params}"},
+      {test::edited(base, l_set, "  L: [roughness]\n  L2:\n    extends: L0\n"), "[roughness]", 1,
+       "feature set 'L': expected {stages: [...], features: [...]}"},
+      {test::edited(base, l0_features + "    min_sigma: [0.02, 0.0001]\n", ""),
+       "stages: [{name: hdiff", 1,
+       "feature set 'L0': 'features' must list the feature layers the energy uses"},
+      {test::edited(base, "min_sigma: [0.02, 0.0001]", "min_sigma: [0.02, 0.0001, 0.1]"),
+       "[0.02, 0.0001, 0.1]", 1,
+       "feature set 'L0': min_sigma has 3 values for 2 features (with those of 'extends'); give "
+       "one value, or one per feature"},
+      {test::edited(base, l_set, l_set + "    train: []\n"), "[]", 1,
+       "feature set 'L': 'train' must be a non-empty list of split items"},
+      {test::edited(base, l_set, l_set + "    model: nowhere.yaml\n"), "nowhere.yaml", 1,
+       "feature set 'L': model '" + dir.str() + "/nowhere.yaml' does not exist"},
+      // energy, training, outputs, roc
+      {test::edited(base, energy, "energy: potts_gaussian"), "potts_gaussian", 1,
+       "'energy' must be an entry {name, type, params}"},
+      {test::edited(base, "params: {alpha: 1.0", "params: {model: m.yaml, alpha: 1.0"), "m.yaml", 1,
+       "energy: 'model' is set per feature set by compare; remove it here"},
+      {base + "training: three\n", "three", 1,
+       "'training' must be a map of feature_stats parameters"},
+      {base + "outputs: {type: grid_png}\n", "{type: grid_png}", 1,
+       "'outputs' must be a list of output entries (added to every test run)"},
+      {base + "outputs: [{type: grid_png, params: {subdri: x}}]\n", "subdri", 1,
+       "stage 'grid_png' (grid_png): unknown parameter 'subdri' (did you mean 'subdir'?)"},
+      {base + "outputs: [{type: grid_png, params: three}]\n", "three", 1,
+       "stage 'grid_png' (grid_png): 'params' must be a map of parameter: value"},
+      {base + "roc: three\n", "three", 1, "'roc' must be a map {max_points, fallback}"},
+      {base + "roc: {max_points: one}\n", "one", 1, "roc.max_points: expected an integer >= 2"},
+      {base + "roc: {fallback: maybe}\n", "maybe", 1,
+       "roc.fallback: expected 'local_energy' or 'skip', got 'maybe'"},
+      // select
+      {base + "select: three\n", "three", 1, "'select' must be a map {training: {param: [values]}"},
+      {base + "select: {energy: three}\n", "three", 1,
+       "select.energy: expected a map parameter: [candidate values]"},
+      {base + "select: {stages: three}\n", "three", 1,
+       "select.stages: expected a map stage name: {param: [candidate values]}"},
+      {base + "select: {stages: {rough: three}}\n", "three", 1,
+       "select.stages.rough: expected a map parameter: [candidate values]"},
+      {base + "select: {score: macro_f1}\n", "{score", 1,
+       "select: list candidate values under 'training' (feature_stats parameters), 'energy' "
+       "(energy parameters) or 'stages' (parameters of a feature set's stage)"},
+      {base + "select: {energy: {beta: [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]}, training: "
+              "{components: [1, 2, 3, 4, 5, 6, 7, 8]}}\n",
+       "{energy", 1,
+       "select: the listed values make more than 64 candidates (each is trained and validated per "
+       "feature set); list fewer"},
+      {base + "select: {energy: {beta: [0.4, 0.8]}, tie: 2}\n", "2}", 1,
+       "select.tie: expected a score difference in [0, 1), e.g. 0.001"},
+      {test::edited(base, "  icm: {type: icm}", "  icm: {type: icm}\n  qp: {type: qpbo_solver}") +
+           "select: {energy: {beta: [0.4, 0.8]}, optimiser: qp}\n",
+       "qp}", 1,
+       "select: optimiser 'qp', which scores the candidates, is not installed (plugin type "
+       "'qpbo_solver' is not installed)"},
+      {test::edited(base, "    min_sigma: [0.005]\n",
+                    "    min_sigma: [0.005]\n  M:\n    stages: [{name: hdiff, type: roughness}]\n"
+                    "    features: [roughness]\n") +
+           "select: {stages: {hdiff: {window: [1, 2]}}}\n",
+       "hdiff: {window", 1,
+       "select.stages.hdiff: stage 'hdiff' is a height_difference in feature set 'L0' and a "
+       "roughness in 'M'; candidate values need one type"},
+  };
+  int k = 0;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.message);
+    const std::string sweep = put(dir, "bad" + std::to_string(k++) + ".yaml", c.text);
+    const std::string all = expectConfigError(sweep).what();
+    const std::string at = test::positionOf(c.text, c.token, c.nth);
+    EXPECT_NE(all.find(sweep + ":" + at + ": " + c.message), std::string::npos)
+        << "expected at " << at << ":\n"
+        << all << "\nin:\n"
+        << c.text;
+  }
+}
+
 TEST(SweepDiagnostics, UnknownStageParameterPointsIntoTheSweep) {
   test::TempDir dir;
   const std::string sweep = put(dir, "bad2.yaml",
