@@ -236,19 +236,6 @@ RocFrameStats RocAccumulator::addFrame(const TerrainGrid& grid, const Frame& fra
   return st;
 }
 
-RocAccumulator& RocAccumulator::operator+=(const RocAccumulator& o) {
-  if (o.samples_.size() != samples_.size())
-    throw std::invalid_argument("ROC accumulators of different label sets cannot be added");
-  for (std::size_t c = 0; c < samples_.size(); ++c)
-    samples_[c].insert(samples_[c].end(), o.samples_[c].begin(), o.samples_[c].end());
-  frames_with_layers += o.frames_with_layers;
-  frames_with_energy_fallback += o.frames_with_energy_fallback;
-  frames_without_scores += o.frames_without_scores;
-  cells_scored += o.cells_scored;
-  cells_without_score += o.cells_without_score;
-  return *this;
-}
-
 namespace {
 
 struct Group {

@@ -235,6 +235,7 @@ struct TrainJob {
   std::vector<std::string> features;
   YAML::Node stats_params;  ///< extra feature_stats params (min_sigma, min_purity, …)
   YAML::Mark features_mark;
+  bool features_from_command_line = false;  ///< `train --features`: no place in the file
   std::string model_path;
   std::string run_root;  ///< per-item run folders (resolved_config.yaml) and scratch files
   std::string origin;    ///< "config <path>" / "sweep <path>, feature set L"

@@ -207,8 +207,9 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
         if (w[0] != '@') have += (have.empty() ? "" : ", ") + w;
       Diags fd;
       fd.file = f0.file;
-      fd.add(job.features_mark, "feature '" + f + "' is not written by any stage (written: " +
-                                    (have.empty() ? "none" : have) + ")");
+      fd.add(job.features_mark,
+             (job.features_from_command_line ? "--features: feature '" : "feature '") + f +
+                 "' is not written by any stage (written: " + (have.empty() ? "none" : have) + ")");
       fd.throwIfAny();
     }
     RunResult rr;
@@ -358,7 +359,8 @@ TrainResult trainModel(const TrainOptions& o) {
   }
   if (!o.features.empty()) {
     job.features = o.features;
-    job.features_mark = root.Mark();
+    job.features_mark = YAML::Mark::null_mark();
+    job.features_from_command_line = true;
     if (stats_params["min_sigma"] && stats_params["min_sigma"].IsSequence() &&
         stats_params["min_sigma"].size() != job.features.size() && fs_features != job.features) {
       log << "note: the config's feature_stats min_sigma list is for its own features; using the "

@@ -89,8 +89,6 @@ class RocAccumulator {
   /// localEnergyScores, else nothing (stats.source = kNone).
   RocFrameStats addFrame(const TerrainGrid& grid, const Frame& frame, const EnergyModel* energy);
 
-  RocAccumulator& operator+=(const RocAccumulator& o);
-
   /// Curve of class `c`. `max_points` > 0 thins the stored points (never the AUC).
   RocCurve curve(LabelId c, std::size_t max_points = 0) const;
   /// Curves of every class that received samples, in id order.

@@ -611,6 +611,43 @@ TEST(SweepRun, AFeatureSetsEnergyParametersApplyToItsRunsAndToTheSetsThatExtendI
   }
 }
 
+// A feature set may bring a model learnt elsewhere: its runs use that file as it is, and no
+// training happens for it (the other set is still trained).
+TEST(SweepRun, AModelGivenInTheSweepIsUsedAndNotTrained) {
+  test::TempDir dir;
+  const std::string model = test::sourceDir() + "/configs/models/laser_simulator.yaml";
+  std::string text = test::edited(tinySweep("  icm: {type: icm}"), "    min_sigma: [0.005]\n",
+                                  "    min_sigma: [0.005]\n    model: " + model + "\n");
+  const std::string sweep = put(dir, "given.yaml", text);
+  std::ostringstream log;
+  const std::string out = dir.str() + "/out";
+  const SweepResult r = runQuiet(sweep, out, log);
+  ASSERT_EQ(r.exitCode(), 0) << log.str();
+  ASSERT_EQ(r.models.size(), 2u);
+  for (const ModelRecord& m : r.models) {
+    SCOPED_TRACE(m.feature_set);
+    if (m.feature_set == "L") {
+      EXPECT_FALSE(m.trained);
+      EXPECT_EQ(m.path, model);
+      EXPECT_EQ(m.reason, "given in the sweep");
+      EXPECT_EQ(m.frames, 0u);
+    } else {
+      EXPECT_TRUE(m.trained);
+      EXPECT_EQ(m.frames, 2u);
+    }
+  }
+  for (const auto& x : r.runs) {
+    SCOPED_TRACE(x.feature_set);
+    ASSERT_EQ(x.status, RunRecord::Status::kOk) << x.reason;
+    const std::string resolved =
+        readFile(out + "/runs/sim_test__" + x.feature_set + "__icm/resolved_config.yaml");
+    EXPECT_EQ(resolved.find(model) != std::string::npos, x.feature_set == "L") << resolved;
+  }
+  const std::string summary = readFile(out + "/summary.md");
+  EXPECT_NE(summary.find("| L | " + model + " | given in the sweep |"), std::string::npos)
+      << summary;
+}
+
 TEST(SweepDiagnostics, AFeatureSetsEnergyParametersAreCheckedAtTheirPlace) {
   test::TempDir dir;
   std::string text = tinySweep("  icm: {type: icm}");
@@ -1343,6 +1380,30 @@ TrainOptions quietTraining(const std::string& config, test::TempDir& dir, std::o
   o.plugin_dirs = {test::pluginDir()};
   o.log = &log;
   return o;
+}
+
+// --features comes from the command line: a feature no stage writes is named as such, not at a
+// place in the config it never came from, and nothing is written.
+TEST(Train, AFeatureOfTheCommandLineThatNoStageWritesIsAnError) {
+  test::TempDir dir;
+  std::ostringstream log;
+  const std::string config = oneFeatureTrainConfig(dir, "");
+  TrainOptions o = quietTraining(config, dir, log);
+  o.features = {"height_diff", "nope"};
+  try {
+    trainModel(o);
+    FAIL() << "trained with a feature no stage writes";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()).find(config + ": --features: feature 'nope' is not written by "
+                                                  "any stage (written: height_diff)"),
+              0u)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(o.model_out));
+  // The same features from the file keep their place there.
+  o.features = {"height_diff"};
+  trainModel(o);
+  EXPECT_TRUE(fs::exists(o.model_out));
 }
 
 TEST(Train, WithoutASplitTheModelSaysNothingIsHeldOut) {
