@@ -83,6 +83,54 @@ TEST(Pipeline, BadFrameIsReportedAndSkipped) {
   EXPECT_EQ(r.exitCode(), 3);
 }
 
+namespace {
+/// An output whose end() fails, or that counts what it saw.
+struct ProbeOutput : Output {
+  bool fail_at_end = false;
+  int* frames = nullptr;
+  bool* ended = nullptr;
+  void write(const FrameContext&) override { ++*frames; }
+  void end(const RunSummary&) override {
+    if (fail_at_end) throw std::runtime_error("disk full while writing summary.json");
+    *ended = true;
+  }
+};
+}  // namespace
+
+// An output that fails at the end costs the run its exit status, not the other outputs' ends,
+// and says which output failed and why.
+TEST(Pipeline, AnOutputFailingAtTheEndIsReportedAndTheOthersStillEnd) {
+  test::ConfigFixture f;
+  Pipeline p = f.loadSynthetic("{frames: 2}");
+  int frames_a = 0, frames_b = 0;
+  bool ended_a = false, ended_b = false;
+  auto probe = [&](const char* name, bool fail, int* frames, bool* ended) {
+    auto o = std::make_unique<ProbeOutput>();
+    o->setIdentity(name, "probe");
+    o->fail_at_end = fail;
+    o->frames = frames;
+    o->ended = ended;
+    p.outputs.emplace_back(std::move(o));
+  };
+  probe("first", true, &frames_a, &ended_a);
+  probe("second", false, &frames_b, &ended_b);
+  std::ostringstream log;
+  RunOptions ro;
+  ro.progress = false;
+  ro.log = &log;
+  const RunResult r = runPipeline(p, ro);
+  EXPECT_EQ(r.summary.frames_ok, 2u);
+  EXPECT_EQ(frames_a, 2);
+  EXPECT_EQ(frames_b, 2);
+  EXPECT_FALSE(ended_a);
+  EXPECT_TRUE(ended_b);
+  ASSERT_EQ(r.output_errors.size(), 1u);
+  EXPECT_EQ(r.output_errors[0], "output 'first': disk full while writing summary.json");
+  EXPECT_NE(log.str().find("output 'first' failed at the end: disk full"), std::string::npos)
+      << log.str();
+  EXPECT_EQ(r.exitCode(), 4);
+}
+
 TEST(Pipeline, EmptyScanGivesAllUnknownGrid) {
   test::ConfigFixture f;
   LoadOptions lo;
