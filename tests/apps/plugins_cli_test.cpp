@@ -143,3 +143,38 @@ TEST(RunCli, BadArgumentsAreUsageErrorsAndRunNothing) {
 }
 
 }  // namespace terramrf
+
+namespace terramrf {
+
+// `mesh` on a config that lists no textured_mesh output adds one with its defaults; an output
+// folder that cannot be made is an error before anything runs.
+TEST(MeshCli, AddsTheMeshOutputAndRefusesAFolderThatIsAFile) {
+  test::TempDir dir;
+  const std::string config = dir.str() + "/c.yaml";
+  std::ofstream(config) << "version: 1\n"
+                           "grid: {size_m: 30, cell_m: 0.5}\n"
+                           "source: {type: simulator, params: {frames: 1, azimuth_step_deg: 0.4}}\n"
+                           "stages:\n"
+                           "  - {name: hdiff, type: height_difference}\n"
+                           "outputs: []\n";
+  const std::string out = dir.str() + "/out";
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  const int rc = cli::cmdMesh({config, "--out", out, "--no-progress"});
+  const std::string said = testing::internal::GetCapturedStdout();
+  testing::internal::GetCapturedStderr();
+  EXPECT_EQ(rc, cli::kOk) << said;
+  EXPECT_TRUE(std::filesystem::exists(out + "/mesh/terrain.obj")) << said;
+  EXPECT_NE(said.find("mesh: " + out + "/mesh (report.md)"), std::string::npos) << said;
+
+  const std::string file = dir.str() + "/a_file";
+  std::ofstream(file) << "x";
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(cli::cmdMesh({config, "--out", file, "--no-progress"}), cli::kError);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("terramrf mesh: output folder '" + file + "' cannot be created"),
+            std::string::npos)
+      << err;
+}
+
+}  // namespace terramrf
