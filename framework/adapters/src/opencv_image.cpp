@@ -27,6 +27,28 @@ bool jpegIsCutShort(const std::vector<uchar>& bytes) {
     if (bytes[i - 1] == 0xFF && bytes[i] == 0xD9) return false;
   return true;
 }
+
+/// "16-bit unsigned" for CV_16U: OpenCV's depth codes alone mean nothing to whoever made the file.
+std::string depthName(int depth) {
+  switch (depth) {
+    case CV_8S:
+      return "8-bit signed";
+    case CV_16U:
+      return "16-bit unsigned";
+    case CV_16S:
+      return "16-bit signed";
+    case CV_32S:
+      return "32-bit signed";
+    case CV_32F:
+      return "32-bit float";
+    case CV_64F:
+      return "64-bit float";
+    case CV_16F:
+      return "16-bit float";
+    default:
+      return "non-8-bit";
+  }
+}
 }  // namespace
 
 Image readImage(const std::string& path) {
@@ -48,13 +70,16 @@ Image readImage(const std::string& path) {
   }
   if (m.empty()) throw InputError(path, "not a readable image (expected PNG/JPEG)");
   if (m.depth() != CV_8U) {
-    throw InputError(path, "expected an 8-bit image, got depth code " + std::to_string(m.depth()));
+    throw InputError(path, "expected an 8-bit image, got " + depthName(m.depth()) +
+                               " samples (OpenCV depth code " + std::to_string(m.depth()) + ")");
   }
   cv::Mat out;
   if (m.channels() == 1) out = m;
   else if (m.channels() == 3) cv::cvtColor(m, out, cv::COLOR_BGR2RGB);
   else if (m.channels() == 4) cv::cvtColor(m, out, cv::COLOR_BGRA2RGB);
-  else throw InputError(path, "unsupported channel count " + std::to_string(m.channels()));
+  else
+    throw InputError(path, "unsupported channel count " + std::to_string(m.channels()) +
+                               "; expected 1 (grey), 3 (colour) or 4 (colour and alpha)");
   Image img(out.cols, out.rows, out.channels());
   for (int r = 0; r < out.rows; ++r)
     std::memcpy(img.data.data() + std::size_t(r) * out.cols * out.channels(), out.ptr(r),

@@ -424,6 +424,11 @@ KittiLayout resolveKittiLayout(const std::string& path, const std::string& seque
     std::string list;
     for (const auto& s : seqs) list += (list.empty() ? "" : ", ") + s;
     if (sequence.empty()) {
+      // An empty sequences/ folder is not "several sequences ()".
+      if (seqs.empty())
+        throw ParamError("path", "'" + path +
+                                     "' has an empty sequences/ folder; expected "
+                                     "sequences/NN/velodyne/");
       if (seqs.size() != 1)
         throw ParamError("sequence", "'" + path + "' holds several sequences (" + list +
                                          "); set 'sequence' to one of them");

@@ -1,10 +1,8 @@
 // Source plugin "pointcloud_file": PCD and PLY clouds through PCL, one file or a folder of them.
 // Optional per-point fields "intensity", "ring" and "label" are used when present.
 #include <pcl/PCLPointCloud2.h>
-#include <pcl/conversions.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
-#include <pcl/point_types.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -255,24 +253,27 @@ class PointCloudFileSource : public Source {
                                               : " (" + why + ")") +
                                  "; expected a point cloud with x, y, z fields");
     }
-    if (!findField(c2, "x") || !findField(c2, "y") || !findField(c2, "z"))
-      throw InputError(file, "has no x, y, z fields");
+    const auto* f_x = findField(c2, "x");
+    const auto* f_y = findField(c2, "y");
+    const auto* f_z = findField(c2, "z");
+    if (!f_x || !f_y || !f_z) {
+      std::string names;
+      for (const auto& fld : c2.fields) names += (names.empty() ? "" : ", ") + fld.name;
+      throw InputError(file, "has no x, y, z fields (it has: " + names +
+                                 "); expected a point cloud with x, y, z fields");
+    }
     const std::size_t n = std::size_t(c2.width) * c2.height;
-    if (c2.data.size() < (c2.height ? std::size_t(c2.height - 1) * c2.row_step : 0) +
-                             std::size_t(c2.width) * c2.point_step)
-      throw InputError(file, "point data shorter than its header says");
+    const std::size_t needed = (c2.height ? std::size_t(c2.height - 1) * c2.row_step : 0) +
+                               std::size_t(c2.width) * c2.point_step;
+    if (c2.data.size() < needed)
+      throw InputError(
+          file, "point data shorter than its header says: " + std::to_string(c2.data.size()) +
+                    " bytes, expected " + std::to_string(needed) + " for " +
+                    std::to_string(c2.width) + " x " + std::to_string(c2.height) + " points");
 
     const auto* f_int = findField(c2, "intensity");
     const auto* f_ring = findField(c2, "ring");
     const auto* f_label = use_labels_ ? findField(c2, "label") : nullptr;
-    pcl::PointCloud<pcl::PointXYZI> xyzi;
-    pcl::PointCloud<pcl::PointXYZ> xyz;
-    // PCL 1.13's conversion takes &cloud[0] of the empty vector for a cloud of no points (UBSan:
-    // reference binding to null; found by fuzzing): an empty file is an empty frame.
-    if (n > 0 && f_int)
-      pcl::fromPCLPointCloud2(c2, xyzi);
-    else if (n > 0)
-      pcl::fromPCLPointCloud2(c2, xyz);
 
     Frame f;
     f.id = frameId(i);
@@ -281,9 +282,12 @@ class PointCloudFileSource : public Source {
     if (f_ring) f.points.ring.clear();
     std::size_t nonfinite = 0, origin = 0;
     for (std::size_t k = 0; k < n; ++k) {
-      const float x = f_int ? xyzi[k].x : xyz[k].x, y = f_int ? xyzi[k].y : xyz[k].y,
-                  z = f_int ? xyzi[k].z : xyz[k].z;
-      const float in = f_int ? xyzi[k].intensity : 0.f;
+      // Every field is read by its stored type. PCL's fromPCLPointCloud2 left x, y, z and
+      // intensity at 0 when they were not float32 (only a "Failed to find match" warning), so a
+      // cloud of float64 coordinates read as points at the origin, dropped as no-returns.
+      const float x = float(fieldValue(c2, *f_x, k)), y = float(fieldValue(c2, *f_y, k)),
+                  z = float(fieldValue(c2, *f_z, k));
+      const float in = f_int ? float(fieldValue(c2, *f_int, k)) : 0.f;
       if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(in)) {
         ++nonfinite;
         continue;

@@ -6,6 +6,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "terramrf/errors.hpp"
 #include "test_support.hpp"
@@ -94,6 +96,62 @@ TEST(OpenCvImage, DamagedOrMissingFilesNameTheFile) {
   const std::string dir = d.str() + "/folder.png";
   fs::create_directory(dir);
   EXPECT_NE(errorOf(dir).find(dir + ":"), std::string::npos) << errorOf(dir);
+}
+
+// Features read 8-bit samples: a 16-bit PNG (a depth map, a raw label export) is refused with
+// its depth in words, not an OpenCV depth code alone.
+TEST(OpenCvImage, SixteenBitImageIsRefusedNamingItsDepth) {
+  test::TempDir d;
+  const std::string p = d.str() + "/deep.png";
+  ASSERT_TRUE(cv::imwrite(p, cv::Mat(4, 6, CV_16UC1, cv::Scalar(1000))));
+  const std::string err = errorOf(p);
+  EXPECT_NE(err.find(p + ": expected an 8-bit image, got 16-bit unsigned samples"),
+            std::string::npos)
+      << err;
+}
+
+// A PNG with alpha (RGBA, or grey + alpha, which OpenCV expands to four channels) is read as RGB
+// without the alpha; nothing else is lost.
+TEST(OpenCvImage, AlphaIsDroppedFromFourChannelPngs) {
+  test::TempDir d;
+  const std::string rgba = d.str() + "/rgba.png";
+  cv::Mat m(2, 3, CV_8UC4, cv::Scalar(30, 20, 10, 128));  // B, G, R, A
+  m.at<cv::Vec4b>(1, 2) = cv::Vec4b(1, 2, 3, 0);
+  ASSERT_TRUE(cv::imwrite(rgba, m));
+  const Image img = readImage(rgba);
+  ASSERT_EQ(img.channels, 3);
+  ASSERT_EQ(img.width, 3);
+  ASSERT_EQ(img.height, 2);
+  EXPECT_EQ(img.at(0, 0)[0], 10);  // R
+  EXPECT_EQ(img.at(0, 0)[2], 30);  // B
+  EXPECT_EQ(img.at(2, 1)[0], 3);   // fully transparent: the colour is kept all the same
+  EXPECT_EQ(img.at(2, 1)[2], 1);
+  // Grey + alpha, 2 x 1 (grey 10, alpha 255; grey 200, alpha 128), written by hand: OpenCV
+  // writes no such PNG.
+  const std::string ga = d.str() + "/grey_alpha.png";
+  put(ga, std::string("\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x00\x02\x00\x00\x00\x01"
+                      "\x08\x04\x00\x00\x00\x5e\x2b\xb7\x01\x00\x00\x00\x0dIDAT\x78\x9c\x63"
+                      "\xe0\xfa\x7f\xa2\x01\x00\x05\x3a\x02\x52\xf1\xb0\xca\x32\x00\x00\x00"
+                      "\x00IEND\xae\x42\x60\x82",
+                      70));
+  const Image g = readImage(ga);
+  ASSERT_EQ(g.channels, 3);
+  ASSERT_EQ(g.width, 2);
+  EXPECT_EQ(g.data, (std::vector<uint8_t>{10, 10, 10, 200, 200, 200}));
+}
+
+// No PNG decodes to two channels (OpenCV expands grey + alpha to four), but a PAM with a
+// GRAYSCALE_ALPHA tuple does, whatever the file is called: refused with the count found and
+// the counts expected.
+TEST(OpenCvImage, TwoChannelImageIsRefusedWithItsChannelCount) {
+  test::TempDir d;
+  const std::string p = d.str() + "/grey_alpha.png";
+  put(p, std::string("P7\nWIDTH 2\nHEIGHT 1\nDEPTH 2\nMAXVAL 255\nTUPLTYPE GRAYSCALE_ALPHA\n"
+                     "ENDHDR\n\x0a\xff\xc8\x80"));
+  const std::string err = errorOf(p);
+  EXPECT_NE(err.find(p + ": unsupported channel count 2; expected 1 (grey), 3 (colour) or 4"),
+            std::string::npos)
+      << err;
 }
 
 }  // namespace

@@ -481,6 +481,77 @@ TEST(KittiLayout, ResolvesEveryKittiFolderOfTheData) {
   EXPECT_THROW(resolveKittiLayout(test::dataPath("rellis3d_example_000104"), ""), ParamError);
 }
 
+// rings/<id>.bin (written by the simulator) must hold one uint16 per point of the scan as stored,
+// dropped points included; otherwise every ring after the gap would belong to another point.
+TEST(KittiRings, RingFileOfTheWrongSizeNamesBothFilesAndCounts) {
+  test::TempDir dir;
+  const std::string bin = dir.str() + "/s.bin", rings = dir.str() + "/s.rings";
+  test::writeScan(bin, std::vector<float>(4 * 3, 1.f));
+  PointCloud c;
+  const ScanReadInfo info = readKittiScan(bin, c);
+  const uint16_t two[] = {0, 1};
+  for (const std::size_t bytes : {sizeof two, std::size_t(5)}) {  // 2 rings; an odd byte count
+    test::writeBytes(rings, two, bytes);
+    try {
+      readKittiRings(rings, bin, info, c);
+      ADD_FAILURE() << "accepted a ring file of " << bytes << " bytes for 3 points";
+    } catch (const InputError& e) {
+      const std::string w = e.what();
+      EXPECT_EQ(e.file(), rings);
+      EXPECT_NE(w.find("has " + std::to_string(bytes) + " bytes"), std::string::npos) << w;
+      EXPECT_NE(w.find("the scan " + bin + " has 3 points"), std::string::npos) << w;
+      EXPECT_NE(w.find("expected one uint16 per point"), std::string::npos) << w;
+    }
+  }
+  // The right size reads.
+  const uint16_t three[] = {5, 6, 7};
+  test::writeBytes(rings, three, sizeof three);
+  readKittiRings(rings, bin, info, c);
+  EXPECT_EQ(c.ring, (std::vector<uint16_t>{5, 6, 7}));
+}
+
+// A dataset root with sequences/NN/ folders: which one to read must be said when there are
+// several; a chosen sequence without velodyne/, or an empty sequences/, is named as such.
+TEST(KittiLayout, DatasetRootErrorsNameTheFolderAndWhatIsExpected) {
+  test::TempDir dir;
+  const std::string root = dir.str();
+  std::filesystem::create_directories(root + "/sequences");
+  try {
+    resolveKittiLayout(root, "");
+    ADD_FAILURE() << "accepted an empty sequences/ folder";
+  } catch (const ParamError& e) {
+    EXPECT_EQ(e.param(), "path");
+    EXPECT_NE(std::string(e.what()).find("'" + root +
+                                         "' has an empty sequences/ folder; expected "
+                                         "sequences/NN/velodyne/"),
+              std::string::npos)
+        << e.what();
+  }
+  std::filesystem::create_directories(root + "/sequences/00/velodyne");
+  std::filesystem::create_directories(root + "/sequences/01");  // no velodyne/
+  try {
+    resolveKittiLayout(root, "");
+    ADD_FAILURE() << "picked one of two sequences";
+  } catch (const ParamError& e) {
+    EXPECT_EQ(e.param(), "sequence");
+    EXPECT_NE(std::string(e.what()).find("'" + root +
+                                         "' holds several sequences (00, 01); set "
+                                         "'sequence' to one of them"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(resolveKittiLayout(root, "00").root, root + "/sequences/00");
+  try {
+    resolveKittiLayout(root, "1");  // "1" means "01"
+    ADD_FAILURE() << "accepted a sequence without velodyne/";
+  } catch (const ParamError& e) {
+    EXPECT_EQ(e.param(), "path");
+    EXPECT_NE(std::string(e.what()).find("'" + root + "/sequences/01' has no velodyne/ folder"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(KittiScan, ReadTimeOfAFullScanWithLabels) {
   const std::string bin = seqFile("velodyne/000000.bin"), lab = seqFile("labels/000000.label");
   const LabelMap map = skMap();

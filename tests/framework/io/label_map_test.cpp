@@ -118,6 +118,20 @@ TEST(LabelMap, RejectsBadFiles) {
       EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos) << e.what();
     }
   }
+  // A bare id (brackets forgotten) or a map is not a list of ids: refused, naming the class and
+  // the form expected.
+  for (const char* text : {"classes: {road: 40}\n", "classes: {road: {40: x}}\n"}) {
+    try {
+      LabelMap::load(write("n.yaml", text), ls);
+      ADD_FAILURE() << "accepted " << text;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), dir.str() + "/n.yaml");
+      EXPECT_NE(
+          std::string(e.what()).find("class 'road': expected a list of raw ids, e.g. [40, 44]"),
+          std::string::npos)
+          << e.what();
+    }
+  }
   // Listing an id twice under the same class is harmless.
   const LabelMap ok =
       LabelMap::load(write("h.yaml", "classes: {road: [5, 5], rough: [70000]}"), ls);

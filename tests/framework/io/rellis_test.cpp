@@ -170,6 +170,22 @@ TEST(Rellis, CalibrationErrorsNameTheFile) {
           << e.what();
     }
   }
+  // A component missing or not a number: yaml-cpp's own error, wrapped with the file, the line
+  // and what each of q and t needs.
+  for (const char* bad : {"{q: {w: 1, x: 0, y: 0}, t: {x: 0, y: 0, z: 0}}",
+                          "{q: {w: 1, x: 0, y: 0, z: 0}, t: {x: 0, y: one, z: 0}}",
+                          "{q: {w: 1, x: 0, y: 0, z: 0}, t: [0, 0, 0]}"}) {
+    std::ofstream(tf) << "os1_cloud_node-pylon_camera_node: " << bad << "\n";
+    try {
+      readRellisCameraFromLidar(tf);
+      ADD_FAILURE() << "accepted " << bad;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), tf);
+      EXPECT_NE(std::string(e.what()).find("q needs w, x, y, z and t needs x, y, z numbers"),
+                std::string::npos)
+          << e.what();
+    }
+  }
   std::ofstream(tf) << "os1_cloud_node-pylon_camera_node: [1, 2]\n";
   try {
     readRellisCameraFromLidar(tf);

@@ -172,6 +172,19 @@ TEST(PottsGaussian, BadMixturesNameTheFileAndLine) {
              " {weight: 1, features: {f: {mean: 0, sigma: 1}}}]}\n",
              "component weight must be > 0"},
         Case{"  obstacle: {components: []}\n", "expected a list of {weight, features}"},
+        // A class whose value is not a map of features (a list, a number).
+        Case{"  obstacle: [2, 1]\n",
+             "bad.yaml:4:13: class 'obstacle' must map features to {mean, sigma}"},
+        Case{"  obstacle: 2\n",
+             "bad.yaml:4:13: class 'obstacle' must map features to {mean, sigma}"},
+        // A component without a weight, or one that is not a number.
+        Case{"  obstacle: {components: [{features: {f: {mean: 0, sigma: 1}}}]}\n",
+             "bad.yaml:4:27: obstacle.components: each needs 'weight: <number > 0>'"},
+        Case{"  obstacle: {components: [{weight: half, features: {f: {mean: 0, sigma: 1}}}]}\n",
+             "bad.yaml:4:27: obstacle.components: each needs 'weight: <number > 0>'"},
+        // A component without features.
+        Case{"  obstacle: {components: [{weight: 1}]}\n",
+             "bad.yaml:4:27: obstacle.components: each needs 'features:'"},
         // A repeated class would be ignored: the second road's statistics never used.
         Case{"  obstacle: {f: {mean: 2, sigma: 1}}\n  road: {f: {mean: 5, sigma: 1}}\n",
              "bad.yaml: line 5:3: duplicate key 'road' (first at line 2)"},
@@ -192,6 +205,45 @@ TEST(PottsGaussian, BadMixturesNameTheFileAndLine) {
       EXPECT_NE(what.find("bad.yaml"), std::string::npos) << what;
     }
   }
+}
+
+// `classes` names the labels the optimiser may assign: each must be a class of the label set
+// (not 'unknown', which marks cells without data) and have an entry in the model.
+TEST(PottsGaussian, ClassesOutsideTheLabelSetOrTheModelAreNamed) {
+  test::TempDir d;
+  test::StageHarness h;
+  const std::string m = writeModel(d);
+  struct Case {
+    std::string classes, expect;
+  };
+  for (const Case& c :
+       {Case{"[road, grass]",
+             "parameter 'classes': 'grass' is not a class of the label set (or is 'unknown')"},
+        Case{"[unknown, road]",
+             "parameter 'classes': 'unknown' is not a class of the label set (or is 'unknown')"}}) {
+    try {
+      h.make("potts_gaussian", "{model: " + m + ", features: [f], classes: " + c.classes + "}");
+      ADD_FAILURE() << "accepted classes " << c.classes;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos) << e.what();
+    }
+  }
+  // A class of the label set the model was not trained for.
+  const std::string two = d.str() + "/two.yaml";
+  std::ofstream(two)
+      << "classes:\n  road: {f: {mean: 0, sigma: 1}}\n  rough: {f: {mean: 1, sigma: 1}}\n";
+  try {
+    h.make("potts_gaussian", "{model: " + two + ", features: [f]}");
+    FAIL() << "accepted a model without obstacle";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("parameter 'model': " + two +
+                                         " has no entry for class 'obstacle'"),
+              std::string::npos)
+        << e.what();
+  }
+  // Listing only the classes the model has works.
+  EXPECT_NO_THROW(
+      h.make("potts_gaussian", "{model: " + two + ", features: [f], classes: [road, rough]}"));
 }
 
 TEST(PottsGaussian, AFileThatIsNoModelNamesTheFile) {

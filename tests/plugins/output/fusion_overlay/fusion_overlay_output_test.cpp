@@ -116,6 +116,20 @@ TEST(FusionOverlay, NeedsFusedPixels) {
   EXPECT_FALSE(fs::exists(other.png()));
 }
 
+// An empty subdir would put the overlays loose in the run's output folder.
+TEST(FusionOverlay, RejectsEmptySubdirNamingTheParameter) {
+  Fixture fx;
+  try {
+    fx.output("{subdir: ''}");
+    FAIL() << "accepted an empty subdir";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "parameter 'subdir': is empty; expected a folder name such as 'fusion'"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(FusionOverlay, RejectsAbsoluteSubdir) {
   Fixture fx;
   EXPECT_THROW(fx.output("{subdir: /tmp/x}"), std::runtime_error);

@@ -100,6 +100,20 @@ TEST_F(GridCsvTest, MissingLayerAndBadParams) {
   EXPECT_THROW(test::makeOutput("grid_csv", "{subdir: /abs}", pctx()), std::exception);
 }
 
+// An empty subdir would write the tables straight into the run's output folder, beside the other
+// outputs' files: refused, naming the parameter and what it expects.
+TEST_F(GridCsvTest, EmptySubdirIsRefusedNamingTheParameter) {
+  try {
+    test::makeOutput("grid_csv", "{subdir: ''}", pctx());
+    FAIL() << "accepted an empty subdir";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "parameter 'subdir': is empty; expected a folder name such as 'grid_csv'"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 // Cell (3,0) holds one road and one obstacle point: obstacle by the one-point rule although the
 // cell is labelled obstacle either way; the point outside the grid counts nowhere.
 TEST_F(GridCsvTest, TruthColumnsFollowTheEvaluationRule) {

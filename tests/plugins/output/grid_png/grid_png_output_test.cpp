@@ -99,6 +99,21 @@ TEST_F(GridPngTest, PixelsPerCellScalesTheImage) {
   EXPECT_THROW(test::makeOutput("grid_png", "{subdir: ''}", pctx()), std::exception);
 }
 
+// An absolute subdir would write outside the run's output folder: refused, naming it.
+TEST_F(GridPngTest, AbsoluteSubdirIsRefusedNamingIt) {
+  test::TempDir elsewhere;
+  try {
+    test::makeOutput("grid_png", "{subdir: " + elsewhere.str() + "}", pctx());
+    FAIL() << "accepted an absolute subdir";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("parameter 'subdir': '" + elsewhere.str() +
+                                         "' is absolute; expected a folder relative to the "
+                                         "run's output folder"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST_F(GridPngTest, CameraImagesAreWrittenBesideTheGrid) {
   auto img = std::make_shared<Image>(5, 3, 3);
   img->at(4, 2)[0] = 200;

@@ -240,6 +240,115 @@ TEST_F(PointCloudFileTest, ADamagedPcdHeaderIsRefusedBeforePclReadsIt) {
   }
 }
 
+// Fields of any PCD type are read by value. PCL's conversion used to leave x, y, z and intensity
+// at 0 unless they were float32, so this file read as two points at the origin, both dropped.
+TEST_F(PointCloudFileTest, FieldsOfEveryStoredTypeAreReadByValue) {
+  test::TempDir dir;
+  const std::string p = dir.str() + "/typed.pcd";
+  std::ofstream(p) << "VERSION 0.7\nFIELDS x y z intensity ring label\nSIZE 8 8 8 1 2 4\n"
+                      "TYPE F F F U I I\nCOUNT 1 1 1 1 1 1\nWIDTH 2\nHEIGHT 1\n"
+                      "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\nDATA ascii\n"
+                      "1.5 -2.25 3.125 200 7 40\n"
+                      "-4 5 -1 17 -3 70\n";  // ring −3: not a ring, kept as unknown
+  const Frame f = make("{path: " + p + ", label_map: " + skMap() + "}")->read(0);
+  ASSERT_EQ(f.points.size(), 2u);
+  EXPECT_EQ(f.dropped_no_return_points, 0u);
+  EXPECT_EQ(f.points.x, (std::vector<float>{1.5f, -4.f}));
+  EXPECT_EQ(f.points.y, (std::vector<float>{-2.25f, 5.f}));
+  EXPECT_EQ(f.points.z, (std::vector<float>{3.125f, -1.f}));
+  EXPECT_EQ(f.points.intensity, (std::vector<float>{200.f, 17.f}));
+  EXPECT_EQ(f.points.ring, (std::vector<uint16_t>{7, kUnknownRing}));
+  EXPECT_EQ(f.truth.raw, (std::vector<uint32_t>{40, 70}));
+  EXPECT_EQ(f.truth.label, (std::vector<LabelId>{labels::kRoad, labels::kObstacle}));
+
+  // The remaining integer types: int8 intensity, uint16 ring, uint8 label (project class ids).
+  std::ofstream(p) << "VERSION 0.7\nFIELDS x y z intensity ring label\nSIZE 4 4 4 1 2 1\n"
+                      "TYPE F F F I U U\nCOUNT 1 1 1 1 1 1\nWIDTH 1\nHEIGHT 1\n"
+                      "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n"
+                      "1 2 3 -5 63 3\n";
+  const Frame g = make("{path: " + p + "}")->read(0);
+  ASSERT_EQ(g.points.size(), 1u);
+  EXPECT_EQ(g.points.intensity[0], -5.f);
+  EXPECT_EQ(g.points.ring[0], 63);
+  EXPECT_EQ(g.truth.label, (std::vector<LabelId>{labels::kObstacle}));
+}
+
+TEST_F(PointCloudFileTest, NegativeLabelNamesFilePointAndExpectation) {
+  test::TempDir dir;
+  const std::string p = dir.str() + "/neg.pcd";
+  std::ofstream(p) << "VERSION 0.7\nFIELDS x y z label\nSIZE 4 4 4 4\nTYPE F F F I\n"
+                      "COUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n"
+                      "DATA ascii\n1 1 1 2\n2 2 2 -1\n";
+  try {
+    make("{path: " + p + "}")->read(0);
+    FAIL() << "accepted a negative label";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), p);
+    EXPECT_NE(std::string(e.what()).find("point 1 has label -1"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("expected a non-negative integer id"), std::string::npos)
+        << e.what();
+  }
+  // Without use_labels the field is not read at all.
+  EXPECT_EQ(make("{path: " + p + ", use_labels: false}")->read(0).points.size(), 2u);
+}
+
+// A PLY may carry any vertex properties; PCL reads one without x, y, z without complaint.
+TEST_F(PointCloudFileTest, PlyWithoutXyzNamesTheFieldsItHas) {
+  test::TempDir dir;
+  const std::string p = dir.str() + "/abc.ply";
+  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 2\nproperty float a\n"
+                      "property float b\nproperty float c\nend_header\n1 2 3\n4 5 6\n";
+  try {
+    make("{path: " + p + "}")->read(0);
+    FAIL() << "accepted a cloud without x, y, z";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), p);
+    EXPECT_NE(std::string(e.what()).find("has no x, y, z fields (it has: a, b, c); expected a "
+                                         "point cloud with x, y, z fields"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+// A PLY camera element sets the cloud's width and height (viewportx, viewporty) independently of
+// the vertex count: 3 x 1 points declared over 2 stored would be read past the data's end.
+TEST_F(PointCloudFileTest, PlyViewportLargerThanItsVerticesIsRefused) {
+  test::TempDir dir;
+  const std::string p = dir.str() + "/cam.ply";
+  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+                      "property float y\nproperty float z\nelement camera 1\n"
+                      "property int viewportx\nproperty int viewporty\nend_header\n"
+                      "1 2 3\n4 5 6\n3 1\n";
+  try {
+    make("{path: " + p + "}")->read(0);
+    FAIL() << "accepted 3 points in the space of 2";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), p);
+    EXPECT_NE(std::string(e.what()).find("point data shorter than its header says: 24 bytes, "
+                                         "expected 36 for 3 x 1 points"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+// The label map is read at configure: a broken one is an error of the 'label_map' parameter that
+// names the file and what is wrong in it.
+TEST_F(PointCloudFileTest, BadLabelMapIsAParameterErrorNamingTheFile) {
+  test::TempDir dir;
+  ASSERT_EQ(savePcd(dir.str() + "/a.pcd", makeCloud(kPoints, true, true)), 0);
+  const std::string map = dir.str() + "/map.yaml";
+  std::ofstream(map) << "classes: {grass: [1]}\n";
+  try {
+    make("{path: " + dir.str() + "/a.pcd, label_map: " + map + "}");
+    FAIL() << "accepted a label map with an unknown class";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("parameter 'label_map': " + map +
+                                         ": class 'grass' is not a project class"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST_F(PointCloudFileTest, AFileOfNoPointsIsAnEmptyFrame) {
   // PCL's conversion indexed the empty point vector (UBSan under scripts/sanitize.sh: "reference
   // binding to null pointer"); found by fuzzing a header cut short.

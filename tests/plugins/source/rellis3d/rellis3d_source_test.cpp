@@ -137,6 +137,39 @@ TEST_F(Rellis3dSourceTest, ResizedImageIsAnErrorNamingImageAndCalibration) {
       InputError);
 }
 
+// The pixel label image is mapped pixel for pixel onto the camera image: one of another size, or
+// a colour rendering of the labels instead of the ids, is refused naming it, the size and channels
+// expected and those found.
+TEST_F(Rellis3dSourceTest, PixelLabelImageOfTheWrongSizeOrChannelsIsNamed) {
+  test::TempDir dir;
+  resizedExample(dir, 1920, 1200);
+  const std::string png = dir.str() + "/frame000104-1581624663_149.png";
+  struct Case {
+    cv::Mat image;
+    std::string got;
+  };
+  for (const Case& c :
+       {Case{cv::Mat(600, 960, CV_8UC1, cv::Scalar(3)), "1 channels 960x600"},
+        Case{cv::Mat(1200, 1920, CV_8UC3, cv::Scalar(3, 3, 3)), "3 channels 1920x1200"}}) {
+    ASSERT_TRUE(cv::imwrite(png, c.image));
+    try {
+      make("{path: " + dir.str() + ", use_images: true}")->read(0);
+      ADD_FAILURE() << "accepted a label image of " << c.got;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), png);
+      EXPECT_NE(std::string(e.what()).find(
+                    "expected a 1-channel label image of 1920x1200 px, got " + c.got),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  // Without use_image_labels the file is not read.
+  const Frame f =
+      make("{path: " + dir.str() + ", use_images: true, use_image_labels: false}")->read(0);
+  ASSERT_EQ(f.cameras.size(), 1u);
+  EXPECT_FALSE(f.cameras[0].truth);
+}
+
 TEST_F(Rellis3dSourceTest, MissingFilesAreNamed) {
   test::TempDir dir;
   std::vector<float> pts(4 * 128, 0.f);

@@ -430,6 +430,61 @@ TEST_F(SemanticKittiSourceTest, BadScansAndLabels) {
   EXPECT_EQ(f.id, "000000");
 }
 
+// A velodyne/ folder without scans would be a run over no frames: refused at configure, naming
+// the folder (the parameter error carries the parameter's name).
+TEST_F(SemanticKittiSourceTest, NoScansInVelodyneIsAParameterErrorNamingTheFolder) {
+  test::TempDir dir;
+  const std::string seq = dir.str() + "/seq";
+  std::filesystem::create_directories(seq + "/velodyne");
+  std::ofstream(seq + "/velodyne/README.txt") << "not a scan\n";
+  try {
+    make("{path: " + seq + "}");
+    FAIL() << "expected an error for a velodyne/ folder without .bin files";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("parameter 'path': no .bin scans in '" + seq + "/velodyne'"),
+              std::string::npos)
+        << what;
+  }
+}
+
+// times.txt is read at configure; its InputError becomes an error of the 'path' parameter and
+// keeps the file and line.
+TEST_F(SemanticKittiSourceTest, BadTimesFileIsAParameterErrorNamingFileAndLine) {
+  test::TempDir dir;
+  const std::string seq = tinySequence(dir);
+  std::ofstream(seq + "/times.txt") << "0.0\n0.1 s\n";
+  try {
+    make("{path: " + seq + "}");
+    FAIL() << "expected an error for a bad times.txt";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("parameter 'path': " + seq + "/times.txt: line 2: expected one time [s]"),
+              std::string::npos)
+        << what;
+  }
+}
+
+// A poses.txt shorter than the sequence: the frame past its end is an InputError naming the
+// poses file, its pose count and the frame; earlier frames still read.
+TEST_F(SemanticKittiSourceTest, PosesFileShorterThanTheSequenceNamesFileAndFrame) {
+  test::TempDir dir;
+  const std::string seq = tinySequence(dir);
+  std::filesystem::copy_file(seq + "/velodyne/000000.bin", seq + "/velodyne/000001.bin");
+  std::ofstream(seq + "/poses.txt") << "1 0 0 0 0 1 0 0 0 0 1 0\n";
+  auto src = make("{path: " + seq + "}");
+  ASSERT_EQ(src->size(), 2u);
+  EXPECT_TRUE(src->read(0).pose.has_value());
+  try {
+    src->read(1);
+    FAIL() << "expected InputError for frame 000001 past the poses";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), seq + "/poses.txt");
+    EXPECT_NE(std::string(e.what()).find("has 1 poses; frame 000001 has none"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST_F(SemanticKittiSourceTest, ReadTime) {
   // Thread CPU time, so other jobs on the machine do not count; bounds only catch gross
   // regressions (e.g. per-point allocation), the printed numbers are what docs report.

@@ -320,6 +320,27 @@ TEST(SimulatorSource, RejectsBadParameters) {
   EXPECT_THROW(src(p).read(2), std::out_of_range);
 }
 
+// A ditch of 0.5 m or less (two 0.25 m walls) and an azimuth step past 5° are refused by the
+// parameters' declared ranges, naming the parameter and the range; the deeper checks in
+// sim::Simulation and sim::LidarModel are never reached from a configuration.
+TEST(SimulatorSource, OutOfRangeDitchAndAzimuthStepNameTheParameterAndRange) {
+  struct Case {
+    std::string params, expect;
+  };
+  for (const Case& c :
+       {Case{"{ditch_width_m: 0.5}",
+             "parameter 'ditch_width_m': value 0.5 out of range: expected in [0.6, 5] m"},
+        Case{"{azimuth_step_deg: 6}",
+             "parameter 'azimuth_step_deg': value 6 out of range: expected in [0.05, 5] deg"}}) {
+    try {
+      makeSource(c.params);
+      ADD_FAILURE() << "accepted " << c.params;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos) << e.what();
+    }
+  }
+}
+
 double threadCpuMs() {
   timespec ts;
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
