@@ -97,6 +97,43 @@ TEST(PluginsCli, EveryParameterSpecIsComplete) {
   EXPECT_GE(checked, 200u);
 }
 
+// An output's `subdir` must stay inside the run's output folder: '..' or an absolute path would
+// let one run write over another's results.
+TEST(PluginsCli, EveryOutputsSubdirStaysInsideTheRunsFolder) {
+  PluginRegistry reg(PluginRegistry::defaultSearchDirs());
+  const LabelSet labels = LabelSet::defaults();
+  PluginContext ctx;
+  ctx.labels = &labels;
+  ctx.output_dir = test::TempDir().str();
+  int outputs_with_subdir = 0;
+  for (const PluginInfo& info : reg.list()) {
+    if (info.kind != PluginKind::kOutput) continue;
+    auto probe = reg.create(info.type);
+    bool has_subdir = false;
+    for (const ParamSpec& s : declaredParams(*probe)) has_subdir |= s.name == "subdir";
+    if (!has_subdir) continue;
+    ++outputs_with_subdir;
+    for (const std::string bad : {"../elsewhere", "a/../../elsewhere", "/tmp/elsewhere", "''"}) {
+      SCOPED_TRACE(info.type + " subdir " + bad);
+      auto plugin = reg.create(info.type);
+      try {
+        setParams(*plugin, "{subdir: " + bad + "}", ctx);
+        ADD_FAILURE() << "accepted";
+      } catch (const std::runtime_error& e) {
+        const std::string m = e.what();
+        EXPECT_NE(m.find("parameter 'subdir': "), std::string::npos) << m;
+        EXPECT_TRUE(m.find("leaves the run's output folder ('..')") != std::string::npos ||
+                    m.find("is absolute") != std::string::npos ||
+                    m.find("is empty") != std::string::npos)
+            << m;
+      }
+    }
+    auto ok = reg.create(info.type);
+    EXPECT_NO_THROW(setParams(*ok, "{subdir: a/b}", ctx)) << info.type;
+  }
+  EXPECT_GE(outputs_with_subdir, 6);
+}
+
 TEST(PluginsCli, DescribeOfAnUnknownTypeIsAUsageError) {
   testing::internal::CaptureStderr();
   EXPECT_EQ(cli::cmdDescribe({"no_such_plugin"}), cli::kUsage);

@@ -25,6 +25,14 @@ using io_detail::isDir;
 using io_detail::isFile;
 
 /// frame<id>-<stamp>.<ext> files of `dir`, by id.
+/// A frame number without its zero padding ("000104" → "104", "0000" → "0"): image and scan
+/// names pad differently, and numbers too long for an integer must still compare.
+std::string frameNumber(const std::string& digits) {
+  const std::size_t first = digits.find_first_not_of('0');
+  return first == std::string::npos ? "0" : digits.substr(first);
+}
+
+/// Camera files keyed by frameNumber of their "frame<digits>[-…]" names.
 std::map<std::string, std::string> cameraFiles(const fs::path& dir, const std::string& ext) {
   std::map<std::string, std::string> out;
   if (!isDir(dir)) return out;
@@ -34,7 +42,7 @@ std::map<std::string, std::string> cameraFiles(const fs::path& dir, const std::s
     if (stem.rfind("frame", 0) != 0) continue;
     const auto dash = stem.find('-');
     const std::string id = stem.substr(5, dash == std::string::npos ? std::string::npos : dash - 5);
-    if (allDigits(id)) out[id] = e.path().string();
+    if (allDigits(id)) out[frameNumber(id)] = e.path().string();
   }
   return out;
 }
@@ -71,11 +79,8 @@ RellisLayout resolveRellisLayout(const std::string& path) {
     const fs::path lab = labels / (id + ".label");
     if (isFile(lab)) f.label = lab.string();
     // Image file names carry the frame number without zero padding rules fixed: match by value.
-    for (const auto* m : {&jpgs, &pngs}) {
-      for (const auto& [img_id, file] : *m) {
-        if (std::stoull(img_id) == std::stoull(id)) (m == &jpgs ? f.image : f.image_label) = file;
-      }
-    }
+    if (auto it = jpgs.find(frameNumber(id)); it != jpgs.end()) f.image = it->second;
+    if (auto it = pngs.find(frameNumber(id)); it != pngs.end()) f.image_label = it->second;
     L.frames.push_back(std::move(f));
   }
   std::sort(L.frames.begin(), L.frames.end(),

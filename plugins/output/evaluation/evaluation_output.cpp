@@ -10,6 +10,7 @@
 
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/evaluation.hpp"
+#include "terramrf/output_folder.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -26,14 +27,7 @@ class EvaluationOutput : public Output {
   }
 
   void configure(const PluginContext& ctx) override {
-    if (subdir_.empty()) {
-      throw ParamError("subdir", "is empty; expected a folder name such as 'evaluation'");
-    }
-    if (std::filesystem::path(subdir_).is_absolute()) {
-      throw ParamError("subdir", "'" + subdir_ +
-                                     "' is absolute; expected a folder relative to "
-                                     "the run's output folder");
-    }
+    checkOutputSubdir(subdir_, "evaluation");
     try {
       rules_id_ = evalRulesFromString(rules_);
     } catch (const std::invalid_argument& e) {

@@ -13,6 +13,7 @@
 
 #include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/output_folder.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -35,12 +36,7 @@ class FusionOverlayOutput final : public Output {
   }
 
   void configure(const PluginContext& ctx) override {
-    if (subdir_.empty())
-      throw ParamError("subdir", "is empty; expected a folder name such as 'fusion'");
-    if (std::filesystem::path(subdir_).is_absolute())
-      throw ParamError("subdir", "'" + subdir_ +
-                                     "' is absolute; expected a folder relative to the run's "
-                                     "output folder");
+    checkOutputSubdir(subdir_, "fusion");
     output_dir_ = ctx.output_dir;
     if (ctx.labels) labels_ = *ctx.labels;
   }

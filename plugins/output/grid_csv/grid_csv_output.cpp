@@ -7,6 +7,7 @@
 
 #include "grid_csv_format.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/output_folder.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -23,14 +24,7 @@ class GridCsvOutput : public Output {
   }
 
   void configure(const PluginContext& ctx) override {
-    if (subdir_.empty()) {
-      throw ParamError("subdir", "is empty; expected a folder name such as 'grid_csv'");
-    }
-    if (std::filesystem::path(subdir_).is_absolute()) {
-      throw ParamError("subdir", "'" + subdir_ +
-                                     "' is absolute; expected a folder relative to "
-                                     "the run's output folder");
-    }
+    checkOutputSubdir(subdir_, "grid_csv");
     std::set<std::string> seen;
     for (const auto& l : layers_) {
       if (!seen.insert(l).second) throw ParamError("layers", "layer '" + l + "' is listed twice");

@@ -8,6 +8,7 @@
 #include "grid_render.hpp"
 #include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/output_folder.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -25,13 +26,7 @@ class GridPngOutput : public Output {
   }
 
   void configure(const PluginContext& ctx) override {
-    if (subdir_.empty())
-      throw ParamError("subdir", "is empty; expected a folder name such as 'grid'");
-    if (std::filesystem::path(subdir_).is_absolute()) {
-      throw ParamError("subdir", "'" + subdir_ +
-                                     "' is absolute; expected a folder relative to "
-                                     "the run's output folder");
-    }
+    checkOutputSubdir(subdir_, "grid");
     output_dir_ = ctx.output_dir;
     if (ctx.labels) labels_ = *ctx.labels;
   }

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/output_folder.hpp"
 #include "terramrf/plugin.hpp"
 #include "terramrf/roc.hpp"
 
@@ -31,9 +32,7 @@ class RocOutput final : public Output {
     d.add("title", title_, "plot title; empty = the run's config file");
   }
   void configure(const PluginContext& ctx) override {
-    if (subdir_.empty() || std::filesystem::path(subdir_).is_absolute())
-      throw ParamError(
-          "subdir", "expected a folder relative to the run's output folder, got '" + subdir_ + "'");
+    checkOutputSubdir(subdir_, "roc");
     output_dir_ = ctx.output_dir;
     if (ctx.labels) labels_ = *ctx.labels;
   }

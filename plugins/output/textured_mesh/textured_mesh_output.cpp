@@ -11,6 +11,7 @@
 #include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/meshing/mesh_builder.hpp"
+#include "terramrf/output_folder.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -65,8 +66,7 @@ class TexturedMeshOutput : public Output {
   }
 
   void configure(const PluginContext& ctx) override {
-    if (subdir_.empty() || fs::path(subdir_).is_absolute())
-      throw ParamError("subdir", "'" + subdir_ + "' must be a non-empty folder relative to the run's output folder");
+    checkOutputSubdir(subdir_, "mesh");
     if (formats_.empty()) throw ParamError("formats", "is empty; expected any of obj, ply, gltf");
     ex_ = ExportOptions{false, false, false};
     ex_.decimate = decimate_;

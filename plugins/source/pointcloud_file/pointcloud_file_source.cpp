@@ -306,9 +306,11 @@ class PointCloudFileSource : public Source {
       }
       if (f_label) {
         const double l = fieldValue(c2, *f_label, k);
-        if (!(l >= 0 && l <= 4294967295.0))
-          throw InputError(file, "point " + std::to_string(k) + " has label " + std::to_string(l) +
-                                     "; expected a non-negative integer id");
+        if (!(l >= 0 && l <= 4294967295.0 && l == std::floor(l))) {
+          std::ostringstream o;  // %g-like: 2.5, -1, 1e+10 rather than 2.500000
+          o << "point " << k << " has label " << l << "; expected a non-negative integer id";
+          throw InputError(file, o.str());
+        }
         f.truth.raw.push_back(uint32_t(l));
       }
     }

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 
 #include "io_test_util.hpp"
 #include "terramrf/adapters/opencv_image.hpp"
@@ -28,6 +29,31 @@ TEST(Rellis, LayoutOfTheExampleFolder) {
   EXPECT_FALSE(L.transforms.empty());
   test::TempDir empty;
   EXPECT_THROW(resolveRellisLayout(empty.str()), ParamError);
+}
+
+// Scans and images pad their frame numbers differently; they are matched by value, and a number
+// too long for an integer (std::stoull threw out_of_range, naming no file) is matched as digits.
+TEST(Rellis, ImagesAreMatchedByFrameNumberWhateverTheirPadding) {
+  test::TempDir dir;
+  const std::string long_id = "1234567890123456789012345";
+  for (const std::string& n :
+       std::vector<std::string>{"000104.bin", "7.bin", long_id + ".bin", "000000.bin"})
+    std::ofstream(dir.str() + "/" + n) << "";
+  for (const std::string& n :
+       std::vector<std::string>{"frame104-1.jpg", "frame0007-2.png", "frame" + long_id + "-3.jpg",
+                                "frame0-4.jpg", "frame105-5.jpg"})
+    std::ofstream(dir.str() + "/" + n) << "";
+  RellisLayout L;
+  ASSERT_NO_THROW(L = resolveRellisLayout(dir.str()));
+  ASSERT_EQ(L.frames.size(), 4u);
+  std::map<std::string, const RellisFrameFiles*> by_id;
+  for (const auto& f : L.frames) by_id[f.id] = &f;
+  EXPECT_NE(by_id.at("000104")->image.find("frame104-1.jpg"), std::string::npos);
+  EXPECT_EQ(by_id.at("000104")->image_label, "");
+  EXPECT_EQ(by_id.at("7")->image, "");
+  EXPECT_NE(by_id.at("7")->image_label.find("frame0007-2.png"), std::string::npos);
+  EXPECT_NE(by_id.at(long_id)->image.find("frame" + long_id + "-3.jpg"), std::string::npos);
+  EXPECT_NE(by_id.at("000000")->image.find("frame0-4.jpg"), std::string::npos);
 }
 
 TEST(Rellis, ScanLabelsAndOrganisedRings) {

@@ -290,6 +290,21 @@ TEST_F(PointCloudFileTest, NegativeLabelNamesFilePointAndExpectation) {
   }
   // Without use_labels the field is not read at all.
   EXPECT_EQ(make("{path: " + p + ", use_labels: false}")->read(0).points.size(), 2u);
+  // A float label that is not whole was read as the id below it.
+  const std::string q = dir.str() + "/half.pcd";
+  std::ofstream(q) << "VERSION 0.7\nFIELDS x y z label\nSIZE 4 4 4 4\nTYPE F F F F\n"
+                      "COUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n"
+                      "DATA ascii\n1 1 1 2\n2 2 2 2.5\n";
+  try {
+    make("{path: " + q + "}")->read(0);
+    FAIL() << "accepted a label of 2.5";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), q);
+    EXPECT_NE(
+        std::string(e.what()).find("point 1 has label 2.5; expected a non-negative integer id"),
+        std::string::npos)
+        << e.what();
+  }
 }
 
 // A PLY may carry any vertex properties; PCL reads one without x, y, z without complaint.
