@@ -28,6 +28,20 @@ std::vector<std::pair<std::string, std::string>> pluginFolders() {
   return v;
 }
 
+/// `dir`/c.yaml: the simulator with `sim_params`, height difference, no outputs.
+std::string oneStageConfig(const test::TempDir& dir, const std::string& sim_params) {
+  const std::string config = dir.str() + "/c.yaml";
+  std::ofstream(config) << "version: 1\n"
+                           "grid: {size_m: 30, cell_m: 0.5}\n"
+                           "source: {type: simulator, params: {" +
+                               sim_params +
+                               "}}\n"
+                               "stages:\n"
+                               "  - {name: hdiff, type: height_difference}\n"
+                               "outputs: []\n";
+  return config;
+}
+
 double asNumber(const ParamValue& v) {
   if (const auto* i = std::get_if<int64_t>(&v)) return static_cast<double>(*i);
   return std::get<double>(v);
@@ -147,13 +161,7 @@ TEST(PluginsCli, DescribeOfAnUnknownTypeIsAUsageError) {
 
 TEST(RunCli, BadArgumentsAreUsageErrorsAndRunNothing) {
   test::TempDir dir;
-  const std::string config = dir.str() + "/c.yaml";
-  std::ofstream(config) << "version: 1\n"
-                           "grid: {size_m: 30, cell_m: 0.5}\n"
-                           "source: {type: simulator, params: {frames: 1, enable_camera: false}}\n"
-                           "stages:\n"
-                           "  - {name: hdiff, type: height_difference}\n"
-                           "outputs: []\n";
+  const std::string config = oneStageConfig(dir, "frames: 1, enable_camera: false");
   const std::string out = dir.str() + "/out";
   struct Case {
     cli::Args args;
@@ -187,13 +195,7 @@ namespace terramrf {
 // folder that cannot be made is an error before anything runs.
 TEST(MeshCli, AddsTheMeshOutputAndRefusesAFolderThatIsAFile) {
   test::TempDir dir;
-  const std::string config = dir.str() + "/c.yaml";
-  std::ofstream(config) << "version: 1\n"
-                           "grid: {size_m: 30, cell_m: 0.5}\n"
-                           "source: {type: simulator, params: {frames: 1, azimuth_step_deg: 0.4}}\n"
-                           "stages:\n"
-                           "  - {name: hdiff, type: height_difference}\n"
-                           "outputs: []\n";
+  const std::string config = oneStageConfig(dir, "frames: 1, azimuth_step_deg: 0.4");
   const std::string out = dir.str() + "/out";
   testing::internal::CaptureStdout();
   testing::internal::CaptureStderr();

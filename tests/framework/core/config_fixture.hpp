@@ -3,6 +3,7 @@
 #include <string>
 
 #include "terramrf/config.hpp"
+#include "terramrf/plugin.hpp"
 #include "test_support.hpp"
 
 namespace terramrf::test {
@@ -42,6 +43,23 @@ classes:
            "  - {name: solve, type: icm}\n"
            "outputs: []\n";
   }
+};
+
+/// One frame of a loaded pipeline through its stages, driven by hand (no outputs): the frame,
+/// its grid and the context the stages filled.
+struct StagesByHand {
+  Frame frame;
+  TerrainGrid grid;
+  FrameContext ctx;
+  StagesByHand(Pipeline& p, std::size_t index) : frame(p.source->read(index)), grid(p.grid) {
+    grid.binPoints(frame.points);
+    ctx.frame = &frame;
+    ctx.grid = &grid;
+    ctx.labels = p.labels.get();
+    for (auto& s : p.stages) s->process(ctx);
+  }
+  StagesByHand(const StagesByHand&) = delete;
+  StagesByHand& operator=(const StagesByHand&) = delete;
 };
 
 }  // namespace terramrf::test

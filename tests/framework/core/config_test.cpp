@@ -290,16 +290,9 @@ TEST(Config, OwnLabelSetIsUsedByTheEnergy) {
   EXPECT_EQ((*p.labels)[2].rgb[0], 255);
   EXPECT_NE(p.resolved_yaml.find("kerb"), std::string::npos) << p.resolved_yaml;
   // The stages driven by hand on one frame: the energy's labels are the set's four classes.
-  Frame frame = p.source->read(0);
-  TerrainGrid grid(p.grid);
-  grid.binPoints(frame.points);
-  FrameContext ctx;
-  ctx.frame = &frame;
-  ctx.grid = &grid;
-  ctx.labels = p.labels.get();
-  for (auto& s : p.stages) s->process(ctx);
-  ASSERT_EQ(ctx.energy.numLabels(), 4);
-  EXPECT_EQ(ctx.energy.active[1], 2);  // kerb
+  const test::StagesByHand run(p, 0);
+  ASSERT_EQ(run.ctx.energy.numLabels(), 4);
+  EXPECT_EQ(run.ctx.energy.active[1], 2);  // kerb
 }
 
 TEST(Config, ShippedConfigsValidate) {

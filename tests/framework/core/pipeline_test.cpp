@@ -56,14 +56,9 @@ TEST(Pipeline, ClassifiesPlaneAndBox) {
   EXPECT_EQ(r.timings[2].ms.size(), 1u);
 
   // The same stages driven by hand: the box's cells are obstacles, the plane is not.
-  Frame frame = p.source->read(0);
-  TerrainGrid grid(p.grid);
-  grid.binPoints(frame.points);
-  FrameContext ctx;
-  ctx.frame = &frame;
-  ctx.grid = &grid;
-  ctx.labels = p.labels.get();
-  for (auto& s : p.stages) s->process(ctx);
+  const test::StagesByHand run(p, 0);
+  const FrameContext& ctx = run.ctx;
+  const TerrainGrid& grid = run.grid;
   EXPECT_LE(ctx.optimiser.final_energy, ctx.optimiser.initial_energy);
   EXPECT_EQ(grid.labels()[p.grid.cellOf(3.05, 0.3)], labels::kObstacle);
   EXPECT_EQ(grid.labels()[p.grid.cellOf(-5.2, 5.2)], labels::kRoad);  // flat plane, tiny noise
