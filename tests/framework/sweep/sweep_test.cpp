@@ -904,6 +904,38 @@ TEST(SweepSelect, ValidationDataWithoutLabelsFailsTheFeatureSetsAndSaysWhy) {
   }
 }
 
+// A validation frame that fails would leave the candidates scored on fewer frames than chosen:
+// no candidate is scored, and the feature set's test runs fail saying which validation item lost
+// how many frames (the failure is in the selection record and the run's reason, never silent).
+TEST(SweepSelect, AValidationFrameThatFailsIsReportedAndScoresNoCandidate) {
+  test::TempDir dir;
+  goodAndTruncatedScan(dir, "semantickitti_seq00_000000-000005/sequences/00");  // with rings
+  std::string text = selectSweep("select: {training: {components: [1, 2]}}\n");
+  const std::size_t at = text.find("  sim_val:");
+  text.replace(at, text.find('\n', at) - at,
+               "  sim_val: {type: semantickitti, params: {path: seq}}");
+  const std::string sweep = put(dir, "bad_validation.yaml", text);
+  std::ostringstream log;
+  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
+  EXPECT_EQ(r.exitCode(), 3) << log.str();
+  ASSERT_EQ(r.selections.size(), 2u);
+  for (const auto& sel : r.selections) {
+    SCOPED_TRACE(sel.feature_set);
+    EXPECT_EQ(sel.chosen, -1);
+    for (std::size_t c = 0; c < sel.scores.size(); ++c) {
+      EXPECT_TRUE(std::isnan(sel.scores[c]));
+      EXPECT_EQ(sel.notes[c], "1 validation frame(s) of 'sim_val' failed");
+    }
+  }
+  ASSERT_EQ(r.runs.size(), 2u);
+  for (const auto& x : r.runs) {
+    EXPECT_EQ(x.status, RunRecord::Status::kFailed);
+    EXPECT_EQ(x.reason, "no model for feature set '" + x.feature_set +
+                            "': select: no candidate could be scored on the validation split "
+                            "(first: 1 validation frame(s) of 'sim_val' failed)");
+  }
+}
+
 TEST(SweepSelect, BadSelectionsAreReportedWithTheirPlace) {
   test::TempDir dir;
   std::string text = selectSweep(R"(training: {components: 2}
