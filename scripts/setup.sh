@@ -45,7 +45,9 @@ if [ ${#node_need[@]} -gt 0 ]; then
 fi
 
 data_dir="${TERRAMRF_DATA_DIR:-$here/../shared/data}"
-# TERRAMRF_BUILD_TYPE and TERRAMRF_SANITIZE are for scripts/sanitize.sh; the default is Release.
+# TERRAMRF_BUILD_TYPE, TERRAMRF_SANITIZE and TERRAMRF_COVERAGE are for scripts/sanitize.sh and
+# scripts/coverage.sh; the default is Release.
 cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE="${TERRAMRF_BUILD_TYPE:-Release}" \
-  -DTERRAMRF_SANITIZE="${TERRAMRF_SANITIZE:-OFF}" -DTERRAMRF_DATA_DIR="$data_dir" >/dev/null
+  -DTERRAMRF_SANITIZE="${TERRAMRF_SANITIZE:-OFF}" -DTERRAMRF_COVERAGE="${TERRAMRF_COVERAGE:-OFF}" \
+  -DTERRAMRF_DATA_DIR="$data_dir" >/dev/null
 cmake --build "$build" -j"$jobs"

@@ -15,17 +15,29 @@ namespace terramrf::cli {
 int cmdSimulate(const Args& args) {
   Args a = args;
   const std::string out = takeOption(a, "--out");
-  const std::string frames = takeOption(a, "--frames");
-  const std::string seed = takeOption(a, "--seed");
   const std::string config = takeOption(a, "--config");
+  constexpr std::size_t kUnset = static_cast<std::size_t>(-1);
+  std::size_t frames = kUnset, seed = kUnset;
+  if (!takeCount(a, "--frames", "simulate", 1, frames) ||
+      !takeCount(a, "--seed", "simulate", 0, seed))
+    return kUsage;
   if (out.empty() || !a.empty()) {
     std::cerr << "usage: terramrf simulate --out DIR [--frames N] [--seed S] [--config CONFIG]\n"
                  "  --config takes the simulator parameters from a config whose source is the "
                  "simulator\n";
     return kUsage;
   }
+  // --frames and --seed replace the config's (or the defaults).
+  std::ostringstream overrides;
+  overrides << "{";
+  if (frames != kUnset) overrides << "frames: " << frames << (seed != kUnset ? ", " : "");
+  if (seed != kUnset) overrides << "seed: " << seed;
+  overrides << "}";
   PluginRegistry reg(PluginRegistry::defaultSearchDirs());
   std::unique_ptr<Source> source;
+  LabelSet labels = LabelSet::defaults();
+  PluginContext ctx;
+  ctx.labels = &labels;
   if (!config.empty()) {
     Pipeline p;
     try {
@@ -40,24 +52,18 @@ int cmdSimulate(const Args& args) {
       return kUsage;
     }
     source = std::move(p.source);
-    if (!frames.empty() || !seed.empty()) {
-      std::ostringstream ov;
-      ov << "{" << (frames.empty() ? "" : "frames: " + frames)
-         << (frames.empty() || seed.empty() ? "" : ", ") << (seed.empty() ? "" : "seed: " + seed)
-         << "}";
-      setParams(*source, ov.str(), PluginContext{});
-    }
   } else {
-    auto plugin = reg.create("simulator");
-    std::ostringstream params;
-    params << "{" << (frames.empty() ? "" : "frames: " + frames)
-           << (frames.empty() || seed.empty() ? "" : ", ") << (seed.empty() ? "" : "seed: " + seed)
-           << "}";
-    PluginContext ctx;
-    LabelSet labels = LabelSet::defaults();
-    ctx.labels = &labels;
-    setParams(*plugin, params.str(), ctx);
-    source.reset(static_cast<Source*>(plugin.release()));
+    source.reset(static_cast<Source*>(reg.create("simulator").release()));
+  }
+  if (!config.empty() && overrides.str() == "{}") {
+    // The config's source is configured already.
+  } else {
+    try {
+      setParams(*source, overrides.str(), ctx);
+    } catch (const std::exception& e) {  // e.g. --seed beyond the simulator's range
+      std::cerr << "terramrf simulate: " << e.what() << "\n";
+      return kUsage;
+    }
   }
   KittiSequenceWriter writer(out);
   const std::size_t n = source->size();

@@ -1,10 +1,13 @@
 // `terramrf plugins` and `describe` (apps/terramrf/cmd_run.cpp), and the parameter specs they
 // print: the brief promises that the specs are the documentation, so each must be complete.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <regex>
 #include <set>
 
@@ -214,6 +217,64 @@ TEST(MeshCli, AddsTheMeshOutputAndRefusesAFolderThatIsAFile) {
   EXPECT_NE(err.find("terramrf mesh: output folder '" + file + "' cannot be created"),
             std::string::npos)
       << err;
+}
+
+}  // namespace terramrf
+
+namespace terramrf {
+
+TEST(SimulateCli, WritesFramesAndRefusesWhatItCannotSimulate) {
+  test::TempDir dir;
+  const std::string config = oneStageConfig(dir, "frames: 3, enable_camera: false");
+  const std::string out = dir.str() + "/sim";
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(cli::cmdSimulate({"--out", out, "--config", config, "--frames", "1", "--seed", "4"}),
+            cli::kOk);
+  testing::internal::GetCapturedStderr();
+  const std::string said = testing::internal::GetCapturedStdout();
+  EXPECT_NE(said.find("wrote 1 frame(s)"), std::string::npos) << said;  // --frames over the config
+  EXPECT_TRUE(fs::exists(out + "/velodyne/000000.bin"));
+  EXPECT_FALSE(fs::exists(out + "/velodyne/000001.bin"));
+
+  const std::string kitti = dir.str() + "/kitti.yaml";
+  std::ofstream(kitti) << "version: 1\n"
+                          "grid: {size_m: 30, cell_m: 0.5}\n"
+                          "source: {type: semantickitti, params: {path: "
+                       << test::dataPath("semantickitti_mmdet3d_fixture/sequences/00")
+                       << "}}\nstages: []\noutputs: []\n";
+  struct Case {
+    cli::Args args;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      {{"--frames", "2"}, "usage: terramrf simulate --out DIR"},
+      {{"--out", out, "--frames", "two"}, "terramrf simulate: --frames: expected"},
+      {{"--out", out, "--seed", "-3"}, "terramrf simulate: --seed: expected"},
+      {{"--out", out, "--config", kitti},
+       kitti + ": the source is 'semantickitti', but simulate needs a simulator source"},
+      {{"--out", out, "--config", dir.str() + "/none.yaml"}, "none.yaml"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.message);
+    testing::internal::CaptureStderr();
+    EXPECT_EQ(cli::cmdSimulate(c.args), cli::kUsage);
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_NE(err.find(c.message), std::string::npos) << err;
+  }
+}
+
+// main() itself: an unknown command is a usage error that lists the commands.
+TEST(MainCli, UnknownCommandIsAUsageErrorListingTheCommands) {
+  test::TempDir dir;
+  const std::string err = dir.str() + "/err.txt";
+  const int status = std::system((test::cli() + " frobnicate 2> " + err).c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), cli::kUsage);
+  std::ifstream in(err);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("terramrf: unknown command 'frobnicate'"), std::string::npos) << text;
+  EXPECT_NE(text.find("commands:"), std::string::npos) << text;
 }
 
 }  // namespace terramrf

@@ -142,4 +142,50 @@ TEST(GridCodec, RejectsForeignTruncatedAndInconsistentMessages) {
 }
 
 }  // namespace
+// A message from another program or a damaged log: each inconsistent count is named, with the
+// channel it came on, instead of being read past its arrays.
+TEST(GridCodec, EachInconsistentCountIsNamedWithItsChannel) {
+  auto enc = [](const terramrf_msgs::terrain_grid_t& msg) {
+    MessageBytes b(msg.getEncodedSize());
+    msg.encode(b.data(), 0, static_cast<int>(b.size()));
+    return b;
+  };
+  auto base = [] {
+    terramrf_msgs::terrain_grid_t m{};
+    m.rows = m.cols = 2;
+    m.num_cells = 4;
+    m.cell_m = 0.5;
+    return m;
+  };
+  auto expectError = [&](const terramrf_msgs::terrain_grid_t& m, const std::string& what) {
+    try {
+      decodeGrid(enc(m), "CHAN");
+      ADD_FAILURE() << "accepted; expected: " << what;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), "CHAN");
+      EXPECT_NE(std::string(e.what()).find("terrain_grid_t: " + what), std::string::npos)
+          << e.what();
+    }
+  };
+  terramrf_msgs::terrain_grid_t m = base();
+  m.rows = m.cols = 0;
+  m.num_cells = 0;
+  expectError(m, "rows and cols must be positive (got 0 x 0)");
+  m = base();
+  m.num_cells = 5;
+  expectError(m, "num_cells 5 != rows * cols = 4");
+  m = base();
+  m.num_labels = 3;
+  m.labels = {0, 0, 0};
+  expectError(m, "num_labels must be 0 or num_cells (4), got 3");
+  m = base();
+  m.num_point_counts = 2;
+  m.point_counts = {1, 2};
+  expectError(m, "num_point_counts must be 0 or num_cells, got 2");
+  m = base();
+  m.cell_m = std::nan("");
+  expectError(m, "cell_m must be finite and > 0 and the origin finite");
+  EXPECT_NO_THROW(decodeGrid(enc(base()), "CHAN"));
+}
+
 }  // namespace terramrf

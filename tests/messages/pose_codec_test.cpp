@@ -51,5 +51,23 @@ TEST(PoseCodec, RejectsNonUnitQuaternion) {
   EXPECT_THROW(decodePose(b.data(), b.size(), "POSE"), InputError);
 }
 
+TEST(PoseCodec, RejectsACovarianceThatIsNot6By6) {
+  terramrf_msgs::pose_t m{};
+  m.orientation[0] = 1;
+  m.num_covariance = 5;
+  m.covariance = {1, 0, 0, 0, 1};
+  MessageBytes b(m.getEncodedSize());
+  m.encode(b.data(), 0, static_cast<int>(b.size()));
+  try {
+    decodePose(b.data(), b.size(), "POSE");
+    FAIL() << "a 5-value covariance was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "POSE");
+    EXPECT_NE(std::string(e.what()).find("pose_t: num_covariance must be 0 or 36, got 5"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace terramrf

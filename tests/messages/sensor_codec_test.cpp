@@ -118,6 +118,17 @@ TEST(ImageCodec, Bgr8IsConvertedAndUnknownEncodingRejected) {
   m.width = 2;  // 3 bytes for 2 x 1 x 3
   b = encodeRaw(m);
   EXPECT_THROW(decodeImage(b.data(), b.size()), InputError);
+  m.width = 3;
+  m.channels = 1;  // 3 bytes for 3 x 1 x 1, but rgb8 has three channels
+  b = encodeRaw(m);
+  try {
+    decodeImage(b.data(), b.size(), "CAM");
+    FAIL() << "rgb8 with one channel was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("image_t: encoding rgb8 needs 3 channels, message says 1"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(SampleCodecs, ImuGpsOdometryRoundTrip) {
