@@ -47,6 +47,25 @@ TEST(AtomicFile, FailureNamesPathAndKeepsOldFile) {
   EXPECT_EQ(readFile(p), "good");
 }
 
+// A folder where the output should go cannot be replaced by a file: the error names the output
+// and the folder, with its contents, and no temporary file is left beside it.
+TEST(AtomicFile, AFolderInTheWayIsNamedAndLeftAsItWas) {
+  test::TempDir d;
+  const std::string p = d.str() + "/summary.json";
+  writeFileAtomic(p + "/kept.txt", "kept");
+  try {
+    writeFileAtomic(p, "{}");
+    FAIL() << "replaced a folder";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("cannot replace output '" + p + "': ", 0), 0u)
+        << e.what();
+  }
+  EXPECT_EQ(readFile(p + "/kept.txt"), "kept");
+  int n = 0;
+  for (auto& e : std::filesystem::directory_iterator(d.str())) ++n, (void)e;
+  EXPECT_EQ(n, 1);  // the folder alone: the temporary file was removed
+}
+
 TEST(AtomicFile, ReadMissingFileNamesIt) {
   try {
     readFile("/no/such/file.bin");

@@ -339,6 +339,12 @@ TEST(SweepDiagnostics, EachMalformedPartIsReportedAtItsPlace) {
        "qp}", 1,
        "select: optimiser 'qp', which scores the candidates, is not installed (plugin type "
        "'qpbo_solver' is not installed)"},
+      {test::edited(base, "{name: rough, type: roughness}",
+                    "{name: rough, type: roughness, params: {window: 3}}") +
+           "select: {stages: {rough: {window: [1, 2]}}}\n",
+       "window: [1", 1,
+       "select.stages.rough.window: also set in feature set 'L' (line 19); give it in one place "
+       "(select's values replace it)"},
       {test::edited(base, "    min_sigma: [0.005]\n",
                     "    min_sigma: [0.005]\n  M:\n    stages: [{name: hdiff, type: roughness}]\n"
                     "    features: [roughness]\n") +
