@@ -190,7 +190,8 @@ void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>
                 const YAML::Node& base_source, const std::string& base_dir, Diags& d,
                 std::vector<std::unique_ptr<Item>>& train, std::vector<std::unique_ptr<Item>>& test,
                 bool need_both, std::vector<std::unique_ptr<Item>>* validation = nullptr,
-                std::vector<std::vector<std::unique_ptr<Item>>>* folds = nullptr);
+                std::vector<std::vector<std::unique_ptr<Item>>>* folds = nullptr,
+                bool train_optional = false);
 /// Every fold item must be part of split.train (same data, its frames inside a train item's):
 /// folds divide the train split, they never bring data of their own. Folds must not share data
 /// with each other. Diagnostics at the fold item.

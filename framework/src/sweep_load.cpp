@@ -390,8 +390,16 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   }
   // split
   if (const YAML::Node split = root["split"]) {
+    // split.train may be left out when every feature set brings its model or its own train list.
+    bool train_optional = false;
+    if (const YAML::Node fsn = root["feature_sets"]; fsn && fsn.IsMap() && fsn.size() > 0) {
+      train_optional = true;
+      for (auto it = fsn.begin(); it != fsn.end(); ++it)
+        if (!it->second.IsMap() || (!it->second["model"] && !it->second["train"]))
+          train_optional = false;
+    }
     parseSplit(split, &s->datasets, YAML::Node(), s->f0.base_dir, d, s->train, s->test, true,
-               &s->validation, &s->folds);
+               &s->validation, &s->folds, train_optional);
     if (!s->validation.empty() && split["folds"])
       d.add(split["folds"].Mark(),
             "split: give either validation (a split of its own) or folds (cross-validation inside "

@@ -643,6 +643,7 @@ void writeSweepReport(const SweepResult& r, const std::string& dir) {
   head << "# Sweep '" << r.name << "'\n\n- sweep file: " << r.sweep_path
        << "\n- created: " << utcNow() << " (terramrf " << TERRAMRF_VERSION << ")\n- train split:";
   for (const auto& t : r.train_items) head << " " << t << ";";
+  if (r.train_items.empty()) head << " none (every feature set brings its model or train list)";
   if (!r.validation_items.empty()) {
     head << (r.folds > 0 ? "\n- validation folds of the train split (select:):"
                          : "\n- validation split (select:):");

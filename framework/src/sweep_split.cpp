@@ -275,7 +275,7 @@ void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>
                 const YAML::Node& base_source, const std::string& base_dir, Diags& d,
                 std::vector<std::unique_ptr<Item>>& train, std::vector<std::unique_ptr<Item>>& test,
                 bool need_both, std::vector<std::unique_ptr<Item>>* validation,
-                std::vector<std::vector<std::unique_ptr<Item>>>* folds) {
+                std::vector<std::vector<std::unique_ptr<Item>>>* folds, bool train_optional) {
   if (!split.IsMap()) {
     d.add(split.Mark(), "'split' must be a map {train: [...], test: [...]}");
     return;
@@ -290,6 +290,7 @@ void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>
     const YAML::Node l = split[key];
     if (!l) {
       if (std::string(key) == "validation") return;  // optional
+      if (std::string(key) == "train" && train_optional) return;
       if (need_both || std::string(key) == "train")
         d.add(split.Mark(), std::string("split: missing '") + key + ": [...]'");
       return;

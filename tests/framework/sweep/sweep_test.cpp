@@ -654,6 +654,32 @@ TEST(SweepRun, AModelGivenInTheSweepIsUsedAndNotTrained) {
       << summary;
 }
 
+// With every model given, nothing is trained, so split.train may be left out; while one feature
+// set still learns its model, it may not.
+TEST(SweepRun, SplitTrainIsOptionalWhenEveryFeatureSetBringsItsModel) {
+  test::TempDir dir;
+  const std::string model = test::sourceDir() + "/configs/models/laser_simulator.yaml";
+  std::string text = test::edited(tinySweep("  icm: {type: icm}"),
+                                  "  train: [{dataset: sim_train, frames: [0, 1]}]\n", "");
+  text = test::edited(text, "    min_sigma: [0.02, 0.0001]\n",
+                      "    min_sigma: [0.02, 0.0001]\n    model: " + model + "\n");
+  const std::string both = put(dir, "both_given.yaml",
+                               test::edited(text, "    min_sigma: [0.005]\n",
+                                            "    min_sigma: [0.005]\n    model: " + model + "\n"));
+  std::ostringstream log;
+  const SweepResult r = runQuiet(both, dir.str() + "/out", log);
+  ASSERT_EQ(r.exitCode(), 0) << log.str();
+  EXPECT_TRUE(r.train_items.empty());
+  for (const ModelRecord& m : r.models) EXPECT_FALSE(m.trained) << m.feature_set;
+  EXPECT_NE(readFile(dir.str() + "/out/summary.md")
+                .find("- train split: none (every feature set brings its model or train list)"),
+            std::string::npos);
+  // L (which extends L0) learns its model: the split must say from what.
+  const std::string one = put(dir, "one_given.yaml", text);
+  const std::string all = expectConfigError(one).what();
+  EXPECT_NE(all.find("split: missing 'train: [...]'"), std::string::npos) << all;
+}
+
 TEST(SweepDiagnostics, AFeatureSetsEnergyParametersAreCheckedAtTheirPlace) {
   test::TempDir dir;
   std::string text = tinySweep("  icm: {type: icm}");
