@@ -53,6 +53,12 @@ void Diags::add(const YAML::Mark& m, const std::string& msg, const std::string& 
   d.stage = stage;
   d.type = type;
   d.message = msg;
+  // An entry shared by several places (a sweep's dataset in two split items) is checked at each:
+  // say its fault once.
+  for (const Diagnostic& x : list)
+    if (x.line == d.line && x.column == d.column && x.file == d.file && x.stage == d.stage &&
+        x.type == d.type && x.message == d.message)
+      return;
   list.push_back(std::move(d));
 }
 
@@ -302,7 +308,14 @@ EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const st
   const std::string& name = ep.name;
   const std::string& type = ep.type;
   if (type.empty()) {
-    d.add(e.Mark(), "missing key 'type' (the plugin type name)", name);
+    // A copied entry (a sweep's dataset in a split item) has no position of its own; its keys
+    // keep theirs.
+    YAML::Mark at = e["type"] ? e["type"].Mark() : e.Mark();
+    if (at.line < 0 && e.begin() != e.end()) at = e.begin()->first.Mark();
+    d.add(at,
+          e["type"] ? "'type' is empty; expected the plugin type name"
+                    : "missing key 'type' (the plugin type name)",
+          name);
     return ep;
   }
   if (checks.unique_names && !checks.unique_names->insert(name).second)

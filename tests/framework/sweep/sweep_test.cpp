@@ -366,6 +366,22 @@ TEST(SweepDiagnostics, EachMalformedPartIsReportedAtItsPlace) {
   }
 }
 
+// Found by fuzzing: a dataset with `type: null` was reported without a position (split items use
+// copies of the dataset's entry, which keep no mark of their own), once per item that uses it.
+TEST(SweepDiagnostics, ADatasetWithAnEmptyTypeIsNamedOnceAtItsPlace) {
+  test::TempDir dir;
+  std::string text = test::edited(tinySweep("  icm: {type: icm}"), "sim_test:  {type: simulator",
+                                  "sim_test:  {type: ~");
+  text = test::edited(text, "test: [sim_test]", "test: [sim_test, {dataset: sim_test, frames: 0}]");
+  const std::string sweep = put(dir, "null_type.yaml", text);
+  const std::string all = expectConfigError(sweep).what();
+  const std::string want = sweep + ":" + test::positionOf(text, "~") +
+                           ": 'type' is empty; expected the plugin type name";
+  const std::size_t first = all.find(want);
+  EXPECT_NE(first, std::string::npos) << all;
+  EXPECT_EQ(all.find("'type' is empty", first + want.size()), std::string::npos) << all;
+}
+
 TEST(SweepDiagnostics, UnknownStageParameterPointsIntoTheSweep) {
   test::TempDir dir;
   const std::string sweep = put(dir, "bad2.yaml",
