@@ -55,9 +55,8 @@ int cmdSimulate(const Args& args) {
   } else {
     source.reset(static_cast<Source*>(reg.create("simulator").release()));
   }
-  if (!config.empty() && overrides.str() == "{}") {
-    // The config's source is configured already.
-  } else {
+  // A config's source is configured already; the simulator made here still needs configure().
+  if (config.empty() || overrides.str() != "{}") {
     try {
       setParams(*source, overrides.str(), ctx);
     } catch (const std::exception& e) {  // e.g. --seed beyond the simulator's range

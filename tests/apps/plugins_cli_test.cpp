@@ -190,10 +190,6 @@ TEST(RunCli, BadArgumentsAreUsageErrorsAndRunNothing) {
   }
 }
 
-}  // namespace terramrf
-
-namespace terramrf {
-
 // `mesh` on a config that lists no textured_mesh output adds one with its defaults; an output
 // folder that cannot be made is an error before anything runs.
 TEST(MeshCli, AddsTheMeshOutputAndRefusesAFolderThatIsAFile) {
@@ -218,10 +214,6 @@ TEST(MeshCli, AddsTheMeshOutputAndRefusesAFolderThatIsAFile) {
             std::string::npos)
       << err;
 }
-
-}  // namespace terramrf
-
-namespace terramrf {
 
 TEST(SimulateCli, WritesFramesAndRefusesWhatItCannotSimulate) {
   test::TempDir dir;

@@ -24,7 +24,6 @@ bool allDigits(const std::string& s) {
 using io_detail::isDir;
 using io_detail::isFile;
 
-/// frame<id>-<stamp>.<ext> files of `dir`, by id.
 /// A frame number without its zero padding ("000104" → "104", "0000" → "0"): image and scan
 /// names pad differently, and numbers too long for an integer must still compare.
 std::string frameNumber(const std::string& digits) {
@@ -32,7 +31,7 @@ std::string frameNumber(const std::string& digits) {
   return first == std::string::npos ? "0" : digits.substr(first);
 }
 
-/// Camera files keyed by frameNumber of their "frame<digits>[-…]" names.
+/// frame<id>-<stamp>.<ext> files of `dir`, keyed by frameNumber(id).
 std::map<std::string, std::string> cameraFiles(const fs::path& dir, const std::string& ext) {
   std::map<std::string, std::string> out;
   if (!isDir(dir)) return out;
