@@ -727,10 +727,10 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
       if (roc["max_points"]) {
         try {
           const int v = roc["max_points"].as<int>();
-          if (v < 2) throw YAML::Exception(roc["max_points"].Mark(), "");
+          if (v < 2 || v > 10000000) throw YAML::Exception(roc["max_points"].Mark(), "");
           s->roc_max_points = static_cast<std::size_t>(v);
         } catch (const YAML::Exception&) {
-          d.add(roc["max_points"].Mark(), "roc.max_points: expected an integer >= 2");
+          d.add(roc["max_points"].Mark(), "roc.max_points: expected an integer from 2 to 10000000");
         }
       }
       if (roc["fallback"]) {

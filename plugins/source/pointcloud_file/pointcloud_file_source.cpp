@@ -301,7 +301,15 @@ class PointCloudFileSource : public Source {
       f.points.z.push_back(z);
       f.points.intensity.push_back(in);
       if (f_ring) {
+        // Negative or out-of-range rings mean "not known" (drivers write -1); a fraction is
+        // neither a laser index nor that, so it is refused rather than truncated.
         const double r = fieldValue(c2, *f_ring, k);
+        if (std::isfinite(r) && r != std::floor(r)) {
+          std::ostringstream o;
+          o << "point " << k << " has ring " << r
+            << "; expected a whole laser index (negative = unknown)";
+          throw InputError(file, o.str());
+        }
         f.points.ring.push_back(r >= 0 && r < kUnknownRing ? uint16_t(r) : kUnknownRing);
       }
       if (f_label) {

@@ -313,7 +313,10 @@ TEST(SweepDiagnostics, EachMalformedPartIsReportedAtItsPlace) {
       {base + "outputs: [{type: grid_png, params: three}]\n", "three", 1,
        "stage 'grid_png' (grid_png): 'params' must be a map of parameter: value"},
       {base + "roc: three\n", "three", 1, "'roc' must be a map {max_points, fallback}"},
-      {base + "roc: {max_points: one}\n", "one", 1, "roc.max_points: expected an integer >= 2"},
+      {base + "roc: {max_points: one}\n", "one", 1,
+       "roc.max_points: expected an integer from 2 to 10000000"},
+      {base + "roc: {max_points: 20000000}\n", "20000000", 1,
+       "roc.max_points: expected an integer from 2 to 10000000"},
       {base + "roc: {fallback: maybe}\n", "maybe", 1,
        "roc.fallback: expected 'local_energy' or 'skip', got 'maybe'"},
       // select

@@ -271,6 +271,21 @@ TEST_F(PointCloudFileTest, FieldsOfEveryStoredTypeAreReadByValue) {
   EXPECT_EQ(g.points.intensity[0], -5.f);
   EXPECT_EQ(g.points.ring[0], 63);
   EXPECT_EQ(g.truth.label, (std::vector<LabelId>{labels::kObstacle}));
+
+  // A float ring must be whole: 3.5 was read as laser 3.
+  std::ofstream(p) << "VERSION 0.7\nFIELDS x y z ring\nSIZE 4 4 4 4\nTYPE F F F F\n"
+                      "COUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n"
+                      "DATA ascii\n1 1 1 3\n2 2 2 3.5\n";
+  try {
+    make("{path: " + p + "}")->read(0);
+    FAIL() << "accepted a ring of 3.5";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), p);
+    EXPECT_NE(std::string(e.what()).find(
+                  "point 1 has ring 3.5; expected a whole laser index (negative = unknown)"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST_F(PointCloudFileTest, NegativeLabelNamesFilePointAndExpectation) {
