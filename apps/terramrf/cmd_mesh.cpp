@@ -38,13 +38,11 @@ int cmdMesh(const Args& args) {
     ctx.labels = p.labels.get();
     setParams(*pl, "{}", ctx);
     pl->setIdentity("textured_mesh", "textured_mesh");
-    auto* out = dynamic_cast<Output*>(pl.get());
-    if (!out) {
+    if (!dynamic_cast<Output*>(pl.get())) {
       std::cerr << "terramrf mesh: plugin 'textured_mesh' is not an output\n";
       return kError;
     }
-    pl.release();
-    p.outputs.emplace_back(out);
+    p.outputs.emplace_back(static_cast<Output*>(pl.release()));
   }
   std::error_code ec;
   std::filesystem::create_directories(p.output_dir, ec);

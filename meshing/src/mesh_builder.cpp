@@ -44,7 +44,8 @@ void voteVertices(TerrainMesh& mesh, const CameraView& view, const GroundSegment
         votes.push_back({{int64_t(t.ti) * span + i, int64_t(t.tj) * span + j}, seg.isGround(u, v)});
       }
   }
-  for (const auto& [key, g] : votes) {
+  for (const auto& [key, ground] : votes) {
+    const bool g = ground;  // C++17 lambdas cannot capture a structured binding (clang refuses)
     mesh.forEachCopy(key, [&](Tile& t, int k) {
       uint16_t& c = g ? t.ground_votes[k] : t.object_votes[k];
       if (c < 65535) ++c;

@@ -149,7 +149,8 @@ SceneRecoveryStats recoverHeights(TerrainMesh& mesh, const CameraView& view, con
     bool left_image = false, occluded = false;
     for (int t = 0;; ++t) {
       const Eigen::Vector2d q = c.uv + t * dir;
-      const int u = int(q.x() + 0.5), v = int(q.y() + 0.5);
+      // floor, not a cast: the march leaves the image through negative coordinates too
+      const int u = int(std::floor(q.x() + 0.5)), v = int(std::floor(q.y() + 0.5));
       if (u < 0 || v < 0 || u >= W || v >= H) {
         left_image = v < 0 && gap == 0;
         break;
