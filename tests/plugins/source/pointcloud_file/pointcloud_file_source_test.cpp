@@ -82,6 +82,18 @@ class PointCloudFileTest : public ::testing::Test {
     return std::unique_ptr<Source>(dynamic_cast<Source*>(p.release()));
   }
   std::string skMap() const { return test::sourceDir() + "/configs/label_maps/semantickitti.yaml"; }
+  /// Reading frame 0 of `file` (with `more` source params) must fail with an InputError that
+  /// names the file and says `expect`.
+  void expectRefused(const std::string& file, const std::string& expect,
+                     const std::string& more = "") {
+    try {
+      make("{path: " + file + more + "}")->read(0);
+      ADD_FAILURE() << "read " << file << "; expected it refused with: " << expect;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), file);
+      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+    }
+  }
   PluginRegistry reg_;
   LabelSet labels_ = LabelSet::defaults();
   PluginContext ctx_;
@@ -160,12 +172,7 @@ TEST_F(PointCloudFileTest, UnreadableFilesAreNamed) {
   test::TempDir dir;
   const std::string bad = dir.str() + "/broken.pcd";
   std::ofstream(bad) << "this is not a point cloud\n";
-  try {
-    make("{path: " + bad + "}")->read(0);
-    FAIL();
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.file(), bad);
-  }
+  expectRefused(bad, "");
   const std::string badply = dir.str() + "/broken.ply";
   std::ofstream(badply) << "ply\nformat ascii 1.0\nelement vertex 3\nend_header\n1 2\n";
   EXPECT_THROW(make("{path: " + badply + "}")->read(0), InputError);
@@ -211,12 +218,7 @@ TEST_F(PointCloudFileTest, ADamagedPcdHeaderIsRefusedBeforePclReadsIt) {
       t.replace(t.find(c.from), c.from.size(), c.to);
       const std::string bad = dir.str() + "/bad.pcd";
       std::ofstream(bad, std::ios::binary) << t;
-      try {
-        make("{path: " + bad + "}")->read(0);
-        ADD_FAILURE() << "accepted " << c.to;
-      } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos) << e.what();
-      }
+      expectRefused(bad, c.expect);
     }
     // Consistent header, body far too short. (PCL pads a binary body to a whole page, 4096
     // bytes, and reads the padding as points: the check can only bound, not count.)
@@ -225,18 +227,9 @@ TEST_F(PointCloudFileTest, ADamagedPcdHeaderIsRefusedBeforePclReadsIt) {
       t.replace(t.find(k), std::strlen(k), std::string(k).replace(std::strlen(k) - 2, 1, "999"));
     const std::string bad = dir.str() + "/short.pcd";
     std::ofstream(bad, std::ios::binary) << t;
-    try {
-      make("{path: " + bad + "}")->read(0);
-      ADD_FAILURE() << "accepted 999 points in the space of 4";
-    } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("the header declares POINTS 999, but "),
-                std::string::npos)
-          << e.what();
-      EXPECT_NE(std::string(e.what()).find(binary ? "bytes of binary data hold at most 180"
-                                                  : "bytes of ASCII data hold at most 4"),
-                std::string::npos)
-          << e.what();
-    }
+    expectRefused(bad, "the header declares POINTS 999, but ");
+    expectRefused(bad, binary ? "bytes of binary data hold at most 180"
+                              : "bytes of ASCII data hold at most 4");
   }
 }
 
@@ -276,16 +269,7 @@ TEST_F(PointCloudFileTest, FieldsOfEveryStoredTypeAreReadByValue) {
   std::ofstream(p) << "VERSION 0.7\nFIELDS x y z ring\nSIZE 4 4 4 4\nTYPE F F F F\n"
                       "COUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n"
                       "DATA ascii\n1 1 1 3\n2 2 2 3.5\n";
-  try {
-    make("{path: " + p + "}")->read(0);
-    FAIL() << "accepted a ring of 3.5";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.file(), p);
-    EXPECT_NE(std::string(e.what()).find(
-                  "point 1 has ring 3.5; expected a whole laser index (negative = unknown)"),
-              std::string::npos)
-        << e.what();
-  }
+  expectRefused(p, "point 1 has ring 3.5; expected a whole laser index (negative = unknown)");
 }
 
 TEST_F(PointCloudFileTest, NegativeLabelNamesFilePointAndExpectation) {
@@ -294,15 +278,7 @@ TEST_F(PointCloudFileTest, NegativeLabelNamesFilePointAndExpectation) {
   std::ofstream(p) << "VERSION 0.7\nFIELDS x y z label\nSIZE 4 4 4 4\nTYPE F F F I\n"
                       "COUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n"
                       "DATA ascii\n1 1 1 2\n2 2 2 -1\n";
-  try {
-    make("{path: " + p + "}")->read(0);
-    FAIL() << "accepted a negative label";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.file(), p);
-    EXPECT_NE(std::string(e.what()).find("point 1 has label -1"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("expected a non-negative integer id"), std::string::npos)
-        << e.what();
-  }
+  expectRefused(p, "point 1 has label -1; expected a non-negative integer id");
   // Without use_labels the field is not read at all.
   EXPECT_EQ(make("{path: " + p + ", use_labels: false}")->read(0).points.size(), 2u);
   // A float label that is not whole was read as the id below it.
@@ -310,16 +286,7 @@ TEST_F(PointCloudFileTest, NegativeLabelNamesFilePointAndExpectation) {
   std::ofstream(q) << "VERSION 0.7\nFIELDS x y z label\nSIZE 4 4 4 4\nTYPE F F F F\n"
                       "COUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n"
                       "DATA ascii\n1 1 1 2\n2 2 2 2.5\n";
-  try {
-    make("{path: " + q + "}")->read(0);
-    FAIL() << "accepted a label of 2.5";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.file(), q);
-    EXPECT_NE(
-        std::string(e.what()).find("point 1 has label 2.5; expected a non-negative integer id"),
-        std::string::npos)
-        << e.what();
-  }
+  expectRefused(q, "point 1 has label 2.5; expected a non-negative integer id");
 }
 
 // A PLY may carry any vertex properties; PCL reads one without x, y, z without complaint.
@@ -328,16 +295,9 @@ TEST_F(PointCloudFileTest, PlyWithoutXyzNamesTheFieldsItHas) {
   const std::string p = dir.str() + "/abc.ply";
   std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 2\nproperty float a\n"
                       "property float b\nproperty float c\nend_header\n1 2 3\n4 5 6\n";
-  try {
-    make("{path: " + p + "}")->read(0);
-    FAIL() << "accepted a cloud without x, y, z";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.file(), p);
-    EXPECT_NE(std::string(e.what()).find("has no x, y, z fields (it has: a, b, c); expected a "
-                                         "point cloud with x, y, z fields"),
-              std::string::npos)
-        << e.what();
-  }
+  expectRefused(p,
+                "has no x, y, z fields (it has: a, b, c); expected a point cloud with x, y, z "
+                "fields");
 }
 
 // A PLY camera element sets the cloud's width and height (viewportx, viewporty) independently of
@@ -349,16 +309,8 @@ TEST_F(PointCloudFileTest, PlyViewportLargerThanItsVerticesIsRefused) {
                       "property float y\nproperty float z\nelement camera 1\n"
                       "property int viewportx\nproperty int viewporty\nend_header\n"
                       "1 2 3\n4 5 6\n3 1\n";
-  try {
-    make("{path: " + p + "}")->read(0);
-    FAIL() << "accepted 3 points in the space of 2";
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.file(), p);
-    EXPECT_NE(std::string(e.what()).find("point data shorter than its header says: 24 bytes, "
-                                         "expected 36 for 3 x 1 points"),
-              std::string::npos)
-        << e.what();
-  }
+  expectRefused(p,
+                "point data shorter than its header says: 24 bytes, expected 36 for 3 x 1 points");
 }
 
 // The label map is read at configure: a broken one is an error of the 'label_map' parameter that
