@@ -142,6 +142,9 @@ class Roughness final : public Stage {
         cursor_[r] += static_cast<uint32_t>(j - i);
       }
     }
+    // Points whose ring is unknown (a driver's -1, a ring field that is not one) add nothing
+    // here; counted, so a run says how much of the cloud its roughness saw.
+    ctx.metrics[name() + ".points_without_ring"] = static_cast<double>(n - order_.size());
     sorted_rings_ = 0;
     if (azimuth_order_ != "scan") sortRings(pc, rings);
     ctx.metrics[name() + ".sorted_rings"] = sorted_rings_;

@@ -36,6 +36,20 @@ TEST(Roughness, SmoothRingIsZeroAndAlternatingRingKnown) {
   EXPECT_LT(h.at("roughness", 4.9, 0.05), 1e-4);
   EXPECT_NEAR(h.at("roughness", 7.9, 0.05), 0.04, 1e-3);
   EXPECT_TRUE(std::isnan(h.at("roughness", 2.0, 2.0)));
+  EXPECT_EQ(h.ctx.metrics.at("roughness.points_without_ring"), 0);
+}
+
+// Points whose ring is unknown take no part in the filter and are counted in the run's metrics.
+TEST(Roughness, PointsWithoutRingAreLeftOutAndCounted) {
+  test::StageHarness h;
+  addRing(h.frame.points, 20, 8.0, 2000, {0.02, -0.02});
+  // A ring of the same points marked unknown, 1 m further out: no roughness there.
+  addRing(h.frame.points, kUnknownRing, 9.0, 1500, {0.0});
+  h.bin();
+  h.make("roughness", "{window: 1}")->process(h.ctx);
+  EXPECT_NEAR(h.at("roughness", 7.9, 0.05), 0.04, 1e-3);
+  EXPECT_TRUE(std::isnan(h.at("roughness", 8.9, 0.05)));
+  EXPECT_EQ(h.ctx.metrics.at("roughness.points_without_ring"), 1500);
 }
 
 // A cloud stored out of scan order (shuffled, as the Open3D-ML scans are): 'auto' finds the rings
