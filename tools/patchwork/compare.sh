@@ -8,8 +8,9 @@
 # $PATCHWORK_SOURCE_DIR when set, else fetched at the pinned commit) and prints its accuracy table
 # and timing on one core (taskset -c 0). With --pairs N it then alternates N times Patchwork++'s
 # timing on seq 00 frame 0 with TerraMRF's BIN (terramrf_bench_slice of a normal Release build,
-# default build/bin/terramrf_bench_slice: BM_LG_Icm and BM_FileToLabels_LG_Icm) and prints each
-# pair's ratio and their median: this class of host switches between fast and slow phases, so
+# default build/bin/terramrf_bench_slice: BM_LG_Icm against estimateGround, and
+# BM_FileToLabels_LG_Icm against reading the .bin + estimateGround) and prints each pair's ratio
+# and their median: this class of host switches between fast and slow phases, so
 # only a pair's two halves compare.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
@@ -58,10 +59,12 @@ median() { sort -g | awk '{v[NR]=$1} END {print (NR%2 ? v[(NR+1)/2] : (v[NR/2]+v
 echo
 echo "alternated pairs on seq 00 frame 0, taskset -c 0 (Patchwork++: median of 29 calls;"
 echo "TerraMRF: median of its 10 repetitions) [ms]; load before: $(cut -d' ' -f1-3 /proc/loadavg)"
-printf '%4s %10s %10s %8s %14s %8s\n' pair Patchwork++ BM_LG_Icm ratio BM_FileToLabels ratio
+printf '%4s %10s %10s %8s %10s %14s %8s\n' pair Patchwork++ BM_LG_Icm ratio 'PW++ +read' \
+  BM_FileToLabels ratio
 for i in $(seq 1 "$pairs"); do
   taskset -c 0 "$driver" --calls 30 --csv "$tmp/pw.csv" "$seq00" >/dev/null
-  pw=$(awk -F, 'NR==2 {print $17}' "$tmp/pw.csv")
+  pw=$(awk -F, 'NR==2 {print $17}' "$tmp/pw.csv")    # estimateGround
+  pwr=$(awk -F, 'NR==2 {print $20}' "$tmp/pw.csv")   # reading the .bin + estimateGround
   # Names carry "/repeats:10" with some versions of Google Benchmark, so `BM_LG_Icm$` alone
   # would match nothing.
   taskset -c 0 "$bench" --benchmark_filter='^(BM_LG_Icm|BM_FileToLabels_LG_Icm)(/|$)' \
@@ -69,17 +72,16 @@ for i in $(seq 1 "$pairs"); do
   # real_time of the *_median rows; the unit is ms (TERRAMRF_BENCH sets it).
   lg=$(awk -F, '$1 ~ /^"BM_LG_Icm(\/[^"]*)?_median"$/ {print $3}' "$tmp/bench.csv")
   ftl=$(awk -F, '$1 ~ /^"BM_FileToLabels_LG_Icm(\/[^"]*)?_median"$/ {print $3}' "$tmp/bench.csv")
-  if [ -z "$lg" ] || [ -z "$ftl" ] || [ -z "$pw" ]; then
+  if [ -z "$lg" ] || [ -z "$ftl" ] || [ -z "$pw" ] || [ -z "$pwr" ]; then
     echo "compare.sh: pair $i: no median from $bench or the driver:" >&2
     cat "$tmp/bench.err" >&2
     exit 1
   fi
   r1=$(awk -v a="$lg" -v b="$pw" 'BEGIN {printf "%.3f", a / b}')
-  r2=$(awk -v a="$ftl" -v b="$pw" 'BEGIN {printf "%.3f", a / b}')
-  printf '%4d %10.2f %10.2f %8s %14.2f %8s\n' "$i" "$pw" "$lg" "$r1" "$ftl" "$r2"
+  r2=$(awk -v a="$ftl" -v b="$pwr" 'BEGIN {printf "%.3f", a / b}')
+  printf '%4d %10.2f %10.2f %8s %10.2f %14.2f %8s\n' "$i" "$pw" "$lg" "$r1" "$pwr" "$ftl" "$r2"
   echo "$r1" >>"$tmp/r1"
   echo "$r2" >>"$tmp/r2"
 done
 echo "median ratio: BM_LG_Icm / estimateGround $(median <"$tmp/r1"), BM_FileToLabels_LG_Icm /" \
-  "estimateGround $(median <"$tmp/r2") (Patchwork++'s read not included); load after:" \
-  "$(cut -d' ' -f1-3 /proc/loadavg)"
+  "(read + estimateGround) $(median <"$tmp/r2"); load after: $(cut -d' ' -f1-3 /proc/loadavg)"
