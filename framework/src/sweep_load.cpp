@@ -1,7 +1,5 @@
 // Reading sweep files and what train configs share with them: diagnostics with file positions,
 // grid/labels/plugin_path, the version; loadSweep validates a whole sweep before anything runs.
-#include "terramrf/sweep.hpp"
-
 #include <filesystem>
 #include <set>
 #include <sstream>
@@ -10,6 +8,8 @@
 #include "param_yaml.hpp"
 #include "sweep_internal.hpp"
 #include "terramrf/param_values.hpp"
+#include "terramrf/roc.hpp"
+#include "terramrf/sweep.hpp"
 
 namespace terramrf {
 namespace fs = std::filesystem;
@@ -727,10 +727,12 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
       if (roc["max_points"]) {
         try {
           const int v = roc["max_points"].as<int>();
-          if (v < 2 || v > 10000000) throw YAML::Exception(roc["max_points"].Mark(), "");
+          if (v < 2 || v > RocAccumulator::kMaxCurvePoints)
+            throw YAML::Exception(roc["max_points"].Mark(), "");
           s->roc_max_points = static_cast<std::size_t>(v);
         } catch (const YAML::Exception&) {
-          d.add(roc["max_points"].Mark(), "roc.max_points: expected an integer from 2 to 10000000");
+          d.add(roc["max_points"].Mark(), "roc.max_points: expected an integer from 2 to " +
+                                              std::to_string(RocAccumulator::kMaxCurvePoints));
         }
       }
       if (roc["fallback"]) {

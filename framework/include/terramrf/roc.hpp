@@ -89,6 +89,9 @@ class RocAccumulator {
   /// localEnergyScores, else nothing (stats.source = kNone).
   RocFrameStats addFrame(const TerrainGrid& grid, const Frame& frame, const EnergyModel* energy);
 
+  /// Most points a curve may be asked to keep (the `roc` output's and a sweep's `max_points`).
+  static constexpr int kMaxCurvePoints = 10'000'000;
+
   /// Curve of class `c`. `max_points` > 0 thins the stored points (never the AUC).
   RocCurve curve(LabelId c, std::size_t max_points = 0) const;
   /// Curves of every class that received samples, in id order.

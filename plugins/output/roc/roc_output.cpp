@@ -28,7 +28,7 @@ class RocOutput final : public Output {
     d.add("max_points", max_points_,
           "at most this many points per curve in the CSV/SVG (the AUC uses every sample)")
         .unit("points")
-        .range(2, 1e7);
+        .range(2, RocAccumulator::kMaxCurvePoints);
     d.add("title", title_, "plot title; empty = the run's config file");
   }
   void configure(const PluginContext& ctx) override {

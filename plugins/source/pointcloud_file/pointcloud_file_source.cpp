@@ -281,6 +281,11 @@ class PointCloudFileSource : public Source {
     f.points.reserve(n);
     if (f_ring) f.points.ring.clear();
     std::size_t nonfinite = 0, origin = 0;
+    auto refuse = [&](std::size_t k, const char* field, double v, const char* expected) {
+      std::ostringstream o;  // %g-like: 2.5, -1, 1e+10 rather than 2.500000
+      o << "point " << k << " has " << field << ' ' << v << "; expected " << expected;
+      throw InputError(file, o.str());
+    };
     for (std::size_t k = 0; k < n; ++k) {
       // Every field is read by its stored type. PCL's fromPCLPointCloud2 left x, y, z and
       // intensity at 0 when they were not float32 (only a "Failed to find match" warning), so a
@@ -304,21 +309,14 @@ class PointCloudFileSource : public Source {
         // Negative or out-of-range rings mean "not known" (drivers write -1); a fraction is
         // neither a laser index nor that, so it is refused rather than truncated.
         const double r = fieldValue(c2, *f_ring, k);
-        if (std::isfinite(r) && r != std::floor(r)) {
-          std::ostringstream o;
-          o << "point " << k << " has ring " << r
-            << "; expected a whole laser index (negative = unknown)";
-          throw InputError(file, o.str());
-        }
+        if (std::isfinite(r) && r != std::floor(r))
+          refuse(k, "ring", r, "a whole laser index (negative = unknown)");
         f.points.ring.push_back(r >= 0 && r < kUnknownRing ? uint16_t(r) : kUnknownRing);
       }
       if (f_label) {
         const double l = fieldValue(c2, *f_label, k);
-        if (!(l >= 0 && l <= 4294967295.0 && l == std::floor(l))) {
-          std::ostringstream o;  // %g-like: 2.5, -1, 1e+10 rather than 2.500000
-          o << "point " << k << " has label " << l << "; expected a non-negative integer id";
-          throw InputError(file, o.str());
-        }
+        if (!(l >= 0 && l <= 4294967295.0 && l == std::floor(l)))
+          refuse(k, "label", l, "a non-negative integer id");
         f.truth.raw.push_back(uint32_t(l));
       }
     }

@@ -82,12 +82,11 @@ class PointCloudFileTest : public ::testing::Test {
     return std::unique_ptr<Source>(dynamic_cast<Source*>(p.release()));
   }
   std::string skMap() const { return test::sourceDir() + "/configs/label_maps/semantickitti.yaml"; }
-  /// Reading frame 0 of `file` (with `more` source params) must fail with an InputError that
-  /// names the file and says `expect`.
-  void expectRefused(const std::string& file, const std::string& expect,
-                     const std::string& more = "") {
+  /// Reading frame 0 of `file` must fail with an InputError that names the file and says
+  /// `expect`.
+  void expectRefused(const std::string& file, const std::string& expect) {
     try {
-      make("{path: " + file + more + "}")->read(0);
+      make("{path: " + file + "}")->read(0);
       ADD_FAILURE() << "read " << file << "; expected it refused with: " << expect;
     } catch (const InputError& e) {
       EXPECT_EQ(e.file(), file);
