@@ -632,7 +632,9 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
           "'energy' must be an entry {name, type, params}");
   } else {
     if (!s->energy["name"]) s->energy["name"] = "mrf";
-    Made m = makePlugin(reg, s->energy, "energy", {PluginKind::kEnergy}, ctx, d, true, false);
+    // Checked on the file's own node: the clone's keys have no positions to report.
+    const YAML::Node own = root["energy"] ? root["energy"] : s->energy;
+    Made m = makePlugin(reg, own, "energy", {PluginKind::kEnergy}, ctx, d, true, false);
     s->energy_unavailable = m.not_installed;
     // The file's own node (s->energy is a clone, without positions).
     if (const YAML::Node en = root["energy"]; en && en["type"])

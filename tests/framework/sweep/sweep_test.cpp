@@ -304,6 +304,11 @@ TEST(SweepDiagnostics, EachMalformedPartIsReportedAtItsPlace) {
        "'energy' must be an entry {name, type, params}"},
       {test::edited(base, "params: {alpha: 1.0", "params: {model: m.yaml, alpha: 1.0"), "m.yaml", 1,
        "energy: 'model' is set per feature set by compare; remove it here"},
+      {test::edited(base, "params: {alpha: 1.0", "params: {alpah: 1.0"), "alpah", 1,
+       "stage 'potts_gaussian' (potts_gaussian): unknown parameter 'alpah' (did you mean "
+       "'alpha'?)"},
+      {test::edited(base, energy, "energy: {type: potts_gaussian, params: strong}"), "strong", 1,
+       "stage 'potts_gaussian' (potts_gaussian): 'params' must be a map of parameter: value"},
       {base + "training: three\n", "three", 1,
        "'training' must be a map of feature_stats parameters"},
       {base + "outputs: {type: grid_png}\n", "{type: grid_png}", 1,
@@ -327,6 +332,10 @@ TEST(SweepDiagnostics, EachMalformedPartIsReportedAtItsPlace) {
        "select.stages: expected a map stage name: {param: [candidate values]}"},
       {base + "select: {stages: {rough: three}}\n", "three", 1,
        "select.stages.rough: expected a map parameter: [candidate values]"},
+      {base + "select: {stages: {rough: {window: 3}}}\n", "3}", 1,
+       "select.stages.rough.window: expected a non-empty list of candidate values, e.g. [1, 2]"},
+      {base + "select: {stages: {rough: {window: []}}}\n", "[]", 1,
+       "select.stages.rough.window: expected a non-empty list of candidate values, e.g. [1, 2]"},
       {base + "select: {score: macro_f1}\n", "{score", 1,
        "select: list candidate values under 'training' (feature_stats parameters), 'energy' "
        "(energy parameters) or 'stages' (parameters of a feature set's stage)"},
