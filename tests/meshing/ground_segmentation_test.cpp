@@ -137,6 +137,24 @@ TEST(GroundSegmentation, GreyImageIsRejected) {
   EXPECT_THROW(segmentGround(grey, f.cameras[0].model, f.points, GroundSegParams{}, "g.png"), InputError);
 }
 
+// An image of another size than its camera model would put every projected point on the wrong
+// pixel: refused, naming the image and both sizes.
+TEST(GroundSegmentation, ImageOfAnotherSizeThanItsCameraIsRejected) {
+  const Frame& f = frames().front();
+  const Image& img = *f.cameras[0].image;
+  Image half(img.width / 2, img.height / 2, 3);
+  try {
+    segmentGround(half, f.cameras[0].model, f.points, GroundSegParams{}, "half.png");
+    FAIL() << "expected an error";
+  } catch (const InputError& e) {
+    const std::string want = "image is " + std::to_string(img.width / 2) + "x" +
+                             std::to_string(img.height / 2) + " px but the camera model says " +
+                             std::to_string(img.width) + "x" + std::to_string(img.height);
+    EXPECT_NE(std::string(e.what()).find("half.png"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(want), std::string::npos) << e.what();
+  }
+}
+
 // The real RELLIS-3D example frame (Ouster OS1-64, 1920×1200 camera, off-road: grass, bushes,
 // trees, a puddle-covered path), read through the rellis3d source plugin. Truth: the pixel labels
 // mapped by configs/label_maps/rellis3d.yaml (grass, puddle, mud, ... = ground; bush, tree, person,

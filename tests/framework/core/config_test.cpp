@@ -209,6 +209,15 @@ TEST(Config, RepeatedKeysAreRejectedAtTheRepeat) {
 // Each malformed entry of the common keys and the stage list is reported at that entry, in the
 // config's words: these paths had no test (coverage), and `labels:` reported yaml-cpp's own
 // conversion message at the list's start, and took a colour of 300 as 44.
+namespace {
+// `n` label entries in flow style: unknown, then c1, c2, ...
+std::string manyLabels(int n) {
+  std::string s = "{name: unknown, color: [0, 0, 0]}";
+  for (int i = 1; i < n; ++i) s += ", {name: c" + std::to_string(i) + ", color: [1, 1, 1]}";
+  return s;
+}
+}  // namespace
+
 TEST(Config, EachMalformedEntryIsNamedAtItsPlace) {
   test::ConfigFixture f;
   const std::string base = test::ConfigFixture::validPipeline();
@@ -239,6 +248,12 @@ TEST(Config, EachMalformedEntryIsNamedAtItsPlace) {
        2, "labels[2]: class 'road' is listed twice"},
       {test::edited(base, grid, grid + labels_ok + "  - {name: rough, colour: [9, 9, 9]}\n"),
        "colour", 1, "unknown key 'colour' in labels[2] (did you mean 'color'?)"},
+      {test::edited(base, grid, grid + labels_ok + "  - {color: [9, 9, 9]}\n"), "{color", 1,
+       "labels[2]: expected 'name: <class name>'"},
+      {test::edited(base, grid, grid + labels_ok + "  - {name: '', color: [9, 9, 9]}\n"), "''", 1,
+       "labels[2]: expected 'name: <class name>'"},
+      {test::edited(base, grid, grid + "labels: [" + manyLabels(256) + "]\n"), "[{name", 1,
+       "labels: 256 classes; at most 255 (ids are bytes)"},
       {test::edited(base, grid, grid + labels_ok + "  - rough\n"), "rough", 1,
        "labels[2]: expected a list of {name, color: [r, g, b]}"},
       {test::edited(base, grid, grid + labels_ok + "  - {name: unknown, color: [9, 9, 9]}\n"),

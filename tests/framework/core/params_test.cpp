@@ -1,7 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
+
 #include "terramrf/param_values.hpp"
 #include "terramrf/plugin.hpp"
+#include "test_support.hpp"
 
 namespace terramrf {
 namespace {
@@ -74,6 +78,74 @@ TEST(Params, ConfigureErrorNamesTheParameter) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("parameter 'window': must be <= 10 in mode b"),
               std::string::npos)
+        << e.what();
+  }
+}
+
+namespace {
+// A third-party stage whose data file has a default, and whose configure fails without a
+// ParamError (e.g. a library's own exception).
+struct WithDefaultFile : Stage {
+  std::string table = "tables/default.csv";
+  bool fail = false;
+  void declare(ParamDecl& d) override {
+    d.add("table", table, "lookup table").existingPath();
+    d.add("fail", fail, "make configure throw");
+  }
+  void configure(const PluginContext&) override {
+    if (fail) throw std::runtime_error("library refused the table");
+  }
+  void process(FrameContext&) override {}
+};
+}  // namespace
+
+// A default path is held to the same rule as a given one: it must exist, resolved against the
+// config's folder, or the config is refused before any frame is read.
+TEST(Params, DefaultDataPathMustExistAndIsResolved) {
+  test::TempDir dir;
+  PluginContext ctx;
+  ctx.config_dir = dir.str();
+  WithDefaultFile missing;
+  try {
+    setParams(missing, "{}", ctx);
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("parameter 'table': default data path '" + dir.str() +
+                                         "/tables/default.csv' does not exist"),
+              std::string::npos)
+        << e.what();
+  }
+  std::filesystem::create_directories(dir.str() + "/tables");
+  std::ofstream(dir.str() + "/tables/default.csv") << "x\n";
+  WithDefaultFile present;
+  setParams(present, "{}", ctx);
+  EXPECT_EQ(present.table, dir.str() + "/tables/default.csv");
+}
+
+// Whatever configure throws is reported with the stage, not lost or left to terminate().
+TEST(Params, ConfigureErrorOfAnyTypeIsReported) {
+  test::TempDir dir;
+  std::filesystem::create_directories(dir.str() + "/tables");
+  std::ofstream(dir.str() + "/tables/default.csv") << "x\n";
+  PluginContext ctx;
+  ctx.config_dir = dir.str();
+  WithDefaultFile p;
+  try {
+    setParams(p, "{fail: true}", ctx);
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("library refused the table"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(Params, UnparsableYamlNamesTheText) {
+  Demo d;
+  try {
+    setParams(d, "{cell_m: [1", PluginContext{});
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("parameters '{cell_m: [1': "), std::string::npos)
         << e.what();
   }
 }
