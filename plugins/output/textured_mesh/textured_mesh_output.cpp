@@ -57,7 +57,9 @@ class TexturedMeshOutput : public Output {
     d.add("mask_line_tolerance", p_.mask.line_tolerance, "t: grey-dilate the elevation by (2t+1)^2 vertices before masking, so sampled walls fill a straight line").unit("vertices").range(0, 5);
     d.add("recovery_background_odds", p_.recovery.background_odds, "§3.3: a colour is background only where it is this many times more frequent far from LiDAR returns than at object returns").unit("1").range(0.01, 1e4);
     d.add("recovery_stop_at_occluders", p_.recovery.stop_at_occluders, "§3.3: a column walk under a clearly nearer LiDAR surface gives only a lower bound");
-    d.add("write_overlays", write_overlays_, "write <frame>_<camera>_segmentation.png per image");
+    d.add("write_overlays", write_overlays_,
+          "write overlays/<frame>_<camera>.png in the mesh folder: each camera image with its "
+          "ground segmentation and object mask drawn over it");
     d.add("decimate", decimate_, "collapse flat regions of the exported mesh (CGAL edge collapse; "
           "tile borders, holes and class boundaries stay; texture coordinates stay exact)");
     d.add("flat_tolerance_m", flat_tolerance_m_,

@@ -2,9 +2,11 @@
 // and report.md out; bad parameters and an unwritable output folder are clear errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "output_test_support.hpp"
+#include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/param_values.hpp"
 #include "terramrf/registry.hpp"
@@ -25,7 +27,9 @@ TEST(TexturedMeshOutput, WritesAllFormatsAndAReport) {
                   "azimuth_step_deg: 0.36}", ctx);
   auto* source = dynamic_cast<Source*>(src.get());
   ASSERT_NE(source, nullptr);
-  auto out = test::makeOutput("textured_mesh", "{tile_vertices: 81, texels_per_cell: 1, max_range_m: 20}", ctx);
+  auto out = test::makeOutput(
+      "textured_mesh",
+      "{tile_vertices: 81, texels_per_cell: 1, max_range_m: 20, write_overlays: true}", ctx);
   ASSERT_NE(out, nullptr);
   RunInfo info;
   info.output_dir = dir.str();
@@ -46,6 +50,17 @@ TEST(TexturedMeshOutput, WritesAllFormatsAndAReport) {
   const std::string report = readFile((mesh / "report.md").string());
   EXPECT_NE(report.find("frames without a camera image (mesh untextured there): 1"), std::string::npos) << report;
   EXPECT_NE(report.find("Ground pixels found"), std::string::npos) << report;
+  // One overlay per frame with an image, kept across the export's folder swap, the size of the
+  // camera image.
+  std::vector<std::string> overlays;
+  for (const auto& e : fs::directory_iterator(mesh / "overlays"))
+    overlays.push_back(e.path().filename().string());
+  std::sort(overlays.begin(), overlays.end());
+  EXPECT_EQ(overlays, (std::vector<std::string>{"000000_image_2.png", "000002_image_2.png"}));
+  const Image o = readImage((mesh / "overlays" / "000002_image_2.png").string());
+  EXPECT_EQ(o.width, 256);
+  EXPECT_EQ(o.height, 128);
+  EXPECT_EQ(o.channels, 3);
 }
 
 TEST(TexturedMeshOutput, BadParametersAreRejected) {
