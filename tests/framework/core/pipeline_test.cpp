@@ -189,3 +189,76 @@ TEST(Pipeline, StageMetricsOfCompletedFramesAreWrittenAsCsv) {
 }
 
 }  // namespace terramrf
+
+namespace terramrf {
+namespace {
+/// An output that keeps, per frame, the labels of the cells at the given points.
+struct CellLabelProbe : Output {
+  std::vector<std::pair<double, double>> at_m;
+  std::vector<std::vector<LabelId>> seen;
+  void write(const FrameContext& ctx) override {
+    std::vector<LabelId> l;
+    for (const auto& [x, y] : at_m)
+      l.push_back(ctx.grid->labels()[ctx.grid->geometry().cellOf(x, y)]);
+    seen.push_back(l);
+  }
+};
+}  // namespace
+
+// Egomotion stages (the later EKF / ICP plugins) run before the grid is binned, in their own
+// timing slot, set the frame's pose and see the previous frame's: the core's side of that
+// contract, with a test plugin, before any real egomotion plugin exists.
+TEST(Pipeline, EgomotionStagesRunBeforeBinningAndSeeThePreviousFrame) {
+  test::ConfigFixture f;
+  PluginRegistry reg({test::pluginDir(),
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_source",
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_egomotion"});
+  const std::string base = test::ConfigFixture::validPipeline("{frames: 3}");
+  const std::string ego =
+      "  - {name: ego, type: test_egomotion, params: {step_m: 1.5, shift_x_m: 2}}\n";
+  std::string text = base;
+  text.insert(text.find("stages:\n") + 8, ego);
+  LoadOptions lo;
+  lo.output_dir = f.dir.str() + "/out";
+  Pipeline p = loadPipeline(f.write("ego.yaml", text), lo, reg);
+  auto probe = std::make_unique<CellLabelProbe>();
+  // The box's wall stands at x = 3 m; shifted by 2 m it is binned at x = 1 m, and ground takes
+  // its old place.
+  probe->at_m = {{1.05, 0.3}, {3.05, 0.3}};
+  CellLabelProbe* seen = probe.get();
+  p.outputs.push_back(std::move(probe));
+  RunOptions ro;
+  ro.progress = false;
+  const RunResult r = runPipeline(p, ro);
+  ASSERT_EQ(r.summary.frames_ok, 3u);
+  std::vector<std::string> slots;
+  for (const auto& t : r.timings) slots.push_back(t.name);
+  EXPECT_EQ(slots, (std::vector<std::string>{"read", "read wait", "ego", "grid", "pre", "hdiff",
+                                             "mrf", "solve", "output:", "total"}));
+  EXPECT_EQ(r.timings[2].ms.size(), 3u);
+  ASSERT_EQ(seen->seen.size(), 3u);
+  for (const auto& l : seen->seen) {
+    EXPECT_EQ(l[0], labels::kObstacle);
+    EXPECT_EQ(l[1], labels::kRoad);
+  }
+  ASSERT_EQ(r.metrics.size(), 3u);
+  const double want[] = {-1.0, 0.0, 1.5};  // none, then frame 0's and frame 1's pose
+  for (std::size_t k = 0; k < 3; ++k)
+    EXPECT_DOUBLE_EQ(r.metrics[k].second.at("ego.previous_pose_x_m"), want[k]) << k;
+
+  // After a feature stage it would see a grid binned before it moved the points: refused.
+  std::string late = base;
+  late.insert(late.find("  - {name: mrf"), ego);
+  try {
+    loadPipeline(f.write("late.yaml", late), lo, reg);
+    FAIL() << "expected a config error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "late.yaml:7:5: stage 'ego' (test_egomotion): egomotion stages must come before "
+                  "feature/energy/optimiser stages"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace terramrf

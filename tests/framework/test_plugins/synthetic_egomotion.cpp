@@ -1,0 +1,32 @@
+// Test-only egomotion stage. The egomotion issue's EKF and ICP plugins will slot in where this
+// one does, so the runner's side of the contract is tested now: an egomotion stage runs before
+// the grid is binned (it may move the points, e.g. to undo the sweep's motion), sets the frame's
+// pose, and sees the previous frame's result for temporal fusion.
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+
+class SyntheticEgomotion final : public Stage {
+ public:
+  void declare(ParamDecl& d) override {
+    d.add("step_m", step_m_, "pose: x advances this far per frame index").unit("m");
+    d.add("shift_x_m", shift_x_m_, "subtracted from every point's x before binning").unit("m");
+  }
+  void process(FrameContext& ctx) override {
+    Frame& f = *ctx.frame;
+    f.pose = Eigen::Isometry3d(Eigen::Translation3d(step_m_ * double(ctx.index), 0, 0));
+    for (float& x : f.points.x) x -= static_cast<float>(shift_x_m_);
+    const bool prev = ctx.previous && ctx.previous->frame && ctx.previous->frame->pose;
+    ctx.metrics[name() + ".previous_pose_x_m"] =
+        prev ? ctx.previous->frame->pose->translation().x() : -1.0;
+  }
+
+ private:
+  double step_m_ = 1.0;
+  double shift_x_m_ = 0.0;
+};
+
+}  // namespace terramrf
+
+TERRAMRF_PLUGIN(terramrf::SyntheticEgomotion, terramrf::PluginKind::kEgomotion, "test_egomotion",
+                "test-only egomotion: a pose per frame and a shift of the points")
