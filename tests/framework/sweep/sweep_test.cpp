@@ -1140,6 +1140,46 @@ TEST(SweepSelectFolds, EachFoldIsScoredByModelsLearntOnTheOtherFolds) {
   EXPECT_EQ(YAML::LoadFile(out + "/results.json")["selection"][0]["folds"].as<int>(), 2);
 }
 
+// A candidate whose training fails on a fold's complement is not scored, says which fold and
+// why (in the selection record, the log and the test runs' reason), and costs no other result.
+TEST(SweepSelectFolds, ACandidateWhoseTrainingFailsIsReportedWithItsFold) {
+  test::TempDir dir;
+  std::string text = foldSweep("select: {training: {components: [1, 2]}}\n");
+  // The train split read without its labels: nothing to learn from on any fold.
+  const std::size_t at = text.find("  sim_train:");
+  text.replace(at, text.find('\n', at) - at,
+               "  sim_train: {type: semantickitti, params: {use_labels: false, path: " +
+                   test::dataPath("semantickitti_seq00_000000-000005") + "}}");
+  const std::string sweep = put(dir, "unlabelled_folds.yaml", text);
+  std::ostringstream log;
+  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
+  EXPECT_EQ(r.exitCode(), 3);
+  ASSERT_EQ(r.selections.size(), 2u);
+  for (const auto& s : r.selections) {
+    SCOPED_TRACE(s.feature_set);
+    EXPECT_EQ(s.chosen, -1);
+    ASSERT_EQ(s.notes.size(), 2u);
+    for (std::size_t c = 0; c < 2; ++c) {
+      EXPECT_TRUE(std::isnan(s.scores[c]));
+      EXPECT_EQ(s.notes[c].find("training without fold 1 failed: "), 0u) << s.notes[c];
+      EXPECT_NE(s.notes[c].find("no labelled frame in the training data"), std::string::npos)
+          << s.notes[c];
+    }
+    EXPECT_NE(log.str().find("feature set " + s.feature_set +
+                             " [components=2]: training without "
+                             "fold 1 failed: "),
+              std::string::npos)
+        << log.str();
+  }
+  ASSERT_FALSE(r.runs.empty());
+  for (const auto& x : r.runs) {
+    EXPECT_EQ(x.status, RunRecord::Status::kFailed);
+    EXPECT_NE(x.reason.find("select: no candidate could be scored on the validation split"),
+              std::string::npos)
+        << x.reason;
+  }
+}
+
 TEST(SweepSelectFolds, FoldsOutsideTheTrainSplitOrSharingDataAreRejectedAtTheirPlace) {
   test::TempDir dir;
   const std::string sel = "select: {training: {components: [1, 2]}}\n";
