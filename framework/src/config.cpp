@@ -289,6 +289,15 @@ std::string kindList(const std::vector<PluginKind>& kinds) {
   return s;
 }
 
+namespace {
+// A copied entry (a sweep's dataset in a split item) has no position of its own; its keys keep
+// theirs, so the first key stands for the entry.
+YAML::Mark entryMark(const YAML::Node& e) {
+  if (e.Mark().line < 0 && e.IsMap() && e.begin() != e.end()) return e.begin()->first.Mark();
+  return e.Mark();
+}
+}  // namespace
+
 EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const std::string& section,
                               const std::vector<PluginKind>& kinds, Diags& d,
                               const EntryChecks& checks) {
@@ -308,10 +317,7 @@ EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const st
   const std::string& name = ep.name;
   const std::string& type = ep.type;
   if (type.empty()) {
-    // A copied entry (a sweep's dataset in a split item) has no position of its own; its keys
-    // keep theirs.
-    YAML::Mark at = e["type"] ? e["type"].Mark() : e.Mark();
-    if (at.line < 0 && e.begin() != e.end()) at = e.begin()->first.Mark();
+    const YAML::Mark at = e["type"] && e["type"].Mark().line >= 0 ? e["type"].Mark() : entryMark(e);
     d.add(at,
           e["type"] ? "'type' is empty; expected the plugin type name"
                     : "missing key 'type' (the plugin type name)",
@@ -359,9 +365,10 @@ EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const st
 
 bool applyEntryParams(Plugin& plugin, const YAML::Node& e, const PluginContext& ctx, Diags& d,
                       const std::vector<std::pair<std::string, std::string>>& overrides) {
-  const auto issues = applyParams(plugin, e["params"], ctx, e.Mark(), overrides);
+  const YAML::Mark at = entryMark(e);
+  const auto issues = applyParams(plugin, e["params"], ctx, at, overrides);
   for (const auto& i : issues)
-    d.add(i.mark.line >= 0 ? i.mark : e.Mark(), i.message, plugin.name(), plugin.type());
+    d.add(i.mark.line >= 0 ? i.mark : at, i.message, plugin.name(), plugin.type());
   return issues.empty();
 }
 

@@ -174,6 +174,8 @@ bool parseItem(const YAML::Node& n, const std::map<std::string, YAML::Node>* dat
   YAML::Node params = detail::copyMapKeepingPositions(base["params"]);
   it.source.remove("params");
   it.source["params"] = params;
+  // Messages about the source then name the dataset, not only its type.
+  if (!it.dataset.empty() && !it.source["name"]) it.source["name"] = it.dataset;
   if (params_override)
     for (auto p = params_override.begin(); p != params_override.end(); ++p) {
       params.remove(p->first.Scalar());

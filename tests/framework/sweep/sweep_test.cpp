@@ -380,6 +380,21 @@ TEST(SweepDiagnostics, EachMalformedPartIsReportedAtItsPlace) {
 
 // Found by fuzzing: a dataset with `type: null` was reported without a position (split items use
 // copies of the dataset's entry, which keep no mark of their own), once per item that uses it.
+// Found by fuzzing, likewise: a dataset without a required parameter was reported without a
+// position; it is reported at the dataset, which the message names.
+TEST(SweepDiagnostics, ADatasetWithoutARequiredParameterIsNamedAtItsPlace) {
+  test::TempDir dir;
+  const std::string text =
+      test::edited(tinySweep("  icm: {type: icm}"), "sim_test:  {type: simulator",
+                   "sim_test:  {type: pointcloud_file, params: {}}\n  unused: {type: simulator");
+  const std::string sweep = put(dir, "no_path.yaml", text);
+  const std::string all = expectConfigError(sweep).what();
+  EXPECT_NE(all.find(sweep + ":" + test::positionOf(text, "type: pointcloud_file") +
+                     ": stage 'sim_test' (pointcloud_file): missing required parameter 'path'"),
+            std::string::npos)
+      << all;
+}
+
 TEST(SweepDiagnostics, ADatasetWithAnEmptyTypeIsNamedOnceAtItsPlace) {
   test::TempDir dir;
   std::string text = test::edited(tinySweep("  icm: {type: icm}"), "sim_test:  {type: simulator",
@@ -388,7 +403,7 @@ TEST(SweepDiagnostics, ADatasetWithAnEmptyTypeIsNamedOnceAtItsPlace) {
   const std::string sweep = put(dir, "null_type.yaml", text);
   const std::string all = expectConfigError(sweep).what();
   const std::string want = sweep + ":" + test::positionOf(text, "~") +
-                           ": 'type' is empty; expected the plugin type name";
+                           ": stage 'sim_test': 'type' is empty; expected the plugin type name";
   const std::size_t first = all.find(want);
   EXPECT_NE(first, std::string::npos) << all;
   EXPECT_EQ(all.find("'type' is empty", first + want.size()), std::string::npos) << all;
@@ -506,11 +521,11 @@ training: {min_purity: 7}
   text = text.substr(0, text.find("optimisers:")) + "optimisers: {icm: {type: icm}}\n";
   const ConfigError e2 = expectConfigError(put(dir, "values2.yaml", text));
   const std::string all2 = e2.what();
-  EXPECT_NE(all2.find(":4:68: stage 'simulator' (simulator): parameter 'enable_camera': expected "
+  EXPECT_NE(all2.find(":4:68: stage 'b' (simulator): parameter 'enable_camera': expected "
                       "bool"),
             std::string::npos)
       << all2;
-  EXPECT_NE(all2.find(":5:65: stage 'simulator' (simulator): parameter 'range_noise_m': "
+  EXPECT_NE(all2.find(":5:65: stage 'b' (simulator): parameter 'range_noise_m': "
                       "expected float, got 'loud'"),
             std::string::npos)
       << all2;
