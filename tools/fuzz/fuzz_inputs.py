@@ -383,15 +383,18 @@ class Fuzzer:
                'compare': [self.bin, 'compare', path, '--limit', '1', '--no-progress', '--out',
                            out_dir]}[mode]
         try:
-            open(path, 'wb').write(self.mutate_yaml(open(seed_file, encoding='utf-8').read()))
+            text = self.mutate_yaml(open(seed_file, encoding='utf-8').read())
+            open(path, 'wb').write(text)
             rc, out = self.run(cmd, os.path.dirname(path))
             why = self.judge(rc, out, [])
             if (not why and rc == 2 and not re.search(r'\.yaml:\d+', out) and 'usage' not in out
                     and 'the file holds nothing' not in out):
                 why = 'config error without a file:line position'
-            # Every shipped config opens with a comment, so nothing of the user's stands at 1:1:
-            # a message there lost its position (e.g. checked on a copy of the node).
-            if not why and rc == 2 and re.search(r'\.yaml:1:1: ', out):
+            # Every shipped config opens with a comment: while the mutation left it one, nothing
+            # of the user's stands at 1:1, and a message there lost its position (e.g. checked on
+            # a copy of the node).
+            if (not why and rc == 2 and text.startswith(b'#')
+                    and re.search(r'\.yaml:1:1: ', out)):
                 why = 'config error at 1:1 (its position was lost)'
             if why:
                 self.keep(mode, k, why, cmd, rc, out, [path])
