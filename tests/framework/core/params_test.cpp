@@ -97,6 +97,14 @@ struct WithDefaultFile : Stage {
   }
   void process(FrameContext&) override {}
 };
+
+/// Creates WithDefaultFile's default table under `dir`; returns its path.
+std::string writeDefaultTable(const test::TempDir& dir) {
+  std::filesystem::create_directories(dir.str() + "/tables");
+  const std::string path = dir.str() + "/tables/default.csv";
+  std::ofstream(path) << "x\n";
+  return path;
+}
 }  // namespace
 
 // A default path is held to the same rule as a given one: it must exist, resolved against the
@@ -115,18 +123,16 @@ TEST(Params, DefaultDataPathMustExistAndIsResolved) {
               std::string::npos)
         << e.what();
   }
-  std::filesystem::create_directories(dir.str() + "/tables");
-  std::ofstream(dir.str() + "/tables/default.csv") << "x\n";
+  const std::string table = writeDefaultTable(dir);
   WithDefaultFile present;
   setParams(present, "{}", ctx);
-  EXPECT_EQ(present.table, dir.str() + "/tables/default.csv");
+  EXPECT_EQ(present.table, table);
 }
 
 // Whatever configure throws is reported with the stage, not lost or left to terminate().
 TEST(Params, ConfigureErrorOfAnyTypeIsReported) {
   test::TempDir dir;
-  std::filesystem::create_directories(dir.str() + "/tables");
-  std::ofstream(dir.str() + "/tables/default.csv") << "x\n";
+  writeDefaultTable(dir);
   PluginContext ctx;
   ctx.config_dir = dir.str();
   WithDefaultFile p;

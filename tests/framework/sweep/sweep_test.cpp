@@ -760,6 +760,16 @@ TEST(SweepDiagnostics, AFeatureSetsEnergyParametersAreCheckedAtTheirPlace) {
 // ---- select: parameters chosen on a validation split -------------------------------------------
 
 /// tinySweep with a validation world (seed 3) and `select_yaml` appended.
+/// `sweep` with its dataset `name` replaced by the SemanticKITTI scans of the shared `data`
+/// folder, read without their labels.
+std::string readWithoutLabels(std::string sweep, const std::string& name, const std::string& data) {
+  const std::size_t at = sweep.find("  " + name + ":");
+  sweep.replace(at, sweep.find('\n', at) - at,
+                "  " + name + ": {type: semantickitti, params: {use_labels: false, path: " +
+                    test::dataPath(data) + "}}");
+  return sweep;
+}
+
 std::string selectSweep(const std::string& select_yaml) {
   std::string s = tinySweep("  icm: {type: icm}");
   const std::string test_line = "  test: [sim_test]\n";
@@ -949,13 +959,11 @@ TEST(SweepSelect, RefitLearnsTheChoiceAgainWithTheValidationData) {
 
 TEST(SweepSelect, ValidationDataWithoutLabelsFailsTheFeatureSetsAndSaysWhy) {
   test::TempDir dir;
-  std::string text = selectSweep("select: {training: {components: [1, 2]}}\n");
   // Validation scans read without their labels: nothing to score the candidates by.
-  const std::size_t at = text.find("  sim_val:");
-  text.replace(at, text.find('\n', at) - at,
-               "  sim_val: {type: semantickitti, params: {use_labels: false, path: " +
-                   test::dataPath("semantickitti_mmdet3d_fixture/sequences/00") + "}}");
-  const std::string sweep = put(dir, "unlabelled.yaml", text);
+  const std::string sweep =
+      put(dir, "unlabelled.yaml",
+          readWithoutLabels(selectSweep("select: {training: {components: [1, 2]}}\n"), "sim_val",
+                            "semantickitti_mmdet3d_fixture/sequences/00"));
   std::ostringstream log;
   const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
   EXPECT_EQ(r.exitCode(), 3);
@@ -1159,13 +1167,11 @@ TEST(SweepSelectFolds, EachFoldIsScoredByModelsLearntOnTheOtherFolds) {
 // why (in the selection record, the log and the test runs' reason), and costs no other result.
 TEST(SweepSelectFolds, ACandidateWhoseTrainingFailsIsReportedWithItsFold) {
   test::TempDir dir;
-  std::string text = foldSweep("select: {training: {components: [1, 2]}}\n");
   // The train split read without its labels: nothing to learn from on any fold.
-  const std::size_t at = text.find("  sim_train:");
-  text.replace(at, text.find('\n', at) - at,
-               "  sim_train: {type: semantickitti, params: {use_labels: false, path: " +
-                   test::dataPath("semantickitti_seq00_000000-000005") + "}}");
-  const std::string sweep = put(dir, "unlabelled_folds.yaml", text);
+  const std::string sweep =
+      put(dir, "unlabelled_folds.yaml",
+          readWithoutLabels(foldSweep("select: {training: {components: [1, 2]}}\n"), "sim_train",
+                            "semantickitti_seq00_000000-000005"));
   std::ostringstream log;
   const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
   EXPECT_EQ(r.exitCode(), 3);
