@@ -770,6 +770,18 @@ std::string readWithoutLabels(std::string sweep, const std::string& name, const 
   return sweep;
 }
 
+/// Every test run of `r` failed because select could score no candidate.
+void expectEveryRunFailedForWantOfACandidate(const SweepResult& r) {
+  ASSERT_FALSE(r.runs.empty());
+  for (const auto& x : r.runs) {
+    EXPECT_EQ(x.status, RunRecord::Status::kFailed);
+    EXPECT_NE(
+        x.reason.find("select: no candidate could be scored on the validation split (first: "),
+        std::string::npos)
+        << x.reason;
+  }
+}
+
 std::string selectSweep(const std::string& select_yaml) {
   std::string s = tinySweep("  icm: {type: icm}");
   const std::string test_line = "  test: [sim_test]\n";
@@ -978,13 +990,7 @@ TEST(SweepSelect, ValidationDataWithoutLabelsFailsTheFeatureSetsAndSaysWhy) {
               0u)
         << s.notes[0];
   }
-  for (const auto& x : r.runs) {
-    EXPECT_EQ(x.status, RunRecord::Status::kFailed);
-    EXPECT_NE(
-        x.reason.find("select: no candidate could be scored on the validation split (first: "),
-        std::string::npos)
-        << x.reason;
-  }
+  expectEveryRunFailedForWantOfACandidate(r);
 }
 
 // A validation frame that fails would leave the candidates scored on fewer frames than chosen:
@@ -1192,13 +1198,7 @@ TEST(SweepSelectFolds, ACandidateWhoseTrainingFailsIsReportedWithItsFold) {
               std::string::npos)
         << log.str();
   }
-  ASSERT_FALSE(r.runs.empty());
-  for (const auto& x : r.runs) {
-    EXPECT_EQ(x.status, RunRecord::Status::kFailed);
-    EXPECT_NE(x.reason.find("select: no candidate could be scored on the validation split"),
-              std::string::npos)
-        << x.reason;
-  }
+  expectEveryRunFailedForWantOfACandidate(r);
 }
 
 TEST(SweepSelectFolds, FoldsOutsideTheTrainSplitOrSharingDataAreRejectedAtTheirPlace) {
