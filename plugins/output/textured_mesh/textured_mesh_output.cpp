@@ -89,6 +89,10 @@ class TexturedMeshOutput : public Output {
     // Fail before any frame is processed when the export could never be written.
     checkWritableFolder((fs::path(output_dir_) / subdir_).parent_path().string());
     builder_ = std::make_unique<MeshBuilder>(p_);
+    // This run's overlays gather beside the export, never among an earlier run's, and move into
+    // the new export with it.
+    std::error_code ec;
+    fs::remove_all(stagedOverlays(), ec);
   }
 
   void write(const FrameContext& ctx) override {
@@ -100,8 +104,11 @@ class TexturedMeshOutput : public Output {
       for (const auto& cam : ctx.frame->cameras) {
         if (!cam.image || cam.image->width != r.last_segmentation.width) continue;
         const Image o = overlaySegmentation(*cam.image, r.last_segmentation.ground, r.last_object_mask);
-        writeImageAtomic((fs::path(output_dir_) / subdir_ / "overlays" /
-                          (r.id + "_" + (cam.model.name.empty() ? "camera" : cam.model.name) + ".png")).string(), o);
+        writeImageAtomic(
+            (stagedOverlays() /
+             (r.id + "_" + (cam.model.name.empty() ? "camera" : cam.model.name) + ".png"))
+                .string(),
+            o);
       }
     }
   }
@@ -111,17 +118,22 @@ class TexturedMeshOutput : public Output {
     const MaskStats ms = builder_->finish();
     const std::string dir = (fs::path(output_dir_) / subdir_).string();
     ExportStats es;
-    // Overlays (if any) live in the export folder; keep them across the folder swap.
-    const fs::path overlays = fs::path(dir) / "overlays", keep = fs::path(dir + ".overlays");
-    std::error_code ec;
-    if (fs::exists(overlays)) fs::rename(overlays, keep, ec);
+    const fs::path staged = stagedOverlays();
     try {
       es = exportMesh(builder_->mesh(), dir, ex_);
-    } catch (...) {
-      if (fs::exists(keep)) fs::rename(keep, overlays, ec);
-      throw;
+    } catch (const std::exception& e) {
+      if (!fs::exists(staged)) throw;
+      throw std::runtime_error(std::string(e.what()) + "; this run's overlays are in " +
+                               staged.string());
     }
-    if (fs::exists(keep)) fs::rename(keep, overlays, ec);
+    if (fs::exists(staged)) {
+      std::error_code ec;
+      fs::rename(staged, fs::path(dir) / "overlays", ec);
+      if (ec)
+        throw std::runtime_error("mesh exported to " + dir +
+                                 ", but its overlays could not be moved there from " +
+                                 staged.string() + ": " + ec.message());
+    }
     const std::string report = builder_->report(&ms, &es);
     writeFileAtomic((fs::path(dir) / "report.md").string(), report);
     std::cerr << "textured_mesh: " << es.tiles << " tile(s), " << es.vertices << " vertices, "
@@ -141,6 +153,9 @@ class TexturedMeshOutput : public Output {
   }
 
  private:
+  /// Where this run's overlays are written until the export is in place.
+  fs::path stagedOverlays() const { return fs::path(output_dir_) / (subdir_ + ".overlays-new"); }
+
   std::string subdir_ = "mesh";
   std::vector<std::string> formats_{"obj", "ply", "gltf"};
   std::string mode_ = "flood_fill";

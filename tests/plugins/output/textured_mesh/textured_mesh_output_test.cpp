@@ -61,6 +61,25 @@ TEST(TexturedMeshOutput, WritesAllFormatsAndAReport) {
   EXPECT_EQ(o.width, 256);
   EXPECT_EQ(o.height, 128);
   EXPECT_EQ(o.channels, 3);
+  EXPECT_FALSE(fs::exists(dir.path() / "mesh.overlays-new"));
+
+  // A second run into the same folder replaces the export and its overlays: none of the first
+  // run's is left beside the second's.
+  auto again = test::makeOutput(
+      "textured_mesh",
+      "{tile_vertices: 81, texels_per_cell: 1, max_range_m: 20, write_overlays: true}", ctx);
+  ASSERT_NE(again, nullptr);
+  again->begin(info);
+  Frame f = source->read(1);
+  FrameContext fc;
+  fc.frame = &f;
+  fc.index = 1;
+  again->write(fc);
+  again->end({});
+  overlays.clear();
+  for (const auto& e : fs::directory_iterator(mesh / "overlays"))
+    overlays.push_back(e.path().filename().string());
+  EXPECT_EQ(overlays, (std::vector<std::string>{"000001_image_2.png"}));
 }
 
 TEST(TexturedMeshOutput, BadParametersAreRejected) {
