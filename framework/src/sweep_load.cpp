@@ -632,8 +632,13 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
           "'energy' must be an entry {name, type, params}");
   } else {
     if (!s->energy["name"]) s->energy["name"] = "mrf";
-    // Checked on the file's own node: the clone's keys have no positions to report.
-    const YAML::Node own = root["energy"] ? root["energy"] : s->energy;
+    // Checked on a copy of the file's own entry, whose keys keep their positions (the clone's
+    // have none), named as the runs name it.
+    YAML::Node own = s->energy;
+    if (root["energy"]) {
+      own = detail::copyMapKeepingPositions(root["energy"]);
+      if (!own["name"]) own["name"] = "mrf";
+    }
     Made m = makePlugin(reg, own, "energy", {PluginKind::kEnergy}, ctx, d, true, false);
     s->energy_unavailable = m.not_installed;
     // The file's own node (s->energy is a clone, without positions).

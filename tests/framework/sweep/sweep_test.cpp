@@ -305,10 +305,10 @@ TEST(SweepDiagnostics, EachMalformedPartIsReportedAtItsPlace) {
       {test::edited(base, "params: {alpha: 1.0", "params: {model: m.yaml, alpha: 1.0"), "m.yaml", 1,
        "energy: 'model' is set per feature set by compare; remove it here"},
       {test::edited(base, "params: {alpha: 1.0", "params: {alpah: 1.0"), "alpah", 1,
-       "stage 'potts_gaussian' (potts_gaussian): unknown parameter 'alpah' (did you mean "
+       "stage 'mrf' (potts_gaussian): unknown parameter 'alpah' (did you mean "
        "'alpha'?)"},
       {test::edited(base, energy, "energy: {type: potts_gaussian, params: strong}"), "strong", 1,
-       "stage 'potts_gaussian' (potts_gaussian): 'params' must be a map of parameter: value"},
+       "stage 'mrf' (potts_gaussian): 'params' must be a map of parameter: value"},
       {base + "training: three\n", "three", 1,
        "'training' must be a map of feature_stats parameters"},
       {base + "outputs: {type: grid_png}\n", "{type: grid_png}", 1,
