@@ -126,6 +126,8 @@ class TexturedMeshOutput : public Output {
       throw std::runtime_error(std::string(e.what()) + "; this run's overlays are in " +
                                staged.string());
     }
+    const std::string report = builder_->report(&ms, &es);
+    writeFileAtomic((fs::path(dir) / "report.md").string(), report);
     if (fs::exists(staged)) {
       std::error_code ec;
       fs::rename(staged, fs::path(dir) / "overlays", ec);
@@ -134,8 +136,6 @@ class TexturedMeshOutput : public Output {
                                  ", but its overlays could not be moved there from " +
                                  staged.string() + ": " + ec.message());
     }
-    const std::string report = builder_->report(&ms, &es);
-    writeFileAtomic((fs::path(dir) / "report.md").string(), report);
     std::cerr << "textured_mesh: " << es.tiles << " tile(s), " << es.vertices << " vertices, "
               << es.triangles << " triangles -> " << dir << "\n";
     if (ex_.decimate)
