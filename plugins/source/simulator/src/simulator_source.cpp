@@ -1,10 +1,12 @@
 // Source plugin "simulator": a seeded, deterministic procedural world seen by an HDL-64E-like
 // LiDAR and a forward camera from a vehicle driving along a road, with IMU, GPS and odometry.
 // All the work is in terramrf_sim (sim::Simulation); this is the Source adapter.
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "terramrf/plugin.hpp"
 #include "terramrf/sim/simulation.hpp"
@@ -16,8 +18,9 @@ class SimulatorSource : public Source {
  public:
   void declare(ParamDecl& d) override { sim::declareSimulationParams(d, config_); }
 
-  void configure(const PluginContext&) override {
+  void configure(const PluginContext& ctx) override {
     sim_ = std::make_unique<sim::Simulation>(config_);  // throws ParamError
+    truth_ids_ = ctx.labels ? truthIds(*ctx.labels) : std::vector<LabelId>{};
   }
 
   std::size_t size() const override { return std::size_t(config_.frames); }
@@ -30,15 +33,52 @@ class SimulatorSource : public Source {
 
   Frame read(std::size_t i) override {
     if (!sim_) throw std::logic_error("simulator: read() before configure()");
-    return sim_->frame(i);
+    Frame f = sim_->frame(i);
+    if (!truth_ids_.empty()) {
+      for (LabelId& l : f.truth.label) l = truth_ids_[l];
+      for (CameraImage& cam : f.cameras) {
+        if (!cam.truth) continue;
+        auto t = std::make_shared<Image>(*cam.truth);
+        for (uint8_t& l : t->data) l = truth_ids_[l];
+        cam.truth = std::move(t);
+      }
+    }
+    return f;
   }
 
   /// Simulation::frame is const and seeds all noise from the frame index.
   bool concurrentReads() const override { return true; }
 
  private:
+  /// The simulation's truth is in the default classes' ids; a config's own label set numbers
+  /// its classes otherwise, so they are matched by name. Empty: the ids already agree.
+  static std::vector<LabelId> truthIds(const LabelSet& set) {
+    const LabelSet sim = LabelSet::defaults();
+    std::vector<LabelId> ids(sim.size());
+    std::string missing;
+    bool same = true;
+    for (LabelId id = 0; id < sim.size(); ++id) {
+      const int to = set.find(sim.name(id));
+      if (to < 0) missing += std::string(missing.empty() ? "" : ", ") + "'" + sim.name(id) + "'";
+      ids[id] = static_cast<LabelId>(std::max(to, 0));
+      same = same && to == id;
+    }
+    if (!missing.empty())
+      throw ParamError("",
+                       "its ground truth is in the classes road, rough and obstacle, and the "
+                       "config's label set has no " +
+                           missing + "; list them under labels: (other classes may be added)");
+    // Pixel truth holds ids up to 255; anything the simulation never writes stays as it is.
+    if (same) return {};
+    std::vector<LabelId> all(256);
+    for (std::size_t id = 0; id < all.size(); ++id)
+      all[id] = id < ids.size() ? ids[id] : static_cast<LabelId>(id);
+    return all;
+  }
+
   sim::SimulationConfig config_;
   std::unique_ptr<sim::Simulation> sim_;
+  std::vector<LabelId> truth_ids_;  ///< simulation class id -> the run's label set's id
 };
 
 }  // namespace

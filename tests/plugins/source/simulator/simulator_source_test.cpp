@@ -377,3 +377,59 @@ TEST(SimulatorSource, PerformanceNote) {
 
 }  // namespace
 }  // namespace terramrf
+
+namespace terramrf {
+namespace {
+
+std::unique_ptr<Plugin> makeSourceWithLabels(const std::string& params, const LabelSet& set) {
+  PluginRegistry reg({test::pluginDir()});
+  auto p = reg.create("simulator");
+  PluginContext ctx;
+  ctx.labels = &set;
+  setParams(*p, params, ctx);
+  return p;
+}
+
+LabelInfo named(const std::string& name) { return LabelInfo{name, {0, 0, 0}}; }
+
+}  // namespace
+
+// A config's own label set numbers its classes as it lists them; the simulation's truth is in
+// road, rough and obstacle, so it is matched by name, points and pixels alike. (It was taken by
+// id: with {unknown, road, kerb, rough, obstacle} the rough ground was learnt as kerb and the
+// obstacles as rough, without a word.)
+TEST(SimulatorSource, TruthFollowsTheConfigsLabelSetByName) {
+  const LabelSet set(
+      {named("unknown"), named("obstacle"), named("kerb"), named("road"), named("rough")});
+  auto p = makeSourceWithLabels("{frames: 5}", set);
+  const Frame f = src(p).read(0);
+  const Frame& d = defaultFrame0();  // the default set: road 1, rough 2, obstacle 3
+  ASSERT_EQ(f.truth.label.size(), d.truth.label.size());
+  const LabelId to[4] = {0, 3, 4, 1};  // default id -> id in `set`
+  for (std::size_t i = 0; i < d.truth.label.size(); ++i)
+    ASSERT_EQ(f.truth.label[i], to[d.truth.label[i]]) << i;
+  ASSERT_TRUE(f.cameras.at(0).truth && d.cameras.at(0).truth);
+  const auto& px = f.cameras[0].truth->data;
+  const auto& dpx = d.cameras[0].truth->data;
+  ASSERT_EQ(px.size(), dpx.size());
+  for (std::size_t i = 0; i < px.size(); ++i) ASSERT_EQ(px[i], to[dpx[i]]) << i;
+  // The default set in another object: nothing to rename.
+  const LabelSet defaults = LabelSet::defaults();
+  auto q = makeSourceWithLabels("{frames: 5}", defaults);
+  EXPECT_EQ(src(q).read(0).truth.label, d.truth.label);
+}
+
+TEST(SimulatorSource, ALabelSetWithoutTheSimulationsClassesIsRefused) {
+  const LabelSet set({named("unknown"), named("road"), named("grass"), named("obstacle")});
+  try {
+    makeSourceWithLabels("{frames: 5}", set);
+    FAIL() << "expected an error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("its ground truth is in the classes road, rough and "
+                                         "obstacle, and the config's label set has no 'rough'"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace terramrf
