@@ -465,7 +465,11 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
   // stages + the read/write check
   std::set<std::string> available = {artefacts::kPoints};
   std::vector<std::string> available_order = {artefacts::kPoints};
+  // After an entry that could not be made, what it would have written is unknown: reads that
+  // miss it would only repeat its error.
+  bool an_entry_failed = false;
   auto checkReads = [&](Plugin& pl, const YAML::Node& e) {
+    if (an_entry_failed) return;
     for (const auto& r : pl.reads()) {
       if (available.count(r)) continue;
       std::string have;
@@ -489,7 +493,10 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
                        {PluginKind::kEgomotion, PluginKind::kFeature, PluginKind::kEnergy,
                         PluginKind::kOptimiser},
                        &kind, {}, resolved["stages"][i]);
-        if (!pl) continue;
+        if (!pl) {
+          an_entry_failed = true;
+          continue;
+        }
         if (kind == PluginKind::kEgomotion && seen_non_ego)
           c.add(st[i].Mark(),
                 "egomotion stages must come before feature/energy/optimiser stages (the grid is "

@@ -100,7 +100,11 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
   for (const auto& dir : f0.plugin_dirs) resolved["plugin_path"].push_back(dir);
   resolved["source"] = resolvedEntry(*item.src);
   std::set<std::string> available = {artefacts::kPoints}, names = {item.src->name()};
+  // After an entry that could not be made, what it would have written is unknown: reads that
+  // miss it would only repeat its error.
+  bool an_entry_failed = false;
   auto checkReads = [&](Plugin& pl, const YAML::Mark& mark) {
+    if (an_entry_failed) return;
     for (const auto& r : pl.reads())
       if (!available.count(r))
         d.add(mark, "reads '" + r + "', which no earlier stage writes", pl.name(), pl.type());
@@ -110,7 +114,10 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
         reg, e, "stages",
         {PluginKind::kEgomotion, PluginKind::kFeature, PluginKind::kEnergy, PluginKind::kOptimiser},
         ctx, d, false);
-    if (!m.ok()) continue;
+    if (!m.ok()) {
+      an_entry_failed = true;
+      continue;
+    }
     if (!names.insert(m.plugin->name()).second)
       d.add(e.Mark(), "duplicate stage name '" + m.plugin->name() + "' (give each a unique name:)",
             m.plugin->name(), m.plugin->type());

@@ -92,6 +92,18 @@ TEST(Config, LayerReadThatNoEarlierStageWrites) {
       << joined(errs);
 }
 
+// A stage that cannot be made is reported once: what it would have written is unknown, so the
+// stages after it are not also told that nobody writes their inputs.
+TEST(Config, AStageThatCannotBeMadeIsNotReportedAgainByTheReadsAfterIt) {
+  test::ConfigFixture f;
+  const std::string text = test::edited(test::ConfigFixture::validPipeline(), "model: model.yaml",
+                                        "model: nowhere.yaml");
+  const auto errs = errorsOf(f, text);
+  EXPECT_TRUE(contains(errs, "stage 'mrf' (potts_gaussian): parameter 'model'")) << joined(errs);
+  EXPECT_FALSE(contains(errs, "which no earlier stage writes")) << joined(errs);
+  EXPECT_EQ(errs.size(), 1u) << joined(errs);
+}
+
 // The runner times its own steps under these names; a stage of the same name would share their row
 // in timing.md and be counted as reading in compare's runtime table.
 TEST(Config, StageNamesOfTheRunnersOwnTimingAreRejected) {
