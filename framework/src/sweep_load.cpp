@@ -463,7 +463,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
           f.unavailable = base->unavailable;
           f.train_group = base->train_group;
           f.min_sigma.reset(base->min_sigma);
-          f.energy.reset(YAML::Clone(base->energy));
+          f.energy.reset(detail::copyMapKeepingPositions(base->energy));
         }
       }
       // energy: this set's energy parameters (checked against the energy plugin further down).
@@ -473,7 +473,11 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
                                ": 'energy' must be a map of energy parameters, e.g. "
                                "{preclass_layer: \"\"}");
         else
-          for (auto e = en.begin(); e != en.end(); ++e) f.energy[e->first.Scalar()] = e->second;
+          for (auto e = en.begin(); e != en.end(); ++e) {
+            // remove first: assigning to a key the base set also has would rewrite its node
+            f.energy.remove(e->first.Scalar());
+            f.energy[e->first.Scalar()] = e->second;
+          }
       }
       stageList(v["stages"], what + " stages", f.stages, f.unavailable);
       if (v["features"]) {
@@ -617,14 +621,22 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   }
   // energy
   if (const YAML::Node en = root["energy"]) {
-    s->energy = YAML::Clone(en);
+    // Copies whose keys and values keep their file positions, so a run's errors point into the
+    // sweep (a clone's point at 1:1); the runs add to copies of these maps, never to the file's.
+    s->energy = en.IsMap() ? detail::copyMapKeepingPositions(en) : YAML::Clone(en);
+    if (en.IsMap() && en["params"] && en["params"].IsMap()) {
+      s->energy.remove("params");
+      s->energy["params"] = detail::copyMapKeepingPositions(en["params"]);
+    }
     if (en.IsMap() && en["params"] && en["params"].IsMap())
       for (const char* k : {"model", "features"})
         if (en["params"][k])
           d.add(en["params"][k].Mark(), std::string("energy: '") + k +
                                             "' is set per feature set by compare; remove it here");
   } else {
-    s->energy = YAML::Load("{name: mrf, type: potts_gaussian}");
+    s->energy = YAML::Node(YAML::NodeType::Map);  // no position: the sweep does not write it
+    s->energy["name"] = "mrf";
+    s->energy["type"] = "potts_gaussian";
   }
   if (!s->energy.IsMap()) {
     // The clone has no position; the sweep's own node has.
@@ -632,16 +644,8 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
           "'energy' must be an entry {name, type, params}");
   } else {
     if (!s->energy["name"]) s->energy["name"] = "mrf";
-    // Checked on a copy of the file's own entry, whose keys keep their positions (the clone's
-    // have none), named as the runs name it.
-    YAML::Node own = s->energy;
-    if (root["energy"]) {
-      own = detail::copyMapKeepingPositions(root["energy"]);
-      if (!own["name"]) own["name"] = "mrf";
-    }
-    Made m = makePlugin(reg, own, "energy", {PluginKind::kEnergy}, ctx, d, true, false);
+    Made m = makePlugin(reg, s->energy, "energy", {PluginKind::kEnergy}, ctx, d, true, false);
     s->energy_unavailable = m.not_installed;
-    // The file's own node (s->energy is a clone, without positions).
     if (const YAML::Node en = root["energy"]; en && en["type"])
       checkDeclaredValues(reg, en["type"].Scalar(), en["params"], "energy.params", d);
     // Feature sets' own energy parameters: what the energy declares, except what compare sets.

@@ -241,16 +241,25 @@ void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec) {
   try {
     std::vector<YAML::Node> stages = s.common_stages;
     stages.insert(stages.end(), f.stages.begin(), f.stages.end());
-    YAML::Node energy = YAML::Clone(s.energy);
-    if (!energy["params"] || energy["params"].IsNull())
-      energy["params"] = YAML::Node(YAML::NodeType::Map);
+    // New maps over the sweep's own nodes, so errors keep their place in the sweep; keys are
+    // removed before they are set, as assigning to a shared node would rewrite it.
+    YAML::Node energy = detail::copyMapKeepingPositions(s.energy);
+    YAML::Node params = detail::copyMapKeepingPositions(s.energy["params"]);
     // The set's own energy parameters, then the candidate's of `select:` (never the same key).
     for (const YAML::Node& over : {f.energy, spec.energy_params})
       if (over && over.IsMap())
-        for (auto it = over.begin(); it != over.end(); ++it)
-          energy["params"][it->first.Scalar()] = YAML::Clone(it->second);
-    energy["params"]["model"] = spec.model;
-    for (const auto& feat : f.features) energy["params"]["features"].push_back(feat);
+        for (auto it = over.begin(); it != over.end(); ++it) {
+          params.remove(it->first.Scalar());
+          params[it->first.Scalar()] = it->second;
+        }
+    params.remove("model");
+    params["model"] = spec.model;
+    YAML::Node features(YAML::NodeType::Sequence);
+    for (const auto& feat : f.features) features.push_back(feat);
+    params.remove("features");
+    params["features"] = features;
+    energy.remove("params");
+    energy["params"] = params;
     stages.push_back(energy);
     stages.push_back(spec.optimiser->entry);
     std::vector<std::unique_ptr<Output>> extra;

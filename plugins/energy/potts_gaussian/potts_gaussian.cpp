@@ -71,7 +71,9 @@ class PottsGaussian final : public Stage {
       active_.push_back(static_cast<LabelId>(id));
       auto it = model_.classes.find(c);
       if (it == model_.classes.end())
-        throw ParamError("model", model_path_ + " has no entry for class '" + c + "'");
+        throw ParamError("model", model_path_ + " has no entry for class '" + c +
+                                      "' (a model holds the classes its training cells showed); "
+                                      "train on data that shows it, or leave it out of `classes`");
       for (std::size_t j = 0; j < it->second.size(); ++j)
         for (const auto& f : features_)
           if (!it->second[j].features.count(f))

@@ -380,6 +380,40 @@ TEST(SweepDiagnostics, EachMalformedPartIsReportedAtItsPlace) {
 
 // Found by fuzzing: a dataset with `type: null` was reported without a position (split items use
 // copies of the dataset's entry, which keep no mark of their own), once per item that uses it.
+// A class of the sweep's label set that no training cell shows: the model lacks it, and every
+// run says so at the sweep's energy entry (not at 1:1 of the configuration generated for the
+// run), without a second message about what the missing energy stage would have written. The
+// simulator's truth reaches the set's classes by name.
+TEST(SweepDiagnostics, AClassTheTrainingDataLacksFailsTheRunsAtTheEnergyEntry) {
+  test::TempDir dir;
+  const std::string labels =
+      "labels:\n  - {name: unknown, color: [0, 0, 0]}\n  - {name: road, color: [1, 1, 1]}\n"
+      "  - {name: kerb, color: [2, 2, 2]}\n  - {name: rough, color: [3, 3, 3]}\n"
+      "  - {name: obstacle, color: [4, 4, 4]}\n";
+  const std::string text =
+      test::edited(tinySweep("  icm: {type: icm}"), "datasets:\n", labels + "datasets:\n");
+  const std::string sweep = put(dir, "kerb.yaml", text);
+  std::ostringstream log;
+  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
+  EXPECT_EQ(r.exitCode(), 3);
+  EXPECT_NE(log.str().find("no statistics for kerb.height_diff"), std::string::npos) << log.str();
+  ASSERT_FALSE(r.runs.empty());
+  for (const auto& x : r.runs) {
+    EXPECT_EQ(x.status, RunRecord::Status::kFailed);
+    EXPECT_EQ(x.reason.find(sweep + ":" + test::positionOf(text, "type: potts_gaussian") +
+                            ": stage 'mrf' (potts_gaussian): parameter 'model': "),
+              0u)
+        << x.reason;
+    EXPECT_NE(x.reason.find("has no entry for class 'kerb'"), std::string::npos) << x.reason;
+    EXPECT_EQ(x.reason.find("which no earlier stage writes"), std::string::npos) << x.reason;
+  }
+  const YAML::Node model = YAML::LoadFile(dir.str() + "/out/models/L0.yaml");
+  EXPECT_FALSE(model["classes"]["kerb"]);
+  // Rough ground learnt as rough (by id it had been the obstacles): far flatter than obstacles.
+  EXPECT_LT(model["classes"]["rough"]["height_diff"]["mean"].as<double>(),
+            0.25 * model["classes"]["obstacle"]["height_diff"]["mean"].as<double>());
+}
+
 // Found by fuzzing, likewise: a dataset without a required parameter was reported without a
 // position; it is reported at the dataset, which the message names.
 TEST(SweepDiagnostics, ADatasetWithoutARequiredParameterIsNamedAtItsPlace) {
