@@ -12,6 +12,7 @@
 #include <set>
 
 #include "commands.hpp"
+#include "terramrf/atomic_file.hpp"
 #include "terramrf/param_values.hpp"
 #include "terramrf/registry.hpp"
 #include "test_support.hpp"
@@ -254,6 +255,31 @@ TEST(SimulateCli, WritesFramesAndRefusesWhatItCannotSimulate) {
     const std::string err = testing::internal::GetCapturedStderr();
     EXPECT_NE(err.find(c.message), std::string::npos) << err;
   }
+}
+
+// The labels simulate writes are the simulation's own ids (configs/label_maps/simulator.yaml),
+// whatever classes the config lists: with a label set of its own, which renumbers road, rough
+// and obstacle in the frames' truth, the files are the same as without one.
+TEST(SimulateCli, LabelsAreTheSameWhateverTheConfigsLabelSet) {
+  test::TempDir dir;
+  const std::string plain = oneStageConfig(dir, "frames: 1, seed: 4, enable_camera: false");
+  const std::string own = dir.str() + "/own.yaml";
+  std::ofstream(own) << "labels:\n  - {name: unknown, color: [0, 0, 0]}\n"
+                        "  - {name: obstacle, color: [1, 1, 1]}\n"
+                        "  - {name: rough, color: [2, 2, 2]}\n"
+                        "  - {name: road, color: [3, 3, 3]}\n"
+                     << readFile(plain);
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  const int a = cli::cmdSimulate({"--out", dir.str() + "/a", "--config", plain});
+  const int b = cli::cmdSimulate({"--out", dir.str() + "/b", "--config", own});
+  testing::internal::GetCapturedStderr();
+  testing::internal::GetCapturedStdout();
+  ASSERT_EQ(a, cli::kOk);
+  ASSERT_EQ(b, cli::kOk);
+  const std::string la = readFile(dir.str() + "/a/labels/000000.label");
+  EXPECT_FALSE(la.empty());
+  EXPECT_TRUE(la == readFile(dir.str() + "/b/labels/000000.label"));
 }
 
 // main() itself: an unknown command is a usage error that lists the commands.
