@@ -1643,6 +1643,34 @@ outputs:
 )");
 }
 
+// The source's parameter errors are reported where the config writes them, whether the
+// training frames are the source's own or --data folders (both read copies of the entry, whose
+// positions had been lost: every error stood at 1:1).
+TEST(Train, ASourceParameterErrorIsReportedAtItsLine) {
+  test::TempDir dir;
+  const std::string map = test::sourceDir() + "/configs/label_maps/semantickitti.yaml";
+  std::string text = readFile(seq00TrainConfig(dir, map, "[0, 1]"));
+  text = test::edited(text, "split: {train: [{frames: [0, 1]}]}\n", "");
+  text = test::edited(text, ", label_map: ", ", use_poses: maybe, label_map: ");
+  const std::string config = put(dir, "bad_source.yaml", text);
+  for (const bool with_data : {false, true}) {
+    SCOPED_TRACE(with_data ? "--data" : "the source's own frames");
+    std::ostringstream log;
+    TrainOptions o = quietTraining(config, dir, log);
+    if (with_data) o.data = {test::dataPath("semantickitti_seq00_000000-000005")};
+    try {
+      trainModel(o);
+      FAIL() << "trained with a bad source parameter";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(config + ":" + test::positionOf(text, "maybe") +
+                                           ": stage 'semantickitti' (semantickitti): parameter "
+                                           "'use_poses': expected bool"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST(Train, UnlabelledDataIsAnErrorNamingTheSourceItsFolderAndLabelMap) {
   // Frames 3–5 of the seq 00 folder have no .label files. `terramrf train` reads one unnamed
   // source, and the message said "no labelled frame in the training data ()" (found by fuzzing).
