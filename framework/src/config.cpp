@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -218,6 +219,16 @@ CommonKeys readCommonKeys(const YAML::Node& root, const std::string& base_dir,
       };
       num("size_m", 20, 100, k.grid.size_m);
       num("cell_m", 0.05, 5, k.grid.cell_m);
+      // The grid holds a whole number of cells: 40 m of 0.3 m cells would silently cover 39.9 m.
+      const double n = k.grid.size_m / k.grid.cell_m;
+      if (std::fabs(n - std::round(n)) > 1e-6 * n) {
+        const double below = std::floor(n) * k.grid.cell_m, above = std::ceil(n) * k.grid.cell_m;
+        std::ostringstream o;
+        o << "grid.size_m = " << k.grid.size_m << " is not a whole number of " << k.grid.cell_m
+          << " m cells (" << n << "); expected a multiple of cell_m, e.g. " << below << " or "
+          << above;
+        d.add(g["size_m"] ? g["size_m"].Mark() : g.Mark(), o.str());
+      }
     }
   }
   // labels (optional): list of {name, color: [r,g,b]} starting with unknown. Each fault is named
