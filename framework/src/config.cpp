@@ -383,6 +383,19 @@ bool applyEntryParams(Plugin& plugin, const YAML::Node& e, const PluginContext& 
   return issues.empty();
 }
 
+void recordLayerOrigins(Plugin& stage, std::map<std::string, std::string>& origins) {
+  YAML::Node n(YAML::NodeType::Map);
+  n["stage"] = stage.type();
+  n["params"] = currentParams(stage);
+  for (const auto& r : stage.reads())
+    if (const auto it = origins.find(r); it != origins.end())
+      n["inputs"][r] = YAML::Load(it->second);
+  YAML::Emitter em;
+  em << YAML::Flow << n;
+  for (const auto& w : stage.writes())
+    if (!w.empty() && w[0] != '@') origins[w] = em.c_str();
+}
+
 }  // namespace detail
 
 bool isSweepFile(const std::string& path) {
@@ -430,6 +443,9 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
   ctx.output_dir = p.output_dir;
   ctx.grid = p.grid;
   ctx.labels = p.labels.get();
+  // Grows as the stages are made: each sees how the layers before it are computed.
+  std::map<std::string, std::string> layer_origins;
+  ctx.layer_origins = &layer_origins;
 
   YAML::Node resolved = YAML::Clone(root);
   // A `grid:` that is not a map is already a diagnostic; indexing into it would throw yaml-cpp's
@@ -516,6 +532,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
         if (kind != PluginKind::kEgomotion) seen_non_ego = true;
         checkReads(*pl, st[i]);
         addWrites(*pl);
+        detail::recordLayerOrigins(*pl, layer_origins);
         p.stage_kinds.push_back(kind);
         p.stages.emplace_back(static_cast<Stage*>(pl.release()));
       }

@@ -1,4 +1,5 @@
 #pragma once
+#include <map>
 // Internal to the framework (not installed): the parts of config loading that the other readers of
 // pipeline-like files (train configs and sweeps, sweep_*.cpp) share with loadPipeline, so that
 // they check entries the same way and word problems alike.
@@ -115,5 +116,10 @@ EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const st
 /// problems become diagnostics against the plugin. Returns true if there were none.
 bool applyEntryParams(Plugin& plugin, const YAML::Node& e, const PluginContext& ctx, Diags& d,
                       const std::vector<std::pair<std::string, std::string>>& overrides = {});
+
+/// Records how `stage` computes each layer it writes (artefacts `@…` left out), as
+/// PluginContext::layer_origins describes: flow YAML {stage: type, params: {…}, inputs: {layer:
+/// origin}}, the inputs being the layers it reads that earlier stages wrote.
+void recordLayerOrigins(Plugin& stage, std::map<std::string, std::string>& origins);
 
 }  // namespace terramrf::detail

@@ -91,7 +91,10 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
   p.output_dir = fs::absolute(run_dir).lexically_normal().string();
   p.grid = f0.grid;
   p.labels = f0.labels;
-  const PluginContext ctx = f0.context(p.output_dir);
+  PluginContext ctx = f0.context(p.output_dir);
+  // Grows as the stages are made: each sees how the layers before it are computed.
+  std::map<std::string, std::string> layer_origins;
+  ctx.layer_origins = &layer_origins;
   YAML::Node resolved(YAML::NodeType::Map);
   resolved["version"] = 1;
   resolved["grid"]["size_m"] = f0.grid.size_m;
@@ -123,6 +126,7 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
             m.plugin->name(), m.plugin->type());
     checkReads(*m.plugin, e.Mark());
     for (const auto& w : m.plugin->writes()) available.insert(w);
+    detail::recordLayerOrigins(*m.plugin, layer_origins);
     resolved["stages"].push_back(resolvedEntry(*m.plugin));
     p.stage_kinds.push_back(m.kind);
     p.stages.emplace_back(static_cast<Stage*>(m.plugin.release()));

@@ -64,6 +64,8 @@ struct TrainResult {
   std::vector<std::pair<std::string, std::string>> failed;  ///< frame id, reason
   /// Classes and features that got fewer than two training cells (not in the model).
   std::vector<std::string> missing;
+  /// How each layer was computed (PluginContext::layer_origins); the model records its features'.
+  std::map<std::string, std::string> layer_origins;
 };
 
 /// Runs the config's source and its egomotion/feature stages (energy and optimiser stages are not

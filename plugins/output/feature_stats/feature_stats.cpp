@@ -49,10 +49,17 @@ class FeatureStats final : public Output {
           "its purity, as in the cell-wise evaluation of paper 001 §VI-B (the class the "
           "classifier is scored against)");
   }
-  void configure(const PluginContext&) override {
+  void configure(const PluginContext& ctx) override {
     if (min_sigma_.size() > 1 && min_sigma_.size() != features_.size())
       throw ParamError("min_sigma", "give one value, or one per feature (" +
                                         std::to_string(features_.size()) + ")");
+    // How each feature was computed goes into the model, so an energy using it can check that
+    // its stages compute the same (potts_gaussian: check_feature_origins).
+    origins_.clear();
+    if (ctx.layer_origins)
+      for (const auto& f : features_)
+        if (const auto it = ctx.layer_origins->find(f); it != ctx.layer_origins->end())
+          origins_.emplace_back(f, it->second);
   }
   std::vector<std::string> reads() const override { return features_; }
 
@@ -119,6 +126,10 @@ class FeatureStats final : public Output {
       << ", " << estimator_ << " estimates"
       << (components_ > 1 ? ", up to " + std::to_string(components_) + " Gaussians per class" : "")
       << "\"\n";
+    if (!origins_.empty()) {
+      o << "feature_origins:  # how each feature was computed: stage, parameters, inputs\n";
+      for (const auto& [f, text] : origins_) o << "  " << f << ": " << text << "\n";
+    }
     o << "classes:\n";
     const std::size_t K = info_.labels->size(), F = features_.size();
     checkEveryFeatureMeasured(K, F);
@@ -162,6 +173,7 @@ class FeatureStats final : public Output {
   }
 
  private:
+  std::vector<std::pair<std::string, std::string>> origins_;  ///< feature -> flow YAML
   struct Gaussian {
     double mean = 0, sigma = 1;
   };

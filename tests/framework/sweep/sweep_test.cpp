@@ -1569,6 +1569,41 @@ TrainOptions quietTraining(const std::string& config, test::TempDir& dir, std::o
   return o;
 }
 
+// The model records how each feature was computed, and a run whose stages compute it otherwise
+// is refused before any frame is read, naming the difference (it had scored cells against
+// Gaussians of another quantity without a word).
+TEST(Train, TheModelRecordsHowItsFeaturesWereComputed) {
+  test::TempDir dir;
+  std::ostringstream log;
+  const TrainOptions o = quietTraining(oneFeatureTrainConfig(dir, ""), dir, log);
+  trainModel(o);
+  const YAML::Node origin = YAML::LoadFile(o.model_out)["feature_origins"]["height_diff"];
+  ASSERT_TRUE(origin) << readFile(o.model_out);
+  EXPECT_EQ(origin["stage"].as<std::string>(), "height_difference");
+  EXPECT_EQ(origin["params"]["min_points"].as<int>(), 1);
+  auto runConfig = [&](const std::string& hdiff_params) {
+    return put(dir, "run.yaml",
+               std::string("version: 1\ngrid: {size_m: 30, cell_m: 0.5}\n"
+                           "source: {type: simulator, params: {seed: 1, frames: 1, ") +
+                   kSim + "}}\nstages:\n  - {name: hdiff, type: height_difference, params: " +
+                   hdiff_params +
+                   "}\n  - {name: mrf, type: potts_gaussian, params: {model: " + o.model_out +
+                   ", features: [height_diff]}}\n  - {name: solve, type: icm}\n"
+                   "outputs: []\n");
+  };
+  PluginRegistry reg({test::pluginDir()});
+  EXPECT_NO_THROW(loadPipeline(runConfig("{}"), LoadOptions{}, reg));
+  try {
+    loadPipeline(runConfig("{min_points: 2}"), LoadOptions{}, reg);
+    FAIL() << "a model of other features was used";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("feature 'height_diff': min_points: 2 here, 1 in the model"),
+        std::string::npos)
+        << e.what();
+  }
+}
+
 // --features comes from the command line: a feature no stage writes is named as such, not at a
 // place in the config it never came from, and nothing is written.
 TEST(Train, AFeatureOfTheCommandLineThatNoStageWritesIsAnError) {
