@@ -1,5 +1,6 @@
 #pragma once
 // Drives one plugin stage by hand on a frame: registry → params → grid → process.
+#include <map>
 #include <memory>
 #include <string>
 
@@ -16,6 +17,8 @@ struct StageHarness {
   TerrainGrid grid;
   FrameContext ctx;
   PluginRegistry registry{{pluginDir()}};
+  /// What the stages before the one made would have computed (PluginContext::layer_origins).
+  const std::map<std::string, std::string>* layer_origins = nullptr;
 
   explicit StageHarness(double size_m = 20, double cell_m = 0.5) {
     geom.size_m = size_m;
@@ -26,6 +29,7 @@ struct StageHarness {
     pc.config_dir = sourceDir() + "/configs";
     pc.grid = geom;
     pc.labels = &labels;
+    pc.layer_origins = layer_origins;
     return pc;
   }
   std::unique_ptr<Stage> make(const std::string& type, const std::string& params = "{}") {

@@ -79,6 +79,16 @@ GaussianModel GaussianModel::load(const std::string& path) {
     throw InputError(path, "expected a model file (a map with 'classes:'; docs/training.md)");
   try {
     if (root["provenance"]) m.provenance = root["provenance"].as<std::string>("");
+    if (const YAML::Node o = root["feature_origins"]) {
+      if (!o.IsMap())
+        throw std::runtime_error(
+            at(path, o) + ": expected 'feature_origins: {feature: {stage, params, inputs}}'");
+      for (auto f = o.begin(); f != o.end(); ++f) {
+        YAML::Emitter em;
+        em << YAML::Flow << f->second;
+        m.feature_origins[f->first.as<std::string>()] = em.c_str();
+      }
+    }
     const YAML::Node classes = root["classes"];
     if (!classes || !classes.IsMap())
       throw std::runtime_error(path +

@@ -23,6 +23,9 @@ struct GaussianModel {
   std::string provenance;  ///< free text: data, label map, split
   /// class → components: one for paper 000's model, several for a mixture.
   std::map<std::string, std::vector<GaussianComponent>> classes;
+  /// feature → how it was computed when the model was learnt (PluginContext::layer_origins'
+  /// flow YAML); empty for models written before it was recorded, or by hand.
+  std::map<std::string, std::string> feature_origins;
 
   /// Loads a model file; throws std::runtime_error naming the file, line and what was expected.
   /// A class is either `{feature: {mean, sigma}, …}` (one component) or

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "feature_origins.hpp"
 #include "gaussian_model.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -41,6 +42,10 @@ class PottsGaussian final : public Stage {
         .unit("energy");
     d.add("min_points", min_points_, "cells with fewer points are fixed to unknown (no data)")
         .unit("points").range(1, 1000);
+    d.add("check_feature_origins", check_origins_,
+          "refuse a model whose features were computed otherwise (another stage, parameter or "
+          "input) than the stages before this one compute them, as the model records it; false "
+          "uses it anyway (models that record nothing are not checked)");
   }
 
   void configure(const PluginContext& ctx) override {
@@ -83,6 +88,7 @@ class PottsGaussian final : public Stage {
                     (it->second.size() > 1 ? " (component " + std::to_string(j + 1) + ")" : "") +
                     " (the model was made for other features)");
     }
+    if (check_origins_ && ctx.layer_origins) checkFeatureOrigins(*ctx.layer_origins);
     cost_.assign(active_.size(), 0.f);
     for (std::size_t k = 0; k < class_cost_.size(); ++k) cost_[k] = static_cast<float>(class_cost_[k]);
     // Precompute per class, component and feature: 1/(2σ²), log(√(2π)σ), and −log(weight).
@@ -177,6 +183,22 @@ class PottsGaussian final : public Stage {
   }
 
  private:
+  void checkFeatureOrigins(const std::map<std::string, std::string>& here) const {
+    std::string why;
+    for (const auto& f : features_) {
+      const auto learnt = model_.feature_origins.find(f);
+      const auto now = here.find(f);
+      if (learnt == model_.feature_origins.end() || now == here.end()) continue;
+      for (const auto& d : originDifferences(learnt->second, now->second))
+        why += "\n    feature '" + f + "': " + d;
+    }
+    if (!why.empty())
+      throw ParamError("model", model_path_ +
+                                    " was learnt on features computed otherwise than here:" + why +
+                                    "\n    retrain it with these stages, or give them the model's "
+                                    "parameters (check_feature_origins: false uses it anyway)");
+  }
+
   std::string model_path_;
   std::vector<std::string> features_;
   std::vector<std::string> classes_param_;  ///< as configured; empty = the label set's classes
@@ -185,6 +207,7 @@ class PottsGaussian final : public Stage {
   double beta_ = 0.8;  // paper 000 §5: β = 0.8 in all experiments
   double beta_diagonal_ = -1;
   std::string preclass_layer_ = "";
+  bool check_origins_ = true;
   int min_points_ = 1;
   std::vector<double> class_cost_;
 

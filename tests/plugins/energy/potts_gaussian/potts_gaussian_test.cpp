@@ -309,3 +309,63 @@ TEST(PottsGaussian, DefaultClassesAreTheLabelSetsAndARepeatIsRefused) {
 }
 
 }  // namespace terramrf
+
+namespace terramrf {
+
+// A model records how each feature was computed; run with features computed otherwise (another
+// parameter, here or in an input's stage, or another stage), it is refused, naming each
+// difference. Same origins, a model that records none, or check_feature_origins: false: used.
+TEST(PottsGaussian, AModelLearntOnFeaturesComputedOtherwiseIsRefused) {
+  test::TempDir d;
+  const std::string rough =
+      "{stage: roughness, params: {layer: roughness, window: 2, max_jump_m: 0.5}}";
+  const std::string learnt =
+      "{stage: log_transform, params: {input: roughness, offset: 0.001}, "
+      "inputs: {roughness: " +
+      rough + "}}";
+  const std::string m = d.str() + "/m.yaml";
+  std::ofstream(m) << "feature_origins:\n  f: " << learnt << "\n"
+                   << "classes:\n"
+                      "  road:     {f: {mean: 0.0, sigma: 0.1}}\n"
+                      "  rough:    {f: {mean: 1.0, sigma: 0.5}}\n"
+                      "  obstacle: {f: {mean: 5.0, sigma: 2.0}}\n";
+  test::StageHarness h;
+  std::map<std::string, std::string> here{{"f", learnt}};
+  h.layer_origins = &here;
+  EXPECT_NO_THROW(h.make("potts_gaussian", "{model: " + m + ", features: [f]}"));
+
+  here["f"] =
+      "{stage: log_transform, params: {input: roughness, offset: 0.01}, inputs: "
+      "{roughness: {stage: roughness, params: {layer: roughness, window: 4, max_jump_m: "
+      "0.5}}}}";
+  try {
+    h.make("potts_gaussian", "{model: " + m + ", features: [f]}");
+    FAIL() << "a model learnt on other features was accepted";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    for (const char* want : {"was learnt on features computed otherwise than here:",
+                             "feature 'f': offset: 0.01 here, 0.001 in the model",
+                             "feature 'f': input 'roughness': window: 4 here, 2 in the model",
+                             "check_feature_origins: false uses it anyway"})
+      EXPECT_NE(what.find(want), std::string::npos) << want << "\n" << what;
+    EXPECT_EQ(what.find("max_jump_m"), std::string::npos) << what;  // the same on both sides
+  }
+  here["f"] = rough;
+  try {
+    h.make("potts_gaussian", "{model: " + m + ", features: [f]}");
+    FAIL() << "a model learnt on another stage's layer was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "feature 'f': written by roughness here, by log_transform in the model"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_NO_THROW(
+      h.make("potts_gaussian", "{model: " + m + ", features: [f], check_feature_origins: false}"));
+  h.layer_origins = nullptr;  // configured outside a pipeline: nothing to compare with
+  EXPECT_NO_THROW(h.make("potts_gaussian", "{model: " + m + ", features: [f]}"));
+  h.layer_origins = &here;
+  EXPECT_NO_THROW(h.make("potts_gaussian", "{model: " + writeModel(d) + ", features: [f]}"));
+}
+
+}  // namespace terramrf

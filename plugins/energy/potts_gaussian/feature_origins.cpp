@@ -1,0 +1,62 @@
+#include "feature_origins.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <set>
+
+namespace terramrf {
+namespace {
+
+std::string text(const YAML::Node& n) {
+  if (!n) return "(not set)";
+  YAML::Emitter em;
+  em << YAML::Flow << n;
+  return em.c_str();
+}
+
+void compare(const YAML::Node& learnt, const YAML::Node& here, const std::string& prefix,
+             std::vector<std::string>& out) {
+  const std::string stage_l = text(learnt["stage"]), stage_h = text(here["stage"]);
+  if (stage_l != stage_h) {
+    out.push_back(prefix + "written by " + stage_h + " here, by " + stage_l + " in the model");
+    return;
+  }
+  std::set<std::string> keys;
+  for (const YAML::Node* n : {&learnt, &here})
+    if ((*n)["params"] && (*n)["params"].IsMap())
+      for (auto it = (*n)["params"].begin(); it != (*n)["params"].end(); ++it)
+        keys.insert(it->first.as<std::string>());
+  for (const auto& k : keys) {
+    const std::string l = text(learnt["params"][k]), h = text(here["params"][k]);
+    if (l != h) out.push_back(prefix + k + ": " + h + " here, " + l + " in the model");
+  }
+  std::set<std::string> inputs;
+  for (const YAML::Node* n : {&learnt, &here})
+    if ((*n)["inputs"] && (*n)["inputs"].IsMap())
+      for (auto it = (*n)["inputs"].begin(); it != (*n)["inputs"].end(); ++it)
+        inputs.insert(it->first.as<std::string>());
+  for (const auto& in : inputs) {
+    const YAML::Node l = learnt["inputs"][in], h = here["inputs"][in];
+    const std::string p = prefix + "input '" + in + "': ";
+    if (!l || !h)
+      out.push_back(p + (h ? "computed here, not recorded in the model"
+                           : "recorded in the model, not computed here"));
+    else
+      compare(l, h, p, out);
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> originDifferences(const std::string& learnt, const std::string& here) {
+  std::vector<std::string> out;
+  if (learnt == here) return out;
+  try {
+    compare(YAML::Load(learnt), YAML::Load(here), "", out);
+  } catch (const YAML::Exception&) {
+    out.push_back("the model's record of it cannot be read (" + learnt + ")");
+  }
+  return out;
+}
+
+}  // namespace terramrf
