@@ -5,6 +5,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -36,11 +37,13 @@ struct Scene {
     Layer& l = grid.add("f");
     for (std::size_t i = 0; i < f.size(); ++i) l[geom.cellOf(o.x() + 0.5, o.y() + i + 0.5)] = f[i];
   }
-  YAML::Node learn(const std::string& params) {
+  YAML::Node learn(const std::string& params,
+                   const std::map<std::string, std::string>* origins = nullptr) {
     test::TempDir dir;
     PluginContext pc;
     pc.grid = geom;
     pc.labels = &labels;
+    pc.layer_origins = origins;
     auto out = test::makeOutput("feature_stats", params, pc);
     RunInfo info;
     info.config_path = "test.yaml";
@@ -155,6 +158,26 @@ TEST(FeatureStats, FeatureNeverMeasuredInAClassIsAnErrorNamingBoth) {
     EXPECT_EQ(m.find("'road'"), std::string::npos) << m;
     EXPECT_EQ(m.find("'obstacle'"), std::string::npos) << m;
   }
+}
+
+}  // namespace terramrf
+
+namespace terramrf {
+
+// In a run, the model records how its features were computed (what the stages before it say),
+// and only its own features'.
+TEST(FeatureStats, TheModelRecordsItsFeaturesOrigins) {
+  Scene s({kRoad, kRoad, kRough, kRough, kObstacle, kObstacle, kRoad, kRough, kObstacle, kRoad},
+          {0.01f, 0.02f, 0.5f, 0.6f, 2.0f, 2.5f, 0.03f, 0.55f, 2.2f, 0.02f}, kRoad);
+  const std::map<std::string, std::string> origins = {
+      {"f", "{stage: height_difference, params: {layer: f, min_points: 1}}"},
+      {"g", "{stage: roughness, params: {window: 2}}"}};
+  const YAML::Node m = s.learn("{features: [f], min_labelled_points: 1}", &origins);
+  ASSERT_TRUE(m["feature_origins"]);
+  EXPECT_EQ(m["feature_origins"].size(), 1u);
+  EXPECT_EQ(m["feature_origins"]["f"]["stage"].as<std::string>(), "height_difference");
+  EXPECT_EQ(m["feature_origins"]["f"]["params"]["min_points"].as<int>(), 1);
+  EXPECT_FALSE(s.learn("{features: [f], min_labelled_points: 1}")["feature_origins"]);
 }
 
 }  // namespace terramrf
