@@ -14,6 +14,16 @@ std::string text(const YAML::Node& n) {
   return em.c_str();
 }
 
+/// The keys of map `key` in either origin.
+std::set<std::string> keysOf(const YAML::Node& a, const YAML::Node& b, const char* key) {
+  std::set<std::string> keys;
+  for (const YAML::Node* n : {&a, &b})
+    if ((*n)[key] && (*n)[key].IsMap())
+      for (auto it = (*n)[key].begin(); it != (*n)[key].end(); ++it)
+        keys.insert(it->first.as<std::string>());
+  return keys;
+}
+
 void compare(const YAML::Node& learnt, const YAML::Node& here, const std::string& prefix,
              std::vector<std::string>& out) {
   const std::string stage_l = text(learnt["stage"]), stage_h = text(here["stage"]);
@@ -21,21 +31,11 @@ void compare(const YAML::Node& learnt, const YAML::Node& here, const std::string
     out.push_back(prefix + "written by " + stage_h + " here, by " + stage_l + " in the model");
     return;
   }
-  std::set<std::string> keys;
-  for (const YAML::Node* n : {&learnt, &here})
-    if ((*n)["params"] && (*n)["params"].IsMap())
-      for (auto it = (*n)["params"].begin(); it != (*n)["params"].end(); ++it)
-        keys.insert(it->first.as<std::string>());
-  for (const auto& k : keys) {
+  for (const auto& k : keysOf(learnt, here, "params")) {
     const std::string l = text(learnt["params"][k]), h = text(here["params"][k]);
     if (l != h) out.push_back(prefix + k + ": " + h + " here, " + l + " in the model");
   }
-  std::set<std::string> inputs;
-  for (const YAML::Node* n : {&learnt, &here})
-    if ((*n)["inputs"] && (*n)["inputs"].IsMap())
-      for (auto it = (*n)["inputs"].begin(); it != (*n)["inputs"].end(); ++it)
-        inputs.insert(it->first.as<std::string>());
-  for (const auto& in : inputs) {
+  for (const auto& in : keysOf(learnt, here, "inputs")) {
     const YAML::Node l = learnt["inputs"][in], h = here["inputs"][in];
     const std::string p = prefix + "input '" + in + "': ";
     if (!l || !h)
