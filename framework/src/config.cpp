@@ -383,9 +383,10 @@ bool applyEntryParams(Plugin& plugin, const YAML::Node& e, const PluginContext& 
   return issues.empty();
 }
 
-void recordLayerOrigins(Plugin& stage, std::map<std::string, std::string>& origins) {
+void recordLayerOrigins(Plugin& stage, double cell_m, std::map<std::string, std::string>& origins) {
   YAML::Node n(YAML::NodeType::Map);
   n["stage"] = stage.type();
+  n["cell_m"] = cell_m;  // per-cell features change with the cell size
   n["params"] = currentParams(stage);
   for (const auto& r : stage.reads())
     if (const auto it = origins.find(r); it != origins.end())
@@ -532,7 +533,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
         if (kind != PluginKind::kEgomotion) seen_non_ego = true;
         checkReads(*pl, st[i]);
         addWrites(*pl);
-        detail::recordLayerOrigins(*pl, layer_origins);
+        detail::recordLayerOrigins(*pl, p.grid.cell_m, layer_origins);
         p.stage_kinds.push_back(kind);
         p.stages.emplace_back(static_cast<Stage*>(pl.release()));
       }

@@ -117,9 +117,9 @@ EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const st
 bool applyEntryParams(Plugin& plugin, const YAML::Node& e, const PluginContext& ctx, Diags& d,
                       const std::vector<std::pair<std::string, std::string>>& overrides = {});
 
-/// Records how `stage` computes each layer it writes (artefacts `@…` left out), as
-/// PluginContext::layer_origins describes: flow YAML {stage: type, params: {…}, inputs: {layer:
-/// origin}}, the inputs being the layers it reads that earlier stages wrote.
-void recordLayerOrigins(Plugin& stage, std::map<std::string, std::string>& origins);
+/// Records how `stage` computes each layer it writes (artefacts `@…` left out) on cells of
+/// `cell_m`, as PluginContext::layer_origins describes: flow YAML {stage: type, cell_m, params:
+/// {…}, inputs: {layer: origin}}, the inputs being the layers it reads that earlier stages wrote.
+void recordLayerOrigins(Plugin& stage, double cell_m, std::map<std::string, std::string>& origins);
 
 }  // namespace terramrf::detail

@@ -126,7 +126,7 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
             m.plugin->name(), m.plugin->type());
     checkReads(*m.plugin, e.Mark());
     for (const auto& w : m.plugin->writes()) available.insert(w);
-    detail::recordLayerOrigins(*m.plugin, layer_origins);
+    detail::recordLayerOrigins(*m.plugin, f0.grid.cell_m, layer_origins);
     resolved["stages"].push_back(resolvedEntry(*m.plugin));
     p.stage_kinds.push_back(m.kind);
     p.stages.emplace_back(static_cast<Stage*>(m.plugin.release()));

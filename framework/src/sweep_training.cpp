@@ -218,7 +218,7 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
     extra.push_back(std::make_unique<StatsFeeder>(*stats, rec, progress, job.what + it->label));
     Pipeline p = assemble(reg, f0, *it, job.stages, {}, std::move(extra), model_dir);
     r.layer_origins.clear();  // every item runs the same stages
-    for (const auto& s : p.stages) detail::recordLayerOrigins(*s, r.layer_origins);
+    for (const auto& s : p.stages) detail::recordLayerOrigins(*s, p.grid.cell_m, r.layer_origins);
     // The features must be layers some stage writes.
     std::set<std::string> written;
     for (const auto& s : p.stages)

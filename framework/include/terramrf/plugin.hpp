@@ -45,8 +45,8 @@ struct PluginContext {
   const LabelSet* labels = nullptr;
   /// How each grid layer written by the stages before this plugin is computed, so a model can
   /// record it and an energy can check it was learnt on the same: layer → flow YAML
-  /// {stage: type, params: {…all parameters…}, inputs: {layer read: its origin}}. Null where the
-  /// plugin is configured outside a pipeline.
+  /// {stage: type, cell_m: grid cell size [m], params: {…all parameters…}, inputs: {layer read:
+  /// its origin}}. Null where the plugin is configured outside a pipeline.
   const std::map<std::string, std::string>* layer_origins = nullptr;
   /// Resolves a path relative to config_dir (absolute paths unchanged).
   std::string resolve(const std::string& path) const;

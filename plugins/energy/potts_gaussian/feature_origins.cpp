@@ -31,6 +31,11 @@ void compare(const YAML::Node& learnt, const YAML::Node& here, const std::string
     out.push_back(prefix + "written by " + stage_h + " here, by " + stage_l + " in the model");
     return;
   }
+  // One grid for every layer of a run: said once, for the feature itself.
+  if (prefix.empty() && learnt["cell_m"] && here["cell_m"] &&
+      learnt["cell_m"].as<double>() != here["cell_m"].as<double>())
+    out.push_back("cells of " + text(here["cell_m"]) + " m here, " + text(learnt["cell_m"]) +
+                  " m in the model");
   for (const auto& k : keysOf(learnt, here, "params")) {
     const std::string l = text(learnt["params"][k]), h = text(here["params"][k]);
     if (l != h) out.push_back(prefix + k + ": " + h + " here, " + l + " in the model");

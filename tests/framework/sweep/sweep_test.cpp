@@ -1602,6 +1602,17 @@ TEST(Train, TheModelRecordsHowItsFeaturesWereComputed) {
         std::string::npos)
         << e.what();
   }
+  // The same stages on cells of another size compute another quantity too.
+  const std::string finer = test::edited(readFile(runConfig("{}")), "cell_m: 0.5", "cell_m: 0.25");
+  try {
+    loadPipeline(put(dir, "finer.yaml", finer), LoadOptions{}, reg);
+    FAIL() << "a model of 0.5 m cells was used on 0.25 m cells";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "feature 'height_diff': cells of 0.25 m here, 0.5 m in the model"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 // --features comes from the command line: a feature no stage writes is named as such, not at a
