@@ -93,6 +93,16 @@ YAML::Node copyMapKeepingPositions(const YAML::Node& map) {
   return out;
 }
 
+YAML::Node copyEntryKeepingPositions(const YAML::Node& entry) {
+  YAML::Node out = copyMapKeepingPositions(entry);
+  const YAML::Node given = entry.IsMap() ? entry["params"] : YAML::Node();
+  if (given && !given.IsNull() && !given.IsMap()) return out;  // a diagnostic for the caller
+  const YAML::Node params = copyMapKeepingPositions(given);
+  out.remove("params");
+  out["params"] = params;
+  return out;
+}
+
 void checkDuplicateKeys(const YAML::Node& n, Diags& d) {
   for (const RepeatedYamlKey& r : repeatedYamlKeys(n)) {
     YAML::Mark m;

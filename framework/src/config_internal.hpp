@@ -47,6 +47,13 @@ void checkKeys(Diags& d, const YAML::Node& map, const std::vector<std::string>& 
 /// through to `map`. A null or non-map `map` gives an empty map.
 YAML::Node copyMapKeepingPositions(const YAML::Node& map);
 
+/// A plugin entry {name, type, params} as new maps (the entry and its params) over the file's
+/// own nodes: errors keep their positions (a YAML::Clone's all stand at 1:1), and keys can be
+/// set in the copy without touching the file's nodes — remove a key before setting it again, as
+/// assigning to a shared node would rewrite it. `params` is an empty map if the entry has none,
+/// and left as it is (shared) if it is not a map, for the caller to report.
+YAML::Node copyEntryKeepingPositions(const YAML::Node& entry);
+
 /// Reports every repeated key of every map under `n` at the repeat.
 void checkDuplicateKeys(const YAML::Node& n, Diags& d);
 

@@ -623,11 +623,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   if (const YAML::Node en = root["energy"]) {
     // Copies whose keys and values keep their file positions, so a run's errors point into the
     // sweep (a clone's point at 1:1); the runs add to copies of these maps, never to the file's.
-    s->energy = en.IsMap() ? detail::copyMapKeepingPositions(en) : YAML::Clone(en);
-    if (en.IsMap() && en["params"] && en["params"].IsMap()) {
-      s->energy.remove("params");
-      s->energy["params"] = detail::copyMapKeepingPositions(en["params"]);
-    }
+    s->energy = en.IsMap() ? detail::copyEntryKeepingPositions(en) : YAML::Clone(en);
     if (en.IsMap() && en["params"] && en["params"].IsMap())
       for (const char* k : {"model", "features"})
         if (en["params"][k])

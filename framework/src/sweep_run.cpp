@@ -241,10 +241,9 @@ void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec) {
   try {
     std::vector<YAML::Node> stages = s.common_stages;
     stages.insert(stages.end(), f.stages.begin(), f.stages.end());
-    // New maps over the sweep's own nodes, so errors keep their place in the sweep; keys are
-    // removed before they are set, as assigning to a shared node would rewrite it.
-    YAML::Node energy = detail::copyMapKeepingPositions(s.energy);
-    YAML::Node params = detail::copyMapKeepingPositions(s.energy["params"]);
+    // Over the sweep's own nodes, so errors keep their place in the sweep.
+    YAML::Node energy = detail::copyEntryKeepingPositions(s.energy);
+    YAML::Node params = energy["params"];
     // The set's own energy parameters, then the candidate's of `select:` (never the same key).
     for (const YAML::Node& over : {f.energy, spec.energy_params})
       if (over && over.IsMap())
@@ -258,8 +257,6 @@ void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec) {
     for (const auto& feat : f.features) features.push_back(feat);
     params.remove("features");
     params["features"] = features;
-    energy.remove("params");
-    energy["params"] = params;
     stages.push_back(energy);
     stages.push_back(spec.optimiser->entry);
     std::vector<std::unique_ptr<Output>> extra;

@@ -170,13 +170,13 @@ bool parseItem(const YAML::Node& n, const std::map<std::string, YAML::Node>* dat
   if (!base || !base.IsMap()) return false;
   // Copies that keep the file positions, so a bad parameter is reported where it is written;
   // the dataset's own nodes stay untouched for the other items that use it.
-  it.source = detail::copyMapKeepingPositions(base);
-  YAML::Node params = detail::copyMapKeepingPositions(base["params"]);
-  it.source.remove("params");
-  it.source["params"] = params;
+  it.source = detail::copyEntryKeepingPositions(base);
+  YAML::Node params = it.source["params"];
   // Messages about the source then name the dataset, not only its type.
   if (!it.dataset.empty() && !it.source["name"]) it.source["name"] = it.dataset;
-  if (params_override)
+  // Parameters that are not a map are reported when the source is made; nothing to add to.
+  const bool settable = params.IsMap();
+  if (params_override && settable)
     for (auto p = params_override.begin(); p != params_override.end(); ++p) {
       params.remove(p->first.Scalar());
       params[p->first] = p->second;
@@ -187,8 +187,10 @@ bool parseItem(const YAML::Node& n, const std::map<std::string, YAML::Node>* dat
       d.add(n.Mark(), "data folder '" + abs + "' does not exist");
       return false;
     }
-    params.remove("path");
-    params["path"] = abs;
+    if (settable) {
+      params.remove("path");
+      params["path"] = abs;
+    }
   }
   it.type = it.source["type"] ? it.source["type"].Scalar() : "";
   // Display name.

@@ -314,19 +314,6 @@ using sweep_detail::readFrame0;
 using sweep_detail::runTraining;
 using sweep_detail::stringList;
 
-namespace {
-// The config's source entry as a new map over its own nodes, so errors keep their place (a
-// clone's all stand at 1:1), with a params map of its own to set `path` in without touching the
-// file's.
-YAML::Node sourceKeepingPositions(const YAML::Node& source) {
-  YAML::Node out = detail::copyMapKeepingPositions(source);
-  const YAML::Node params = detail::copyMapKeepingPositions(source["params"]);
-  out.remove("params");
-  out["params"] = params;
-  return out;
-}
-}  // namespace
-
 TrainResult trainModel(const TrainOptions& o) {
   std::ostream& log = o.log ? *o.log : std::cerr;
   if (o.model_out.empty()) throw std::runtime_error("no model file given (--out MODEL)");
@@ -427,7 +414,7 @@ TrainResult trainModel(const TrainOptions& o) {
       const std::string abs = fs::absolute(dir).lexically_normal().string();
       if (!fs::exists(abs)) throw std::runtime_error("--data " + dir + ": folder does not exist");
       auto it = std::make_unique<Item>();
-      it->source = sourceKeepingPositions(source);
+      it->source = detail::copyEntryKeepingPositions(source);
       it->source["params"].remove("path");
       it->source["params"]["path"] = abs;
       it->type = it->source["type"] ? it->source["type"].Scalar() : "";
@@ -442,7 +429,7 @@ TrainResult trainModel(const TrainOptions& o) {
         << " has no split: training on every frame of its source; no test data is held out "
            "(give split: {train: [...], test: [...]} to record one)\n";
     auto it = std::make_unique<Item>();
-    it->source = sourceKeepingPositions(source);
+    it->source = detail::copyEntryKeepingPositions(source);
     it->type = it->source["type"] ? it->source["type"].Scalar() : "";
     it->label = "source";
     it->mark = source.Mark();

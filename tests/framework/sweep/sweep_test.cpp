@@ -271,6 +271,19 @@ TEST(SweepDiagnostics, EachMalformedPartIsReportedAtItsPlace) {
        "frames: last (0) is before first (1)"},
       {test::edited(base, "frames: [0, 1]}", "frames: [0, 1], params: three}"), "three", 1,
        "split item 'params' must be a map of source parameters"},
+      // A dataset's params that are not a map were dropped without a word (and with a split
+      // item's params added to them, yaml-cpp threw "operator[] call on a scalar").
+      {test::edited(
+           base,
+           "sim_test:  {type: simulator, params: {seed: 1, frames: 1, " + std::string(kSim) + "}}",
+           "sim_test:  {type: simulator, params: three}"),
+       "three", 1, "stage 'sim_test' (simulator): 'params' must be a map of parameter: value"},
+      {test::edited(test::edited(base,
+                                 "sim_test:  {type: simulator, params: {seed: 1, frames: 1, " +
+                                     std::string(kSim) + "}}",
+                                 "sim_test:  {type: simulator, params: three}"),
+                    "test: [sim_test]", "test: [{dataset: sim_test, params: {seed: 2}}]"),
+       "three", 1, "stage 'sim_test' (simulator): 'params' must be a map of parameter: value"},
       {test::edited(base, "test: [sim_test]", "test: [[sim_test]]"), "[sim_test]", 1,
        "split item: expected a dataset name or {dataset, frames, params}"},
       {test::edited(base, "test: [sim_test]", "test: [{frames: 0}]"), "{frames: 0}", 1,
