@@ -817,6 +817,17 @@ std::string readWithoutLabels(std::string sweep, const std::string& name, const 
   return sweep;
 }
 
+/// Runs `sweep` with dataset `name` read from `data` without labels (readWithoutLabels): some
+/// runs fail for it (exit status 3).
+SweepResult runWithoutLabels(const test::TempDir& dir, const std::string& sweep,
+                             const std::string& name, const std::string& data,
+                             std::ostringstream& log) {
+  const std::string path = put(dir, "unlabelled.yaml", readWithoutLabels(sweep, name, data));
+  SweepResult r = runQuiet(path, dir.str() + "/out", log);
+  EXPECT_EQ(r.exitCode(), 3);
+  return r;
+}
+
 /// Every test run of `r` failed because select could score no candidate.
 void expectEveryRunFailedForWantOfACandidate(const SweepResult& r) {
   ASSERT_FALSE(r.runs.empty());
@@ -1019,13 +1030,10 @@ TEST(SweepSelect, RefitLearnsTheChoiceAgainWithTheValidationData) {
 TEST(SweepSelect, ValidationDataWithoutLabelsFailsTheFeatureSetsAndSaysWhy) {
   test::TempDir dir;
   // Validation scans read without their labels: nothing to score the candidates by.
-  const std::string sweep =
-      put(dir, "unlabelled.yaml",
-          readWithoutLabels(selectSweep("select: {training: {components: [1, 2]}}\n"), "sim_val",
-                            "semantickitti_mmdet3d_fixture/sequences/00"));
   std::ostringstream log;
-  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
-  EXPECT_EQ(r.exitCode(), 3);
+  const SweepResult r =
+      runWithoutLabels(dir, selectSweep("select: {training: {components: [1, 2]}}\n"), "sim_val",
+                       "semantickitti_mmdet3d_fixture/sequences/00", log);
   ASSERT_EQ(r.selections.size(), 2u);
   for (const auto& s : r.selections) {
     SCOPED_TRACE(s.feature_set);
@@ -1221,13 +1229,10 @@ TEST(SweepSelectFolds, EachFoldIsScoredByModelsLearntOnTheOtherFolds) {
 TEST(SweepSelectFolds, ACandidateWhoseTrainingFailsIsReportedWithItsFold) {
   test::TempDir dir;
   // The train split read without its labels: nothing to learn from on any fold.
-  const std::string sweep =
-      put(dir, "unlabelled_folds.yaml",
-          readWithoutLabels(foldSweep("select: {training: {components: [1, 2]}}\n"), "sim_train",
-                            "semantickitti_seq00_000000-000005"));
   std::ostringstream log;
-  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
-  EXPECT_EQ(r.exitCode(), 3);
+  const SweepResult r =
+      runWithoutLabels(dir, foldSweep("select: {training: {components: [1, 2]}}\n"), "sim_train",
+                       "semantickitti_seq00_000000-000005", log);
   ASSERT_EQ(r.selections.size(), 2u);
   for (const auto& s : r.selections) {
     SCOPED_TRACE(s.feature_set);
