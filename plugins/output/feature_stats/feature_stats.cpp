@@ -53,6 +53,12 @@ class FeatureStats final : public Output {
     if (min_sigma_.size() > 1 && min_sigma_.size() != features_.size())
       throw ParamError("min_sigma", "give one value, or one per feature (" +
                                         std::to_string(features_.size()) + ")");
+    // Without an obstacle class the rule would be skipped while the model's provenance says it
+    // was applied.
+    if (obstacle_rule_ && ctx.labels && ctx.labels->obstacle() < 0)
+      throw ParamError("obstacle_rule",
+                       "the label set has no class 'obstacle' for the rule to "
+                       "make; name one in labels:, or set it false");
     // How each feature was computed goes into the model, so an energy using it can check that
     // its stages compute the same (potts_gaussian: check_feature_origins).
     origins_.clear();

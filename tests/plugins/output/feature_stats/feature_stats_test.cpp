@@ -103,6 +103,23 @@ TEST(FeatureStats, UnknownEstimatorIsAParameterError) {
   }
 }
 
+// The obstacle rule needs an obstacle class: without one it would be skipped while the model's
+// provenance says it was applied.
+TEST(FeatureStats, TheObstacleRuleWithoutAnObstacleClassIsAParameterError) {
+  Scene s({kRoad, kRoad, kRoad}, {0.f, 0.01f, 0.02f}, kRoad);
+  s.labels = LabelSet({{"unknown", {0, 0, 0}}, {"road", {1, 1, 1}}, {"rough", {2, 2, 2}}});
+  try {
+    s.learn("{features: [f], obstacle_rule: true}");
+    FAIL() << "expected an error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("parameter 'obstacle_rule': the label set has no class "
+                                         "'obstacle'"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_TRUE(s.learn("{features: [f], min_labelled_points: 1}")["classes"]["road"]);
+}
+
 // Two kinds of obstacle, 24 cells around 0.3 (low rocks) and 16 around 2.0 (walls): with two
 // components the learner finds both, with their shares as weights; with one, robust estimates
 // describe the majority only.
