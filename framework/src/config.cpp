@@ -215,7 +215,7 @@ CommonKeys readCommonKeys(const YAML::Node& root, const std::string& base_dir,
         if (!g[key]) return;
         try {
           const double v = g[key].as<double>();
-          if (v < lo || v > hi) {
+          if (!(v >= lo && v <= hi)) {  // also .nan, which no comparison catches otherwise
             std::ostringstream o;
             o << "grid." << key << " = " << v << " out of range: expected [" << lo << ", " << hi
               << "] m";

@@ -32,9 +32,13 @@ void readFeatures(const std::string& path, const std::string& cls, const YAML::N
       throw std::runtime_error(at(path, f->second) + ": " + cls + "." + feat +
                                ": expected {mean: <number>, sigma: <number > 0>}");
     }
-    if (!(g.sigma > 0))
+    if (!std::isfinite(g.mean))
       throw std::runtime_error(at(path, f->second) + ": " + cls + "." + feat +
-                               ": sigma must be > 0, got " + std::to_string(g.sigma));
+                               ": mean must be a finite number, got " + std::to_string(g.mean));
+    if (!(g.sigma > 0) || !std::isfinite(g.sigma))
+      throw std::runtime_error(at(path, f->second) + ": " + cls + "." + feat +
+                               ": sigma must be a finite number > 0, got " +
+                               std::to_string(g.sigma));
     out[feat] = g;
   }
 }

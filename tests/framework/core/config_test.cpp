@@ -244,6 +244,8 @@ TEST(Config, EachMalformedEntryIsNamedAtItsPlace) {
   const std::vector<Case> cases = {
       {test::edited(base, "cell_m: 0.5", "cell_m: half"), "half", 1,
        "grid.cell_m: expected a number in metres"},
+      {test::edited(base, "cell_m: 0.5", "cell_m: .nan"), ".nan", 1,
+       "grid.cell_m = nan out of range: expected [0.05, 5] m"},
       {test::edited(base, "cell_m: 0.5", "cell_m: 0.3"), "40", 1,
        "grid.size_m = 40 is not a whole number of 0.3 m cells (133.333); expected a multiple of "
        "cell_m, e.g. 39.9 or 40.2"},

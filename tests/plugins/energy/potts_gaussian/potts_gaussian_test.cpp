@@ -117,7 +117,8 @@ TEST(PottsGaussian, ModelForOtherFeaturesNamesTheFile) {
     FAIL();
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("bad.yaml:2:"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("sigma must be > 0"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("sigma must be a finite number > 0"), std::string::npos)
+        << e.what();
   }
 }
 
@@ -172,6 +173,13 @@ TEST(PottsGaussian, BadMixturesNameTheFileAndLine) {
              " {weight: 1, features: {f: {mean: 0, sigma: 1}}}]}\n",
              "component weight must be > 0"},
         Case{"  obstacle: {components: []}\n", "expected a list of {weight, features}"},
+        // Non-finite numbers made every cell's energy NaN or infinite for the class.
+        Case{"  obstacle: {f: {mean: .nan, sigma: 1}}\n",
+             "bad.yaml:4:17: obstacle.f: mean must be a finite number, got nan"},
+        Case{"  obstacle: {f: {mean: 1, sigma: .inf}}\n",
+             "bad.yaml:4:17: obstacle.f: sigma must be a finite number > 0, got inf"},
+        Case{"  obstacle: {components: [{weight: .nan, features: {f: {mean: 0, sigma: 1}}}]}\n",
+             "component weight must be > 0"},
         // A class whose value is not a map of features (a list, a number).
         Case{"  obstacle: [2, 1]\n",
              "bad.yaml:4:13: class 'obstacle' must map features to {mean, sigma}"},
