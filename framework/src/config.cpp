@@ -455,8 +455,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
   ctx.grid = p.grid;
   ctx.labels = p.labels.get();
   // Grows as the stages are made: each sees how the layers before it are computed.
-  std::map<std::string, std::string> layer_origins;
-  ctx.layer_origins = &layer_origins;
+  ctx.layer_origins = &p.layer_origins;
 
   YAML::Node resolved = YAML::Clone(root);
   // A `grid:` that is not a map is already a diagnostic; indexing into it would throw yaml-cpp's
@@ -543,7 +542,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
         if (kind != PluginKind::kEgomotion) seen_non_ego = true;
         checkReads(*pl, st[i]);
         addWrites(*pl);
-        detail::recordLayerOrigins(*pl, p.grid.cell_m, layer_origins);
+        detail::recordLayerOrigins(*pl, p.grid.cell_m, p.layer_origins);
         p.stage_kinds.push_back(kind);
         p.stages.emplace_back(static_cast<Stage*>(pl.release()));
       }

@@ -93,8 +93,7 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
   p.labels = f0.labels;
   PluginContext ctx = f0.context(p.output_dir);
   // Grows as the stages are made: each sees how the layers before it are computed.
-  std::map<std::string, std::string> layer_origins;
-  ctx.layer_origins = &layer_origins;
+  ctx.layer_origins = &p.layer_origins;
   YAML::Node resolved(YAML::NodeType::Map);
   resolved["version"] = 1;
   resolved["grid"]["size_m"] = f0.grid.size_m;
@@ -126,7 +125,7 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
             m.plugin->name(), m.plugin->type());
     checkReads(*m.plugin, e.Mark());
     for (const auto& w : m.plugin->writes()) available.insert(w);
-    detail::recordLayerOrigins(*m.plugin, f0.grid.cell_m, layer_origins);
+    detail::recordLayerOrigins(*m.plugin, f0.grid.cell_m, p.layer_origins);
     resolved["stages"].push_back(resolvedEntry(*m.plugin));
     p.stage_kinds.push_back(m.kind);
     p.stages.emplace_back(static_cast<Stage*>(m.plugin.release()));

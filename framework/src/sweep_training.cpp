@@ -61,7 +61,7 @@ class StatsFeeder final : public Output {
 };
 
 /// The features' origins as feature_stats writes them in a run, for the models train writes
-/// (its feature_stats is made apart from the stages, so it does not see them).
+/// (its feature_stats is made apart from the stages, so it never sees them itself).
 std::string originsText(const TrainResult& r) {
   std::string out;
   for (const auto& f : r.features)
@@ -75,21 +75,13 @@ std::string originsText(const TrainResult& r) {
 
 /// The model text: the feature_stats file with the provenance replaced by ours.
 std::string composeModel(const std::string& stats_text, const TrainJob& job, const TrainResult& r) {
-  std::string stats_provenance, origins, classes;
+  std::string stats_provenance, classes;
   std::istringstream in(stats_text);
   std::string line;
-  bool in_classes = false, in_origins = false;
+  bool in_classes = false;
   while (std::getline(in, line)) {
-    if (in_origins && line.rfind("  ", 0) == 0) {
-      origins += line + "\n";
-      continue;
-    }
-    in_origins = false;
     if (in_classes) {
       classes += line + "\n";
-    } else if (line.rfind("feature_origins:", 0) == 0) {
-      in_origins = true;
-      origins += line + "\n";
     } else if (line.rfind("classes:", 0) == 0) {
       in_classes = true;
       classes += line + "\n";
@@ -151,7 +143,7 @@ std::string composeModel(const std::string& stats_text, const TrainJob& job, con
   return "# Per-class Gaussian feature model (paper 000 §4.6), learnt from annotated cells by\n"
          "# 'terramrf train' / 'terramrf compare' with the feature_stats output; loads in "
          "potts_gaussian.\n" +
-         std::string(em.c_str()) + "\n" + (origins.empty() ? originsText(r) : origins) + classes;
+         std::string(em.c_str()) + "\n" + originsText(r) + classes;
 }
 
 }  // namespace
@@ -217,8 +209,7 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
     std::vector<std::unique_ptr<Output>> extra;
     extra.push_back(std::make_unique<StatsFeeder>(*stats, rec, progress, job.what + it->label));
     Pipeline p = assemble(reg, f0, *it, job.stages, {}, std::move(extra), model_dir);
-    r.layer_origins.clear();  // every item runs the same stages
-    for (const auto& s : p.stages) detail::recordLayerOrigins(*s, p.grid.cell_m, r.layer_origins);
+    r.layer_origins = p.layer_origins;  // every item runs the same stages
     // The features must be layers some stage writes.
     std::set<std::string> written;
     for (const auto& s : p.stages)

@@ -1,6 +1,7 @@
 #pragma once
 // Loading a pipeline config: parse, validate everything against the plugins' declarations before
 // anything runs, and report all problems at once as `file:line:col: stage 'name' (type): what`.
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -45,6 +46,8 @@ struct Pipeline {
   std::vector<std::unique_ptr<Stage>> stages;  ///< in config order
   std::vector<PluginKind> stage_kinds;
   std::vector<std::unique_ptr<Output>> outputs;
+  /// How each layer the stages write is computed (PluginContext::layer_origins).
+  std::map<std::string, std::string> layer_origins;
   std::string resolved_yaml;  ///< the config with every default filled in
 };
 

@@ -1,7 +1,6 @@
 // Source plugin "simulator": a seeded, deterministic procedural world seen by an HDL-64E-like
 // LiDAR and a forward camera from a vehicle driving along a road, with IMU, GPS and odometry.
 // All the work is in terramrf_sim (sim::Simulation); this is the Source adapter.
-#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
@@ -53,14 +52,17 @@ class SimulatorSource : public Source {
   /// The simulation's truth is in the default classes' ids; a config's own label set numbers
   /// its classes otherwise, so they are matched by name. Empty: the ids already agree.
   static std::vector<LabelId> truthIds(const LabelSet& set) {
+    // Indexed by any byte (pixel truth is one); ids the simulation never writes map to themselves.
+    std::vector<LabelId> ids(256);
+    for (std::size_t id = 0; id < ids.size(); ++id) ids[id] = static_cast<LabelId>(id);
     const LabelSet sim = LabelSet::defaults();
-    std::vector<LabelId> ids(sim.size());
     std::string missing;
     bool same = true;
     for (LabelId id = 0; id < sim.size(); ++id) {
       const int to = set.find(sim.name(id));
       if (to < 0) missing += std::string(missing.empty() ? "" : ", ") + "'" + sim.name(id) + "'";
-      ids[id] = static_cast<LabelId>(std::max(to, 0));
+      else
+        ids[id] = static_cast<LabelId>(to);
       same = same && to == id;
     }
     if (!missing.empty())
@@ -68,12 +70,7 @@ class SimulatorSource : public Source {
                        "its ground truth is in the classes road, rough and obstacle, and the "
                        "config's label set has no " +
                            missing + "; list them under labels: (other classes may be added)");
-    // Pixel truth holds ids up to 255; anything the simulation never writes stays as it is.
-    if (same) return {};
-    std::vector<LabelId> all(256);
-    for (std::size_t id = 0; id < all.size(); ++id)
-      all[id] = id < ids.size() ? ids[id] : static_cast<LabelId>(id);
-    return all;
+    return same ? std::vector<LabelId>{} : ids;
   }
 
   sim::SimulationConfig config_;
