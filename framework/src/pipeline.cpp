@@ -212,6 +212,9 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       for (std::size_t s = 0; s < slot; ++s) res.timings[s].ms.push_back(slot_ms[s]);
       ++res.summary.frames_ok;
       if (!ctx.metrics.empty()) res.metrics.emplace_back(frames[cur].id, ctx.metrics);
+      // Only one frame is kept back: its own `previous` is the slot the next frame reuses, so
+      // left set it would point at the next frame itself.
+      ctx.previous = nullptr;
       have_prev = true;
       cur = 1 - cur;
     } catch (const std::exception& e) {

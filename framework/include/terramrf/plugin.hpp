@@ -99,7 +99,9 @@ struct FrameContext {
   EnergyModel energy;
   OptimiserReport optimiser;
   std::size_t index = 0;  ///< position in the batch
-  /// Result of the previous successfully processed frame (temporal fusion), or nullptr.
+  /// Result of the previous successfully processed frame (temporal fusion), or nullptr: its
+  /// frame (pose included), grid (layers, labels, `score.<class>`), energy and report. One frame
+  /// back only (its own `previous` is nullptr); a stage that needs more keeps its own state.
   const FrameContext* previous = nullptr;
   /// Scalars a stage wants reported (e.g. "preclass.obstacle_cells").
   std::map<std::string, double> metrics;

@@ -7,9 +7,17 @@
 //
 // A class of the model file may also be a mixture of Gaussians (feature_stats `components`); its
 // feature energy is then −log Σ_m w_m exp(−E_m), E_m being eq. 11 under component m.
+//
+// Evidence layers are the slot for what a later stage knows besides this scan's features (paper
+// 000 §4.7: the previous classification, carried over by egomotion, fills data gaps): one cost
+// per class, added to the unary where given. A cell without points but with evidence is then
+// classified instead of left unknown.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <stdexcept>
+#include <string>
 
 #include "feature_origins.hpp"
 #include "gaussian_model.hpp"
@@ -42,6 +50,13 @@ class PottsGaussian final : public Stage {
         .unit("energy");
     d.add("min_points", min_points_, "cells with fewer points are fixed to unknown (no data)")
         .unit("points").range(1, 1000);
+    d.add("evidence_layers", evidence_layers_,
+          "grid layers, one per class of `classes` in its order, each an energy added to that "
+          "class's unary where the cell has a value (e.g. −log of the probability an earlier "
+          "classification gives it); NaN in any of them = no evidence for that cell. A cell with "
+          "fewer than min_points points but with evidence is classified from the evidence and "
+          "its neighbours instead of fixed to unknown (temporal fusion, docs/energy.md)")
+        .unit("energy");
     d.add("check_feature_origins", check_origins_,
           "refuse a model whose features were computed otherwise (another stage, parameter or "
           "input) than the stages before this one compute them, as the model records it; false "
@@ -64,6 +79,10 @@ class PottsGaussian final : public Stage {
     if (!class_cost_.empty() && class_cost_.size() != classes_.size())
       throw ParamError("class_cost", "give one value per class of `classes` (" +
                                          std::to_string(classes_.size()) + "), or none");
+    if (!evidence_layers_.empty() && evidence_layers_.size() != classes_.size())
+      throw ParamError("evidence_layers", "give one layer per class of `classes` (" +
+                                              std::to_string(classes_.size()) +
+                                              ", in its order: " + joined(classes_) + "), or none");
     active_.clear();
     obstacle_index_ = -1;
     for (const auto& c : classes_) {
@@ -117,6 +136,7 @@ class PottsGaussian final : public Stage {
     std::vector<std::string> r = features_;
     r.push_back(artefacts::kPoints);
     if (!preclass_layer_.empty()) r.push_back(preclass_layer_);
+    r.insert(r.end(), evidence_layers_.begin(), evidence_layers_.end());
     return r;
   }
   std::vector<std::string> writes() const override { return {artefacts::kEnergy}; }
@@ -133,13 +153,27 @@ class PottsGaussian final : public Stage {
     std::vector<const float*> feat(F);
     for (std::size_t f = 0; f < F; ++f) feat[f] = g.layer(features_[f]).data();
     const float* pre = preclass_layer_.empty() ? nullptr : g.layer(preclass_layer_).data();
+    std::vector<const float*> ev(evidence_layers_.size());
+    for (std::size_t k = 0; k < ev.size(); ++k) ev[k] = g.layer(evidence_layers_[k]).data();
     const float alpha = static_cast<float>(alpha_);
     for (int c = 0, n = static_cast<int>(g.cells()); c < n; ++c) {
-      if (g.count(c) < static_cast<uint32_t>(min_points_)) {
-        em.fixed[c] = 1;
+      const bool has_points = g.count(c) >= static_cast<uint32_t>(min_points_);
+      const bool has_evidence = !ev.empty() && evidenceAt(ev, c, g);
+      float* u = &em.unary[std::size_t(c) * K];
+      if (!has_points) {
+        if (!has_evidence) {
+          em.fixed[c] = 1;
+          continue;
+        }
+        // No data of this scan: the evidence alone, with its neighbours, decides.
+        int best = 0;
+        for (int k = 0; k < K; ++k) {
+          u[k] = cost_[k] + ev[k][c];
+          if (u[k] < u[best]) best = k;
+        }
+        em.initial[c] = static_cast<uint8_t>(best);
         continue;
       }
-      float* u = &em.unary[std::size_t(c) * K];
       for (int k = 0; k < K; ++k) {
         // Eq. 11 per component; a mixture's energy is −log Σ_m w_m exp(−E_m) (log-sum-exp).
         // A feature that is NaN here (no data) does not vote, in any component.
@@ -162,7 +196,7 @@ class PottsGaussian final : public Stage {
           for (int j = b; j < e; ++j) sum += std::exp(emin - comp_energy_[j]);
           energy = emin - std::log(sum);
         }
-        u[k] = alpha * energy + cost_[k];
+        u[k] = alpha * energy + cost_[k] + (has_evidence ? ev[k][c] : 0.f);
       }
       // Initial labelling: the pre-classification decides obstacle vs flat; among the others
       // the feature term decides.
@@ -183,6 +217,34 @@ class PottsGaussian final : public Stage {
   }
 
  private:
+  /// True if every evidence layer holds a number at cell c. NaN in any = no evidence; an
+  /// infinite cost would make the optimisers' energy differences NaN, so it is the producing
+  /// stage's error, named here.
+  bool evidenceAt(const std::vector<const float*>& ev, int c, const TerrainGrid& g) const {
+    bool all = true;
+    for (std::size_t k = 0; k < ev.size(); ++k) {
+      const float v = ev[k][c];
+      if (std::isnan(v)) {
+        all = false;
+      } else if (std::isinf(v)) {
+        const Eigen::Vector2d at = g.geometry().cellCentre(c / g.cols(), c % g.cols());
+        char where[96];
+        std::snprintf(where, sizeof where, "cell (row %d, col %d) at x = %.2f m, y = %.2f m",
+                      c / g.cols(), c % g.cols(), at.x(), at.y());
+        throw std::runtime_error("evidence layer '" + evidence_layers_[k] + "' holds " +
+                                 (v > 0 ? "+inf" : "-inf") + " in " + where +
+                                 "; expected a finite energy, or NaN for no evidence");
+      }
+    }
+    return all;
+  }
+
+  static std::string joined(const std::vector<std::string>& v) {
+    std::string s;
+    for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
+    return s;
+  }
+
   void checkFeatureOrigins(const std::map<std::string, std::string>& here) const {
     std::string why;
     for (const auto& f : features_) {
@@ -210,6 +272,7 @@ class PottsGaussian final : public Stage {
   bool check_origins_ = true;
   int min_points_ = 1;
   std::vector<double> class_cost_;
+  std::vector<std::string> evidence_layers_;
 
   GaussianModel model_;
   std::vector<LabelId> active_;

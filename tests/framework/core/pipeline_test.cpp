@@ -261,4 +261,90 @@ TEST(Pipeline, EgomotionStagesRunBeforeBinningAndSeeThePreviousFrame) {
   }
 }
 
+// Temporal fusion (a later issue) slots in as a feature stage that reads the previous frame's
+// labels and writes evidence layers for the energy: cells this scan has no points in are then
+// classified from the earlier result instead of left unknown. The core's side of that, with a
+// test plugin.
+TEST(Pipeline, EvidenceFromThePreviousFrameFillsCellsWithoutPoints) {
+  test::ConfigFixture f;
+  PluginRegistry reg({test::pluginDir(),
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_source",
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_egomotion",
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_carry_over"});
+  // Frames 1 and 2 lose the ground points of 5 ≤ x < 7 m, 3 ≤ y < 5 m.
+  std::string text = test::ConfigFixture::validPipeline("{frames: 4, hole_from_frame: 1}");
+  const std::string mrf = "preclass_layer: preclass}}";
+  auto run = [&](const std::string& name, const std::string& config) {
+    LoadOptions lo;
+    lo.output_dir = f.dir.str() + "/out_" + name;
+    Pipeline p = loadPipeline(f.write(name + ".yaml", config), lo, reg);
+    auto probe = std::make_unique<CellLabelProbe>();
+    probe->at_m = {{6.25, 4.25}, {5.75, 3.75}, {8.25, 4.25}};
+    CellLabelProbe* seen = probe.get();
+    p.outputs.push_back(std::move(probe));
+    RunOptions ro;
+    ro.progress = false;
+    RunResult r = runPipeline(p, ro);
+    EXPECT_EQ(r.summary.frames_ok, 4u) << name;
+    return std::make_pair(seen->seen, r);
+  };
+  // Without evidence the occluded cells are unknown from frame 1 on.
+  const auto [plain, plain_run] = run("plain", text);
+  ASSERT_EQ(plain.size(), 4u);
+  EXPECT_EQ(plain[0], (std::vector<LabelId>{labels::kRoad, labels::kRoad, labels::kRoad}));
+  for (int k = 1; k < 4; ++k)
+    EXPECT_EQ(plain[k], (std::vector<LabelId>{labels::kUnknown, labels::kUnknown, labels::kRoad}));
+
+  std::string fused = text;
+  fused.insert(fused.find("  - {name: mrf"), "  - {name: carry, type: test_carry_over}\n");
+  fused.replace(fused.find(mrf), mrf.size(),
+                "preclass_layer: preclass, evidence_layers: [evidence.road, evidence.rough, "
+                "evidence.obstacle]}}");
+  const auto [carried, carried_run] = run("fused", fused);
+  ASSERT_EQ(carried.size(), 4u);
+  // Carried over from frame to frame: road where frame 0 saw road, as long as the hole lasts.
+  for (int k = 0; k < 4; ++k)
+    EXPECT_EQ(carried[k], (std::vector<LabelId>{labels::kRoad, labels::kRoad, labels::kRoad})) << k;
+  ASSERT_EQ(carried_run.metrics.size(), 4u);
+  const double want_depth[] = {0, 1, 1, 1};  // one frame back, never a cycle
+  for (int k = 0; k < 4; ++k)
+    EXPECT_EQ(carried_run.metrics[k].second.at("carry.chain_depth"), want_depth[k]) << k;
+  EXPECT_EQ(carried_run.metrics[0].second.count("carry.cells_carried"), 0u);
+  EXPECT_GT(carried_run.metrics[1].second.at("carry.cells_carried"), 1000);
+
+  // With poses that move 2 m forward per frame the evidence is looked up 2 m further on, where
+  // frame 0 saw the box (its wall at x = 3 m): the cell at x = 1.25 m inherits obstacle.
+  std::string moving = fused;
+  moving.insert(moving.find("stages:\n") + 8,
+                "  - {name: ego, type: test_egomotion, params: {step_m: 2}}\n");
+  LoadOptions lo;
+  lo.output_dir = f.dir.str() + "/out_moving";
+  Pipeline p = loadPipeline(f.write("moving.yaml", moving), lo, reg);
+  TerrainGrid prev_grid(p.grid), grid(p.grid);
+  Frame prev_frame = p.source->read(0), frame = p.source->read(1);
+  FrameContext prev_ctx, ctx;
+  prev_ctx.frame = &prev_frame;
+  prev_ctx.grid = &prev_grid;
+  prev_ctx.labels = p.labels.get();
+  prev_ctx.index = 0;
+  p.stages[0]->process(prev_ctx);
+  prev_grid.binPoints(prev_frame.points);
+  for (std::size_t s = 1; s < p.stages.size(); ++s) p.stages[s]->process(prev_ctx);
+  ASSERT_EQ(prev_grid.labels()[p.grid.cellOf(3.25, 0.25)], labels::kObstacle);
+  ctx.frame = &frame;
+  ctx.grid = &grid;
+  ctx.labels = p.labels.get();
+  ctx.index = 1;
+  ctx.previous = &prev_ctx;
+  p.stages[0]->process(ctx);
+  grid.binPoints(frame.points);
+  for (std::size_t s = 1; s < p.stages.size(); ++s) {
+    p.stages[s]->process(ctx);
+    if (p.stages[s]->name() == "carry") break;
+  }
+  const int cell = p.grid.cellOf(1.25, 0.25);
+  EXPECT_EQ(grid.layer("evidence.obstacle")[cell], 0.f);
+  EXPECT_EQ(grid.layer("evidence.road")[cell], 20.f);
+}
+
 }  // namespace terramrf

@@ -18,6 +18,10 @@ class SyntheticSource final : public Source {
     d.add("nonfinite_points", nonfinite_, "NaN points each read reports as dropped").range(0, 1e6);
     d.add("no_return_points", no_return_, "origin points each read reports as dropped")
         .range(0, 1e6);
+    d.add("hole_from_frame", hole_from_,
+          "frames from this index on have no ground points in 5 ≤ x < 7 m, 3 ≤ y < 5 m (an "
+          "occlusion); negative = never")
+        .range(-1, 1000);
   }
   std::size_t size() const override { return static_cast<std::size_t>(frames_); }
   std::string frameId(std::size_t i) const override {
@@ -40,7 +44,9 @@ class SyntheticSource final : public Source {
     for (double x = -10; x < 10; x += spacing_m_)
       for (double y = -10; y < 10; y += spacing_m_) {
         const bool in_box = x > 3 && x < 4 && y > -1 && y < 1;
-        if (in_box) continue;
+        const bool in_hole =
+            hole_from_ >= 0 && int(i) >= hole_from_ && x >= 5 && x < 7 && y >= 3 && y < 5;
+        if (in_box || in_hole) continue;
         f.points.push_back(static_cast<float>(x), static_cast<float>(y), -1.7f + noise(rng), 0.5f);
         f.truth.label.push_back(x < 0 ? labels::kRough : labels::kRoad);
         f.truth.raw.push_back(x < 0 ? 2 : 1);
@@ -62,6 +68,7 @@ class SyntheticSource final : public Source {
   std::string path_;
   std::string mode_ = "plane";
   int nonfinite_ = 0, no_return_ = 0;
+  int hole_from_ = -1;
 };
 
 }  // namespace terramrf

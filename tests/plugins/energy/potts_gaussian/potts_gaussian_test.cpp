@@ -100,6 +100,86 @@ TEST(PottsGaussian, NaNFeatureDoesNotVoteAndPreclassSetsStart) {
   EXPECT_EQ(h.ctx.energy.initial[c], 2);
 }
 
+// Evidence layers (the temporal-fusion slot): a cost per class added where every layer has a
+// number; a cell without points but with evidence is classified, one without either stays
+// unknown.
+TEST(PottsGaussian, EvidenceAddsToTheUnaryAndClassifiesCellsWithoutPoints) {
+  test::TempDir d;
+  test::StageHarness h;
+  h.frame.points.push_back(1.1f, 1.1f, -1.7f, 0);
+  h.bin();
+  const int with_points = h.geom.cellOf(1.1, 1.1);
+  const int empty_with = h.geom.cellOf(1.6, 1.1);  // no points, evidence for obstacle
+  const int empty_part = h.geom.cellOf(2.1, 1.1);  // no points, one layer NaN
+  const int empty_none = h.geom.cellOf(-3, -3);    // no points, no evidence
+  h.grid.add("f")[with_points] = 1.0f;
+  Layer& e_road = h.grid.add("ev.road");
+  Layer& e_rough = h.grid.add("ev.rough");
+  Layer& e_obst = h.grid.add("ev.obstacle");
+  for (int c : {with_points, empty_with}) {
+    e_road[c] = 3.f;
+    e_rough[c] = 2.f;
+    e_obst[c] = 0.5f;
+  }
+  e_road[empty_part] = 0.f;
+  e_rough[empty_part] = 1.f;
+  const std::string m = writeModel(d);
+  h.make("potts_gaussian", "{model: " + m + ", features: [f], class_cost: [0, 0, -0.25]}")
+      ->process(h.ctx);
+  const std::vector<float> plain(h.ctx.energy.unary.begin() + with_points * 3,
+                                 h.ctx.energy.unary.begin() + with_points * 3 + 3);
+  auto s = h.make("potts_gaussian", "{model: " + m +
+                                        ", features: [f], class_cost: [0, 0, -0.25], "
+                                        "evidence_layers: [ev.road, ev.rough, ev.obstacle]}");
+  EXPECT_EQ(s->reads(),
+            (std::vector<std::string>{"f", "@points", "ev.road", "ev.rough", "ev.obstacle"}));
+  s->process(h.ctx);
+  const EnergyModel& em = h.ctx.energy;
+  EXPECT_NEAR(em.unary[with_points * 3 + 0], plain[0] + 3.f, 1e-5);
+  EXPECT_NEAR(em.unary[with_points * 3 + 1], plain[1] + 2.f, 1e-5);
+  EXPECT_NEAR(em.unary[with_points * 3 + 2], plain[2] + 0.5f, 1e-5);
+  EXPECT_EQ(em.fixed[with_points], 0);
+  // No feature term where there are no points: the evidence and the class cost.
+  EXPECT_EQ(em.fixed[empty_with], 0);
+  EXPECT_FLOAT_EQ(em.unary[empty_with * 3 + 0], 3.f);
+  EXPECT_FLOAT_EQ(em.unary[empty_with * 3 + 1], 2.f);
+  EXPECT_FLOAT_EQ(em.unary[empty_with * 3 + 2], 0.25f);
+  EXPECT_EQ(em.initial[empty_with], 2);
+  EXPECT_EQ(em.fixed[empty_part], 1);
+  EXPECT_EQ(em.fixed[empty_none], 1);
+
+  // Every optimiser then labels that cell; a cell with neither stays unknown.
+  for (const char* opt : {"icm", "gibbs", "alpha_expansion"}) {
+    h.make(opt)->process(h.ctx);
+    EXPECT_EQ(h.grid.labels()[empty_with], labels::kObstacle) << opt;
+    EXPECT_EQ(h.grid.labels()[empty_none], labels::kUnknown) << opt;
+    EXPECT_EQ(h.grid.labels()[empty_part], labels::kUnknown) << opt;
+  }
+
+  // An infinite cost is the producing stage's error, named with the layer and the cell.
+  e_rough[empty_with] = INFINITY;
+  try {
+    s->process(h.ctx);
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("evidence layer 'ev.rough' holds +inf in cell (row 23, col "
+                                   "22) at x = 1.75 m, y = 1.25 m"),
+        std::string::npos)
+        << e.what();
+  }
+  // One layer per class, in the order of `classes`.
+  try {
+    h.make("potts_gaussian", "{model: " + m + ", features: [f], evidence_layers: [ev.road]}");
+    FAIL() << "expected an error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("give one layer per class of `classes` (3, in its "
+                                         "order: road, rough, obstacle), or none"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(PottsGaussian, ModelForOtherFeaturesNamesTheFile) {
   test::TempDir d;
   test::StageHarness h;

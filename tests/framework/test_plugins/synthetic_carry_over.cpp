@@ -1,0 +1,66 @@
+// Test-only temporal fusion: the previous frame's labels, carried over by the two frames' poses,
+// as evidence layers for potts_gaussian. The temporal-fusion issue's plugin will slot in where
+// this one does; the core's side (the previous frame's grid and pose stay readable, the energy
+// takes evidence and classifies cells without points from it) is tested with it now.
+#include <cmath>
+
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+
+class SyntheticCarryOver final : public Stage {
+ public:
+  void declare(ParamDecl& d) override {
+    d.add("penalty", penalty_, "energy of every class but the one carried over").unit("energy");
+  }
+  void configure(const PluginContext& ctx) override {
+    layers_.clear();
+    for (std::size_t id = 1; id < ctx.labels->size(); ++id)
+      layers_.push_back("evidence." + ctx.labels->name(static_cast<LabelId>(id)));
+  }
+  std::vector<std::string> writes() const override { return layers_; }
+
+  void process(FrameContext& ctx) override {
+    TerrainGrid& g = *ctx.grid;
+    std::vector<Layer*> out;
+    for (const auto& l : layers_) out.push_back(&g.add(l));
+    const FrameContext* prev = ctx.previous;
+    ctx.metrics[name() + ".chain_depth"] = chainDepth(ctx);
+    if (!prev || !prev->grid || prev->grid->labels().empty()) return;
+    // Current cell centre → world (this frame's pose) → the previous frame's grid.
+    Eigen::Isometry3d to_prev = Eigen::Isometry3d::Identity();
+    if (ctx.frame->pose && prev->frame && prev->frame->pose)
+      to_prev = prev->frame->pose->inverse() * *ctx.frame->pose;
+    const GridGeometry& pg = prev->grid->geometry();
+    std::size_t carried = 0;
+    for (int r = 0; r < g.rows(); ++r)
+      for (int c = 0; c < g.cols(); ++c) {
+        const Eigen::Vector2d m = g.geometry().cellCentre(r, c);
+        const Eigen::Vector3d q = to_prev * Eigen::Vector3d(m.x(), m.y(), 0);
+        const int pc = pg.cellOf(q.x(), q.y());
+        if (pc < 0) continue;
+        const LabelId l = prev->grid->labels()[pc];
+        if (l == labels::kUnknown) continue;
+        for (std::size_t k = 0; k < out.size(); ++k)
+          (*out[k])[std::size_t(r) * g.cols() + c] = (k + 1 == l) ? 0.f : float(penalty_);
+        ++carried;
+      }
+    ctx.metrics[name() + ".cells_carried"] = double(carried);
+  }
+
+ private:
+  /// How many frames back `previous` reaches (bounded: a cycle would be a runner bug).
+  static double chainDepth(const FrameContext& ctx) {
+    int n = 0;
+    for (const FrameContext* p = ctx.previous; p && n < 100; p = p->previous) ++n;
+    return n;
+  }
+
+  double penalty_ = 20.0;
+  std::vector<std::string> layers_;
+};
+
+}  // namespace terramrf
+
+TERRAMRF_PLUGIN(terramrf::SyntheticCarryOver, terramrf::PluginKind::kFeature, "test_carry_over",
+                "test-only temporal fusion: the previous labels as evidence")
