@@ -25,6 +25,7 @@
 #include <map>
 #include <memory>
 #include <ostream>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -367,6 +368,8 @@ struct SweepRun {
   std::ostream& log;
   std::string sweep_path;  ///< absolute (models name it)
   std::size_t done = 0;    ///< frames processed so far (progress bar)
+  /// Items whose untimed warm-up run is done (executeRun).
+  std::set<const Item*> warmed = {};
 };
 
 /// The items a feature set trains on: its own `train:`, else split.train.
