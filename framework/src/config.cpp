@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -268,6 +269,16 @@ CommonKeys readCommonKeys(const YAML::Node& root, const std::string& base_dir,
           d.add(name ? name.Mark() : e.Mark(), at + ": expected 'name: <class name>'");
         } else {
           li.name = name.Scalar();
+          // Class names become layer names (score.<class>), CSV columns and Markdown cells; a
+          // comma, bar or space would shift every column after it.
+          const bool plain = std::all_of(li.name.begin(), li.name.end(), [](unsigned char ch) {
+            return std::isalnum(ch) || ch == '_' || ch == '-';
+          });
+          if (!plain)
+            d.add(name.Mark(), at + ".name: '" + li.name +
+                                   "' holds characters other than letters, digits, '_' and '-'; "
+                                   "class names become layer names (score.<class>) and table "
+                                   "columns, e.g. 'parking_lot'");
           for (const auto& prev : infos)
             if (prev.name == li.name)
               d.add(name.Mark(), at + ": class '" + li.name + "' is listed twice");

@@ -111,6 +111,7 @@ EvalCounts& EvalCounts::operator+=(const EvalCounts& o) {
   cell_wise += o.cell_wise;
   scans += o.scans;
   frames_without_truth += o.frames_without_truth;
+  frames_failed += o.frames_failed;
   points += o.points;
   labelled_points += o.labelled_points;
   classified_points += o.classified_points;
@@ -330,6 +331,7 @@ std::string toJson(const EvalCounts& c, const LabelSet& labels, EvalRules rules,
   o << "  \"counts\": {\n"
     << "    \"scans\": " << c.scans << ",\n"
     << "    \"frames_without_truth\": " << c.frames_without_truth << ",\n"
+    << "    \"frames_failed\": " << c.frames_failed << ",\n"
     << "    \"points\": " << c.points << ",\n"
     << "    \"labelled_points\": " << c.labelled_points << ",\n"
     << "    \"classified_points\": " << c.classified_points << ",\n"
@@ -457,6 +459,8 @@ std::string toTable(const EvalCounts& c, const LabelSet& labels, EvalRules rules
     << "; cells made obstacle by a minority of obstacle points: " << grouped(c.cells_obstacle_rule)
     << "; cells decided by the tie rule: " << grouped(c.cells_tied) << "\n";
   o << "- Tie rule: " << kTieRule << "\n";
+  if (c.frames_failed > 0)
+    o << "- " << grouped(c.frames_failed) << " frames failed in the pipeline (not evaluated)\n";
   if (c.frames_without_truth > 0) {
     o << "- " << grouped(c.frames_without_truth) << " frames without ground truth (skipped)\n";
   }

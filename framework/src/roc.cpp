@@ -297,7 +297,8 @@ RocCurve RocAccumulator::curve(LabelId c, std::size_t max_points) const {
   r.auc = aucOf(groups);
   if (r.positives) r.operating_tpr = double(op_tp) / r.positives;
   if (r.negatives) r.operating_fpr = double(op_fp) / r.negatives;
-  auto rate = [](uint64_t a, uint64_t b) { return b ? double(a) / b : 0.0; };
+  // Without positives (or negatives) the rate is undefined: NaN, an empty CSV field, not 0.
+  auto rate = [](uint64_t a, uint64_t b) { return b ? double(a) / b : kNaN; };
   std::vector<RocPoint> pts;
   pts.reserve(groups.size() + 1);
   pts.push_back({std::numeric_limits<double>::infinity(), 0, 0, 0, 0});

@@ -585,6 +585,7 @@ std::string accuracyTable(const SweepResult& r, const std::string& dataset,
   o << "\n|---|";
   for (std::size_t i = 0; i < r.feature_sets.size(); ++i) o << "---:|";
   o << "\n";
+  bool partial = false;
   for (LabelId c : scoredClasses(r.labels)) {
     for (const char* what : {"TPR", "FPR"}) {
       o << "| " << capitalise(r.labels.name(c)) << "/" << what << " |";
@@ -594,12 +595,17 @@ std::string accuracyTable(const SweepResult& r, const std::string& dataset,
         if (cell.empty()) {
           const ClassScores s = x->counts.cell_wise.scores(c);
           cell = x->counts.scans == 0 ? "not scored" : pct(what[0] == 'T' ? s.tpr() : s.fpr());
+          // Columns side by side must say when one was scored on fewer scans.
+          if (!x->failed.empty()) cell += " †", partial = true;
         }
         o << " " << cell << " |";
       }
       o << "\n";
     }
   }
+  if (partial)
+    o << "\n† scored without the frames that failed in that run (Runs table: frames ok / "
+         "frames)\n";
   return o.str();
 }
 

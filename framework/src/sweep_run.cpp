@@ -283,6 +283,7 @@ void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec) {
     }
     rec.frames_ok = rr.summary.frames_ok;
     rec.failed = rr.summary.failed;
+    rec.counts.frames_failed = rec.failed.size();
     rec.times = runTimes(rr, p);
     writeRunReports(rec.output_dir, rr);
     if (rr.frames_total > 0 && rr.summary.frames_ok == 0) {

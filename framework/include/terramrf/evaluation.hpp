@@ -122,6 +122,9 @@ struct EvalCounts {
   // ---- paper 001 table header -------------------------------------------------------------
   uint64_t scans = 0;                 ///< frames evaluated (with ground truth)
   uint64_t frames_without_truth = 0;  ///< frames skipped because they carry no labels
+  /// Frames of the run that failed in the pipeline before they were evaluated (set by whoever
+  /// runs the evaluation: the evaluator never sees them), so totals say what they leave out.
+  uint64_t frames_failed = 0;
   uint64_t points = 0;                ///< 3D points in the evaluated frames
   uint64_t labelled_points = 0;       ///< ground truth not unknown ("annotated points")
   uint64_t classified_points = 0;     ///< points (any truth) in cells predicted not unknown

@@ -65,14 +65,10 @@ class EvaluationOutput : public Output {
 
   void end(const RunSummary& summary) override {
     if (!evaluator_) evaluator_.emplace(labels_, rules_id_);
-    const EvalCounts& total = evaluator_->total();
-    std::string table = toTable(total, labels_, rules_id_);
+    EvalCounts total = evaluator_->total();
     // A frame that failed in an output after this one was evaluated all the same.
-    std::size_t missing = 0;
-    for (const auto& failed : summary.failed) missing += seen_.count(failed.first) == 0;
-    if (missing > 0) {
-      table += "- " + std::to_string(missing) + " frames failed in the pipeline (not evaluated)\n";
-    }
+    for (const auto& failed : summary.failed) total.frames_failed += seen_.count(failed.first) == 0;
+    std::string table = toTable(total, labels_, rules_id_);
     if (total.scans == 0) {
       table += "- no frame with ground truth was evaluated; all ratios are undefined\n";
     }

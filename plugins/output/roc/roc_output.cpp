@@ -2,6 +2,7 @@
 // optimiser's score layers (`score.<class>`), accumulated over the run. Without score layers it
 // falls back to the local energy margin of the final labelling (or skips, as configured) and says
 // which in its summary. Rules and formats: docs/compare.md ("ROC curves").
+#include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <optional>
@@ -13,6 +14,15 @@
 #include "terramrf/roc.hpp"
 
 namespace terramrf {
+
+namespace {
+/// Rounded, not cut: 0.9919 is 0.992 as in summary.json and compare's tables.
+std::string fixed3(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3f", v);
+  return b;
+}
+}  // namespace
 namespace {
 
 class RocOutput final : public Output {
@@ -83,8 +93,7 @@ class RocOutput final : public Output {
                     rocSvg(curves, labels_, title_.empty() ? "ROC — " + config_ : title_));
     std::cout << (curves.empty() ? "" : "ROC: ") << note.str();
     for (const auto& c : curves)
-      std::cout << "; " << c.class_name << " AUC "
-                << (c.defined() ? std::to_string(c.auc).substr(0, 5) : std::string("–"));
+      std::cout << "; " << c.class_name << " AUC " << (c.defined() ? fixed3(c.auc) : "–");
     std::cout << "\n" << std::flush;
   }
 

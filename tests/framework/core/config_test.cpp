@@ -269,6 +269,10 @@ TEST(Config, EachMalformedEntryIsNamedAtItsPlace) {
        "labels[2]: expected 'name: <class name>'"},
       {test::edited(base, grid, grid + labels_ok + "  - {name: '', color: [9, 9, 9]}\n"), "''", 1,
        "labels[2]: expected 'name: <class name>'"},
+      {test::edited(base, grid, grid + labels_ok + "  - {name: 'road, wet', color: [9, 9, 9]}\n"),
+       "'road, wet'", 1,
+       "labels[2].name: 'road, wet' holds characters other than letters, digits, '_' and '-'; "
+       "class names become layer names (score.<class>) and table columns, e.g. 'parking_lot'"},
       {test::edited(base, grid, grid + "labels: [" + manyLabels(256) + "]\n"), "[{name", 1,
        "labels: 256 classes; at most 255 (ids are bytes)"},
       {test::edited(base, grid, grid + labels_ok + "  - rough\n"), "rough", 1,

@@ -284,6 +284,21 @@ TEST(RocWriters, CsvSvgJson) {
   EXPECT_NE(js.find("\"auc\": 1"), std::string::npos) << js;
 }
 
+TEST(RocWriters, ARateWithoutItsDenominatorIsEmptyNotZero) {
+  // A class no cell truly holds has no true positive rate; writing 0 would draw a curve along
+  // the x axis, as if the class had been missed everywhere.
+  RocAccumulator acc(LabelSet::defaults());
+  acc.add(labels::kObstacle, 0.9f, false, true);
+  acc.add(labels::kObstacle, 0.2f, false, false);
+  const RocCurve c = acc.curve(labels::kObstacle);
+  EXPECT_FALSE(c.defined());
+  ASSERT_EQ(c.points.size(), 3u);
+  EXPECT_TRUE(std::isnan(c.points[2].tpr));
+  EXPECT_DOUBLE_EQ(c.points[2].fpr, 1.0);
+  const std::string csv = rocCsv({c}, "");
+  EXPECT_NE(csv.find("obstacle,0.200000003,1,,0,2,0,2\n"), std::string::npos) << csv;
+}
+
 TEST(RocWriters, CsvThresholdsStayDistinct) {
   // Two scores one float step apart are two points of the curve, and two rows of the CSV.
   RocAccumulator acc(LabelSet::defaults());

@@ -1359,6 +1359,17 @@ optimisers: {icm: {type: icm}, icm_again: {type: icm}}
   EXPECT_EQ(r.cached_frames, 2u);  // the training frame and the good scan, not the bad one
   EXPECT_EQ(r.cache_hits, 2u);     // both runs' good scan (the item's warm-up read it first)
   EXPECT_NE(log.str().find("1 frame(s) failed and were skipped"), std::string::npos) << log.str();
+  // The tables say which columns were scored on fewer scans.
+  for (const auto& x : r.runs) EXPECT_EQ(x.counts.frames_failed, 1u);
+  const std::string acc = readFile(dir.str() + "/out/accuracy.md");
+  EXPECT_NE(acc.find(" † |"), std::string::npos) << acc;
+  EXPECT_NE(acc.find("† scored without the frames that failed in that run"), std::string::npos)
+      << acc;
+  EXPECT_NE(readFile(dir.str() + "/out/results.json").find("\"frames_failed\": 1"),
+            std::string::npos);
+  EXPECT_NE(readFile(dir.str() + "/out/evaluation.md")
+                .find("- 1 frames failed in the pipeline (not evaluated)"),
+            std::string::npos);
 }
 
 TEST(SweepTraining, ATrainingFrameThatFailsIsReportedAndSetsTheExitStatus) {

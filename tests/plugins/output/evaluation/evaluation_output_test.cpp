@@ -155,7 +155,8 @@ TEST_F(EvaluationOutputTest, DefaultsAndNoPerFrameFiles) {
   EXPECT_NE(printed.find("- 1 frames failed in the pipeline (not evaluated)"), std::string::npos)
       << printed;
   const fs::path ev = dir.path() / "evaluation";  // default subdir
-  EXPECT_TRUE(fs::exists(ev / "summary.json"));
+  ASSERT_TRUE(fs::exists(ev / "summary.json"));
+  EXPECT_EQ(YAML::LoadFile((ev / "summary.json").string())["counts"]["frames_failed"].as<int>(), 1);
   EXPECT_FALSE(fs::exists(ev / "x.json"));
 }
 
