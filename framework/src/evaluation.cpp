@@ -35,10 +35,32 @@ double mergeGeometry(double a, double b) {
 
 Interval wilsonInterval(uint64_t successes, uint64_t trials, double z) {
   if (trials == 0) return {kNaN, kNaN};
-  const double n = static_cast<double>(trials), p = successes / n, z2 = z * z;
+  return wilsonIntervalOf(double(successes) / double(trials), double(trials), z);
+}
+
+Interval wilsonIntervalOf(double p, double n, double z) {
+  if (!(n > 0) || std::isnan(p)) return {kNaN, kNaN};
+  const double z2 = z * z;
   const double centre = (p + z2 / (2 * n)) / (1 + z2 / n);
   const double half = z * std::sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / (1 + z2 / n);
   return {std::max(0.0, centre - half), std::min(1.0, centre + half)};
+}
+
+ClusteredProportion& ClusteredProportion::operator+=(const ClusteredProportion& o) {
+  clusters += o.clusters;
+  a += o.a, n += o.n, aa += o.aa, nn += o.nn, an += o.an;
+  return *this;
+}
+
+double ClusteredProportion::effectiveTrials() const {
+  if (!(n > 0)) return kNaN;
+  const double r = a / n;
+  // Σ(a_i − r·n_i)², the residual of the ratio estimator; rounding can leave it a hair below 0.
+  const double resid = std::max(0.0, aa - 2 * r * an + r * r * nn);
+  if (r <= 0 || r >= 1) return clusters;  // every cluster all or nothing: one trial each
+  if (clusters < 2 || resid <= 0) return clusters < 2 ? clusters : n;
+  const double var = clusters / (clusters - 1) * resid / (n * n);
+  return std::clamp(r * (1 - r) / var, 1.0, n);
 }
 
 double ClassScores::precision() const { return ratio(tp, tp + fp); }
@@ -99,6 +121,16 @@ const char* toString(EvalRules r) {
   return "?";
 }
 
+std::pair<Interval, Interval> EvalCounts::ci95(bool point_wise_level, LabelId c) const {
+  if (!point_wise_level) {
+    const ClassScores s = cell_wise.scores(c);
+    return {s.precisionCi95(), s.recallCi95()};
+  }
+  const Interval none{kNaN, kNaN};
+  return {c < point_precision.size() ? point_precision[c].ci95() : none,
+          c < point_recall.size() ? point_recall[c].ci95() : none};
+}
+
 EvalRules evalRulesFromString(const std::string& name) {
   if (name == "paper001") return EvalRules::kPaper001;
   throw std::invalid_argument("unknown evaluation rules '" + name + "'; known: paper001");
@@ -112,6 +144,14 @@ EvalCounts& EvalCounts::operator+=(const EvalCounts& o) {
   scans += o.scans;
   frames_without_truth += o.frames_without_truth;
   frames_failed += o.frames_failed;
+  if (point_precision.size() < o.point_precision.size()) {
+    point_precision.resize(o.point_precision.size());
+    point_recall.resize(o.point_recall.size());
+  }
+  for (std::size_t c = 0; c < o.point_precision.size(); ++c) {
+    point_precision[c] += o.point_precision[c];
+    point_recall[c] += o.point_recall[c];
+  }
   points += o.points;
   labelled_points += o.labelled_points;
   classified_points += o.classified_points;
@@ -255,6 +295,7 @@ EvalCounts Evaluator::addFrame(const TerrainGrid& grid, const Frame& frame) {
     // rightly an obstacle (it holds a GT obstacle point and is predicted obstacle): "not
     // considered a FP", but still missed as their own class, as paper 001's tables count them.
     const bool excuse = holds_obstacle && pred == obstacle_id;
+    uint64_t predicted_as_pred = 0;  // points this cell adds to TP + FP of its predicted class
     for (std::size_t c = 1; c < k; ++c) {
       if (per_class[c] == 0) continue;
       if (excuse && static_cast<int>(c) != obstacle_id) {
@@ -262,8 +303,14 @@ EvalCounts Evaluator::addFrame(const TerrainGrid& grid, const Frame& frame) {
         f.point_wise.addExcused(static_cast<LabelId>(c), pred, per_class[c]);
       } else {
         f.point_wise.add(static_cast<LabelId>(c), pred, per_class[c]);
+        predicted_as_pred += per_class[c];
       }
+      // The cell is one cluster of each true class's recall: all its points of class c are
+      // found together or missed together.
+      f.point_recall[c].add(c == pred ? double(per_class[c]) : 0.0, double(per_class[c]));
     }
+    if (pred != labels::kUnknown)
+      f.point_precision[pred].add(double(per_class[pred]), double(predicted_as_pred));
   }
 
   total_ += f;
@@ -282,18 +329,19 @@ std::string jsonNumber(double v) {
   return std::string(buf, r.ptr);
 }
 
-void jsonScores(std::ostringstream& o, const ConfusionMatrix& m, const LabelSet& labels,
-                const std::string& indent) {
+void jsonScores(std::ostringstream& o, const EvalCounts& counts, bool point_wise_level,
+                const LabelSet& labels, const std::string& indent) {
+  const ConfusionMatrix& m = point_wise_level ? counts.point_wise : counts.cell_wise;
   o << indent << "\"classes\": [\n";
   for (std::size_t c = 1; c < labels.size(); ++c) {
     const ClassScores s = m.scores(static_cast<LabelId>(c));
+    const auto [p_ci, r_ci] = counts.ci95(point_wise_level, static_cast<LabelId>(c));
     o << indent << "  {\"id\": " << c << ", \"name\": " << jsonQuote(labels.name(c))
       << ", \"tp\": " << s.tp << ", \"fp\": " << s.fp << ", \"fn\": " << s.fn
       << ", \"tn\": " << s.tn << ", \"precision\": " << jsonNumber(s.precision())
       << ", \"recall\": " << jsonNumber(s.recall()) << ", \"precision_ci95\": ["
-      << jsonNumber(s.precisionCi95().lo) << ", " << jsonNumber(s.precisionCi95().hi)
-      << "], \"recall_ci95\": [" << jsonNumber(s.recallCi95().lo) << ", "
-      << jsonNumber(s.recallCi95().hi) << "], \"tpr\": " << jsonNumber(s.tpr())
+      << jsonNumber(p_ci.lo) << ", " << jsonNumber(p_ci.hi) << "], \"recall_ci95\": ["
+      << jsonNumber(r_ci.lo) << ", " << jsonNumber(r_ci.hi) << "], \"tpr\": " << jsonNumber(s.tpr())
       << ", \"fpr\": " << jsonNumber(s.fpr()) << "}" << (c + 1 < labels.size() ? "," : "") << "\n";
   }
   o << indent << "],\n";
@@ -348,10 +396,10 @@ std::string toJson(const EvalCounts& c, const LabelSet& labels, EvalRules rules,
     << "    \"cell_m\": " << jsonNumber(c.cell_m) << "\n"
     << "  },\n";
   o << "  \"point_wise\": {\n";
-  jsonScores(o, c.point_wise, labels, "    ");
+  jsonScores(o, c, true, labels, "    ");
   o << "  },\n";
   o << "  \"cell_wise\": {\n";
-  jsonScores(o, c.cell_wise, labels, "    ");
+  jsonScores(o, c, false, labels, "    ");
   o << "  }\n";
   o << "}\n";
   return o.str();

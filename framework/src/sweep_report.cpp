@@ -346,9 +346,9 @@ std::string accuracyCsv(const SweepResult& r) {
   return o.str();
 }
 
-/// "p_lo,p_hi,r_lo,r_hi": 95 % Wilson intervals of precision and recall.
-std::string ci95Csv(const ClassScores& s) {
-  const Interval p = s.precisionCi95(), r = s.recallCi95();
+/// "p_lo,p_hi,r_lo,r_hi": 95 % intervals of precision and recall (EvalCounts::ci95).
+std::string ci95Csv(const EvalCounts& counts, bool point_wise_level, LabelId c) {
+  const auto [p, r] = counts.ci95(point_wise_level, c);
   return csvNum(p.lo) + "," + csvNum(p.hi) + "," + csvNum(r.lo) + "," + csvNum(r.hi);
 }
 
@@ -368,7 +368,7 @@ std::string evaluationCsv(const SweepResult& r) {
           << "," << s.tn << "," << csvNum(s.precision()) << "," << csvNum(s.recall()) << ","
           << csvNum(s.tpr()) << "," << csvNum(s.fpr()) << "," << x.counts.scans << ","
           << x.counts.points << "," << x.counts.labelled_points << "," << x.counts.classified_points
-          << "," << x.counts.cells_scored << "," << ci95Csv(s) << "\n";
+          << "," << x.counts.cells_scored << "," << ci95Csv(x.counts, level[0] == 'p', c) << "\n";
       }
   }
   return o.str();
@@ -387,7 +387,7 @@ std::string perScanCsv(const SweepResult& r) {
           o << csvField(x.dataset) << "," << csvField(x.feature_set) << "," << csvField(x.optimiser)
             << "," << csvField(frame) << "," << level << "," << r.labels.name(c) << "," << s.tp
             << "," << s.fp << "," << s.fn << "," << csvNum(s.precision()) << ","
-            << csvNum(s.recall()) << "," << ci95Csv(s) << "\n";
+            << csvNum(s.recall()) << "," << ci95Csv(counts, level[0] == 'p', c) << "\n";
         }
   return o.str();
 }

@@ -7,6 +7,7 @@
 // derived from them, so totals over frames are plain sums and a later `compare` can add runs.
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "terramrf/frame.hpp"
@@ -25,6 +26,31 @@ struct Interval {
 /// trials as independent; neighbouring cells of a scan are not (the MRF smooths them), so read it
 /// as a lower bound on the uncertainty of one scan's precision or recall.
 Interval wilsonInterval(uint64_t successes, uint64_t trials, double z = 1.959964);
+
+/// The same for a proportion p̂ of `trials` that need not be whole (an effective sample size).
+Interval wilsonIntervalOf(double p_hat, double trials, double z = 1.959964);
+
+/// A proportion Σa_i / Σn_i whose items come in clusters i that share one decision: the points of
+/// a cell all get the cell's class, so they are not independent trials. Sums over clusters that
+/// merge across frames; the interval is Wilson's at the effective sample size of the ratio
+/// estimator's cluster-robust variance (Kish's design effect), so a precision decided by a few
+/// large cells gets the width of a few trials, not of thousands of points.
+struct ClusteredProportion {
+  double clusters = 0;                          ///< clusters with n_i > 0
+  double a = 0, n = 0, aa = 0, nn = 0, an = 0;  ///< Σa_i, Σn_i, Σa_i², Σn_i², Σa_i·n_i
+
+  void add(double ai, double ni) {
+    if (ni <= 0) return;
+    clusters += 1;
+    a += ai, n += ni, aa += ai * ai, nn += ni * ni, an += ai * ni;
+  }
+  ClusteredProportion& operator+=(const ClusteredProportion& o);
+  /// Effective number of independent trials (≤ n; the number of clusters when every cluster
+  /// is all or nothing and p̂ is 0 or 1); NaN without trials.
+  double effectiveTrials() const;
+  /// 95 % Wilson interval at effectiveTrials().
+  Interval ci95() const { return wilsonIntervalOf(n > 0 ? a / n : 0.0, effectiveTrials()); }
+};
 
 /// Counts for one class, one-vs-rest over the scored items (points or cells).
 struct ClassScores {
@@ -114,7 +140,8 @@ CellTruth cellTruth(const std::vector<uint64_t>& per_class, int obstacle_id, Lab
 
 /// Everything an evaluation counts. Sums over frames with +=.
 struct EvalCounts {
-  explicit EvalCounts(std::size_t labels = 0) : point_wise(labels), cell_wise(labels) {}
+  explicit EvalCounts(std::size_t labels = 0)
+      : point_wise(labels), cell_wise(labels), point_precision(labels), point_recall(labels) {}
 
   ConfusionMatrix point_wise;  ///< scored points: true × predicted class of their cell
   ConfusionMatrix cell_wise;   ///< scored cells: true × predicted class
@@ -144,7 +171,15 @@ struct EvalCounts {
   double grid_size_m = 0;  ///< side of the square grid [m]
   double cell_m = 0;       ///< side of a cell [m]
 
+  /// Point-wise precision and recall of each class (index = LabelId) with the cell as the
+  /// cluster, for their intervals: Wilson's over points would treat every point as independent.
+  std::vector<ClusteredProportion> point_precision, point_recall;
+
   uint64_t scoredPoints() const { return point_wise.total(); }
+  /// 95 % intervals of precision (first) and recall (second) of class c: cell-wise Wilson's
+  /// over cells, point-wise Wilson's at the effective number of trials with the cell as the
+  /// cluster (ClusteredProportion).
+  std::pair<Interval, Interval> ci95(bool point_wise_level, LabelId c) const;
   /// Sums counts and matrices; geometry stays if equal, becomes NaN if it differs.
   EvalCounts& operator+=(const EvalCounts& o);
 };

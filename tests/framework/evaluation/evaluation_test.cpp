@@ -89,6 +89,38 @@ TEST(ClassScores, WilsonIntervalsHaveTheTextbookValues) {
   EXPECT_DOUBLE_EQ(s.recallCi95().hi, wilsonInterval(6, 9).hi);
 }
 
+TEST(ClusteredProportion, EqualAllOrNothingClustersCountAsOneTrialLessThanTheirNumber) {
+  // 10 cells of 100 points each, 7 cells all right and 3 all wrong: p̂ = 0.7, Σ(a − p̂n)² =
+  // 7·30² + 3·70² = 21000, var = 10/9 · 21000 / 1000² = 0.02333…, n_eff = 0.21 / var = 9.
+  ClusteredProportion c;
+  for (int i = 0; i < 10; ++i) c.add(i < 7 ? 100 : 0, 100);
+  EXPECT_DOUBLE_EQ(c.a, 700);
+  EXPECT_DOUBLE_EQ(c.n, 1000);
+  EXPECT_NEAR(c.effectiveTrials(), 9.0, 1e-9);
+  EXPECT_NEAR(c.ci95().lo, wilsonIntervalOf(0.7, 9).lo, 1e-12);
+  // Wilson over the 1000 points would be [0.671, 0.727]; nine trials give [0.40, 0.89].
+  EXPECT_LT(c.ci95().lo, 0.45);
+  EXPECT_GT(c.ci95().hi, 0.85);
+  // Points that vary within their cells like independent trials keep their number: 200 cells
+  // of 5 points, each cell 3 or 4 successes alternately (within-cell spread, none between
+  // the pairs): n_eff is capped at the points.
+  ClusteredProportion mixed;
+  for (int i = 0; i < 200; ++i) mixed.add(i % 2 ? 3 : 4, 5);
+  EXPECT_GT(mixed.effectiveTrials(), 999.0);
+  // All successes: as many trials as cells, all won; none: undefined.
+  ClusteredProportion all;
+  for (int i = 0; i < 4; ++i) all.add(50, 50);
+  EXPECT_DOUBLE_EQ(all.effectiveTrials(), 4.0);
+  EXPECT_NEAR(all.ci95().lo, wilsonInterval(4, 4).lo, 1e-12);
+  EXPECT_TRUE(std::isnan(ClusteredProportion{}.ci95().lo));
+  // Sums merge across frames.
+  ClusteredProportion half1, half2;
+  for (int i = 0; i < 5; ++i) half1.add(i < 4 ? 100 : 0, 100);
+  for (int i = 0; i < 5; ++i) half2.add(i < 3 ? 100 : 0, 100);
+  half1 += half2;
+  EXPECT_NEAR(half1.effectiveTrials(), 9.0, 1e-9);
+}
+
 TEST(ConfusionMatrix, OneVsRestCounts) {
   ConfusionMatrix m(4);
   m.add(kRoad, kRoad, 10);
@@ -204,6 +236,20 @@ TEST(Evaluator, ObstacleAnyRuleAndExcusedPoints) {
   EXPECT_DOUBLE_EQ(r.precision(), 0.75);
   EXPECT_DOUBLE_EQ(r.recall(), 0.5);
   EXPECT_DOUBLE_EQ(r.fpr(), 0.5);
+  // Point-wise intervals take the cell as the cluster; their sums are the matrix's counts.
+  EXPECT_DOUBLE_EQ(c.point_precision[kRoad].a, 3);  // cell 1: 3 road points right ...
+  EXPECT_DOUBLE_EQ(c.point_precision[kRoad].n, 4);  // ... of 4 (the obstacle point): TP + FP
+  EXPECT_DOUBLE_EQ(c.point_precision[kRoad].clusters, 1);
+  EXPECT_DOUBLE_EQ(c.point_precision[kObstacle].n, 1);  // cell 0: the excused road points are no FP
+  EXPECT_DOUBLE_EQ(c.point_recall[kRoad].a, 3);         // TP
+  EXPECT_DOUBLE_EQ(c.point_recall[kRoad].n, 6);         // TP + FN (the excused ones)
+  EXPECT_DOUBLE_EQ(c.point_recall[kRoad].clusters, 2);
+  EXPECT_DOUBLE_EQ(c.point_recall[kObstacle].n, 2);
+  EXPECT_DOUBLE_EQ(c.point_recall[kRough].clusters, 0);
+  // Road recall 3 of 6 in two all-or-nothing cells of 3: two cells → n_eff 1 (m − 1).
+  EXPECT_NEAR(c.point_recall[kRoad].effectiveTrials(), 1.0, 1e-9);
+  EXPECT_NEAR(c.ci95(true, kRoad).second.lo, wilsonIntervalOf(0.5, 1).lo, 1e-12);
+  EXPECT_NEAR(c.ci95(false, kRoad).first.hi, c.cell_wise.scores(kRoad).precisionCi95().hi, 0);
   // Rough has no point: the excused road points are its true negatives.
   // Summed over the classes, FN exceed FP by the excused points (every other error is one FN
   // and one FP): the identity paper 001's Tables I–III satisfy with the points so excused.
