@@ -257,8 +257,8 @@ class CameraFusion final : public Stage {
       }
       const std::size_t begin = out.pixels.size();
       std::size_t got = 0, dropped = 0;
+      bool shrunk = false;
       if (poly_.size() == 4) {
-        bool shrunk = false;
         got = raster_.rasterise(poly_, m.width, m.height, cap, out.pixels, &shrunk);
         capped_cells += shrunk;
         footprint_cells += got > 0;
@@ -307,11 +307,12 @@ class CameraFusion final : public Stage {
           out.pixels.push_back(uint32_t(p));
         }
         if (out.pixels.size() > before) {
+          const bool capped = capPointPixels(out.pixels, begin, before, cap, m.width);
+          capped_cells += capped && !shrunk;
           // Keep the set sorted and unique: features index it as a set of pixels.
           std::sort(out.pixels.begin() + begin, out.pixels.end());
           out.pixels.erase(std::unique(out.pixels.begin() + begin, out.pixels.end()),
                            out.pixels.end());
-          if (out.pixels.size() - begin > cap) out.pixels.resize(begin + cap);
           fallback_cells += footprint_empty;
         }
       }
@@ -324,7 +325,7 @@ class CameraFusion final : public Stage {
     out.offsets[cells] = uint32_t(out.pixels.size());
     last_pixels_ = out.pixels.size();
 
-    const std::string key = "camera_fusion." + cam_name;
+    const std::string key = name() + "." + cam_name;  // "<stage>.<what>", as every stage
     ctx.metrics[key + ".visible_points"] = double(visible);
     ctx.metrics[key + ".footprint_cells"] = double(footprint_cells);
     ctx.metrics[key + ".point_pixel_cells"] = double(fallback_cells);
@@ -343,6 +344,36 @@ class CameraFusion final : public Stage {
   /// Inverse depth 1/w over the plane z = h as a linear function of the pixel: 1/w = a·u + b·v + c.
   /// H maps plane coordinates (x, y, 1) to (u·w, v·w, w); inverting gives (x, y, 1) = w · H⁻¹ (u,
   /// v, 1), whose last row reads 1 = w · (row 3 of H⁻¹) · (u, v, 1). Exact for a pinhole camera.
+  /// `pixels[begin, before)` is a cell's footprint (sorted, at most `cap`), `[before, end)` the
+  /// pixels of its points. Drops the point pixels the footprint already has and, past the cap,
+  /// those farthest from the cell's centre (the footprint's, or the points' own without one), so
+  /// the footprint stays whole: cutting the merged, sorted set at the cap kept its top rows only.
+  /// True if the cap removed any.
+  static bool capPointPixels(std::vector<uint32_t>& pixels, std::size_t begin, std::size_t before,
+                             std::size_t cap, int width) {
+    const auto fb = pixels.begin() + begin, fe = pixels.begin() + before;
+    std::sort(fe, pixels.end());
+    auto end = std::unique(fe, pixels.end());
+    end = std::remove_if(fe, end, [&](uint32_t p) { return std::binary_search(fb, fe, p); });
+    pixels.erase(end, pixels.end());
+    const std::size_t footprint = before - begin;
+    const std::size_t room = cap > footprint ? cap - footprint : 0;
+    if (pixels.size() - before <= room) return false;
+    const auto from = footprint > 0 ? fb : fe;
+    const auto to = footprint > 0 ? fe : pixels.end();
+    double cu = 0, cv = 0;
+    for (auto it = from; it != to; ++it) cu += double(*it % width), cv += double(*it / width);
+    cu /= double(to - from), cv /= double(to - from);
+    auto dist2 = [&](uint32_t p) {
+      const double du = double(p % width) - cu, dv = double(p / width) - cv;
+      return du * du + dv * dv;
+    };
+    std::nth_element(fe, fe + room, pixels.end(),
+                     [&](uint32_t a, uint32_t b) { return dist2(a) < dist2(b); });
+    pixels.resize(before + room);
+    return true;
+  }
+
   static Eigen::Vector3d planeInverseDepth(const Eigen::Matrix<double, 3, 4>& M, double h) {
     const Eigen::Vector3d c0 = M.col(0), c1 = M.col(1), c2 = h * M.col(2) + M.col(3);
     const Eigen::Vector3d r = c0.cross(c1);

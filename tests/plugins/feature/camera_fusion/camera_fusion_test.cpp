@@ -271,6 +271,46 @@ TEST(CameraFusion, CombineAddsPointPixelsToTheFootprint) {
   EXPECT_TRUE(std::binary_search(b.begin(), b.end(), uint32_t(32 * 200 + 91)));
 }
 
+TEST(CameraFusion, CombineKeepsTheWholeFootprintWhenThePointPixelsPassTheCap) {
+  // Cell (3, 4)'s footprint is 54 pixels (rows 64–72); the raised point's pixel lies far above
+  // it, at row 32. With a cap of 54 the footprint fills it: the point pixel is left out, not the
+  // footprint's last row (cutting the merged, sorted set did that).
+  Frame f = groundFrame(forwardCamera(), noFill);
+  f.points.push_back(5.5f, 0.5f, 1.f, 0);
+  StageRunner alone, tight, roomy;
+  alone.add("camera_fusion", "{footprint_height: min}");
+  tight.add("camera_fusion",
+            "{footprint_height: min, point_pixels: combine, max_pixels_per_cell: 54}");
+  roomy.add("camera_fusion", "{footprint_height: min, point_pixels: combine}");
+  for (StageRunner* r : {&alone, &tight, &roomy}) r->run(f);
+  const int cell = alone.grid.index(3, 4);
+  const auto footprint = cellSet(only(alone.grid), cell);
+  ASSERT_EQ(footprint.size(), 54u);
+  const uint32_t point_px = 32 * 200 + 91;
+  EXPECT_EQ(cellSet(only(tight.grid), cell), footprint);
+  EXPECT_GE(tight.ctx.metrics.at("camera_fusion.front.capped_cells"), 1.0);
+  // Metrics are named after the stage, so two fusion stages of one config do not collide.
+  StageRunner named;
+  named.add("camera_fusion").setIdentity("fuse_near", "camera_fusion");
+  named.run(f);
+  EXPECT_EQ(named.ctx.metrics.count("fuse_near.front.pixels"), 1u);
+  EXPECT_EQ(named.ctx.metrics.count("camera_fusion.front.pixels"), 0u);
+  // Under the default cap every point pixel joins, the raised one among them.
+  const auto all = cellSet(only(roomy.grid), cell);
+  EXPECT_TRUE(std::includes(all.begin(), all.end(), footprint.begin(), footprint.end()));
+  EXPECT_TRUE(std::binary_search(all.begin(), all.end(), point_px));
+  // One place more than the footprint: the point pixel nearest the footprint's centre, not the
+  // raised one 35 rows above it.
+  StageRunner one_more;
+  one_more.add("camera_fusion",
+               "{footprint_height: min, point_pixels: combine, max_pixels_per_cell: 55}");
+  one_more.run(f);
+  const auto plus1 = cellSet(only(one_more.grid), cell);
+  ASSERT_EQ(plus1.size(), 55u);
+  EXPECT_TRUE(std::includes(plus1.begin(), plus1.end(), footprint.begin(), footprint.end()));
+  EXPECT_FALSE(std::binary_search(plus1.begin(), plus1.end(), point_px));
+}
+
 TEST(CameraFusion, FootprintHeightMeanOrMin) {
   Frame f = groundFrame(forwardCamera(), noFill);
   // Raise every point of cell (3, 4) by 0.5 m except one: mean ≈ −0.53, min = −1.
