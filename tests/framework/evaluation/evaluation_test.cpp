@@ -488,6 +488,82 @@ TEST(Evaluator, LabelSetWithoutObstacleUsesMajorityOnly) {
   EXPECT_EQ(c.excused_points, 0u);
 }
 
+// A set of five classes with obstacle not last (ids: 1 road, 2 obstacle, 3 sidewalk, 4 rough):
+// the obstacle rule follows the name, the majority is a plurality among three non-obstacle
+// classes, and the tie rule's "highest id" is the id, not the position of obstacle.
+TEST(Evaluator, OwnLabelSetWithObstacleInTheMiddle) {
+  LabelSet ls({{"unknown", {0, 0, 0}},
+               {"road", {1, 1, 1}},
+               {"obstacle", {2, 2, 2}},
+               {"sidewalk", {3, 3, 3}},
+               {"rough", {4, 4, 4}}});
+  ASSERT_EQ(ls.obstacle(), 2);
+  Scene s;
+  // Cell 0: 2 road, 3 sidewalk, 1 rough → plurality sidewalk (3 of 6, not a majority); predicted
+  // sidewalk.
+  s.add(0, 1, 2);
+  s.add(0, 3, 3);
+  s.add(0, 4, 1);
+  s.predict(0, 3);
+  // Cell 1: 4 rough, 1 obstacle → obstacle by the rule; predicted rough.
+  s.add(1, 4, 4);
+  s.add(1, 2, 1);
+  s.predict(1, 4);
+  // Cell 2: 2 road, 2 rough, predicted sidewalk → tie between road (1) and rough (4), the
+  // predicted class is not among them: the higher id, rough.
+  s.add(2, 1, 2);
+  s.add(2, 4, 2);
+  s.predict(2, 3);
+  // Cell 3: 3 sidewalk and 1 obstacle point, predicted obstacle → obstacle; the sidewalk points
+  // are excused.
+  s.add(3, 3, 3);
+  s.add(3, 2, 1);
+  s.predict(3, 2);
+  Evaluator ev(ls);
+  const EvalCounts c = ev.addFrame(s.binned(), s.frame);
+  EXPECT_EQ(c.cell_wise.at(3, 3), 1u);
+  EXPECT_EQ(c.cell_wise.at(2, 4), 1u);
+  EXPECT_EQ(c.cell_wise.at(4, 3), 1u);
+  EXPECT_EQ(c.cell_wise.at(2, 2), 1u);
+  EXPECT_EQ(c.cells_obstacle_rule, 2u);
+  EXPECT_EQ(c.cells_tied, 1u);
+  EXPECT_EQ(c.excused_points, 3u);
+  EXPECT_EQ(c.point_wise.excusedAt(3, 2), 3u);
+  // Point-wise sidewalk: TP 3 (cell 0), FP 2 + 1 (cell 0's road and rough) + 4 (cell 2), FN 3
+  // (cell 3's excused points).
+  const ClassScores sw = c.point_wise.scores(3);
+  EXPECT_EQ(sw.tp, 3u);
+  EXPECT_EQ(sw.fp, 7u);
+  EXPECT_EQ(sw.fn, 3u);
+  // Cell-wise obstacle: TP 1 (cell 3), FN 1 (cell 1), no FP.
+  const ClassScores ob = c.cell_wise.scores(2);
+  EXPECT_EQ(ob.tp, 1u);
+  EXPECT_EQ(ob.fn, 1u);
+  EXPECT_EQ(ob.fp, 0u);
+}
+
+// Obstacle points in a cell left unclassified: the cell is a missed obstacle (FN), and every
+// labelled point in it is a false negative of its class, none a false positive of anything.
+TEST(Evaluator, ObstaclePointsInAnUnclassifiedCellAreMissed) {
+  Scene s;
+  s.add(0, kObstacle, 2);
+  s.add(0, kRoad, 5);
+  s.predict(0, kUnknown);
+  Evaluator ev(LabelSet::defaults());
+  const EvalCounts c = ev.addFrame(s.binned(), s.frame);
+  EXPECT_EQ(c.cells_scored, 1u);
+  EXPECT_EQ(c.cells_labelled_unclassified, 1u);
+  EXPECT_EQ(c.cell_wise.at(kObstacle, kUnknown), 1u);
+  EXPECT_EQ(c.cell_wise.scores(kObstacle).fn, 1u);
+  EXPECT_EQ(c.point_wise.scores(kObstacle).fn, 2u);
+  EXPECT_EQ(c.point_wise.scores(kRoad).fn, 5u);
+  EXPECT_EQ(c.excused_points, 0u);  // nothing is excused without an obstacle prediction
+  for (const LabelId k : {kRoad, kRough, kObstacle}) EXPECT_EQ(c.point_wise.scores(k).fp, 0u);
+  EXPECT_EQ(c.labelled_points_unclassified, 7u);
+  EXPECT_EQ(c.classified_points, 0u);
+  EXPECT_DOUBLE_EQ(c.point_precision[kObstacle].clusters, 0);  // no obstacle prediction
+}
+
 TEST(Evaluator, BadFramesThrowNamingTheFrameAndLeaveTotalsAlone) {
   Evaluator ev(LabelSet::defaults());
   Scene good("good");
