@@ -1,0 +1,109 @@
+// Known-answer tests of compare's report writers on a hand-made SweepResult: every number
+// below is derived by hand from the counts and times given, not read back from the code.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "terramrf/sweep.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+std::string readFile(const std::string& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// Cell-wise counts of one run: 10 obstacle cells of which 9 found (1 called road), 2 road cells
+/// called obstacle, 20 road cells right, 5 rough cells right.
+EvalCounts counts(uint64_t obstacle_found) {
+  EvalCounts c(4);
+  c.scans = 3;
+  c.cell_wise.add(labels::kObstacle, labels::kObstacle, obstacle_found);
+  c.cell_wise.add(labels::kObstacle, labels::kRoad, 10 - obstacle_found);
+  c.cell_wise.add(labels::kRoad, labels::kObstacle, 2);
+  c.cell_wise.add(labels::kRoad, labels::kRoad, 20);
+  c.cell_wise.add(labels::kRough, labels::kRough, 5);
+  return c;
+}
+
+SweepResult handMade() {
+  SweepResult r;
+  r.name = "hand";
+  r.labels = LabelSet::defaults();
+  r.datasets = {"d"};
+  r.feature_sets = {"L", "L+H"};
+  r.optimisers = {"icm"};
+  for (const char* f : {"L", "L+H"}) {
+    RunRecord x;
+    x.dataset = "d";
+    x.feature_set = f;
+    x.optimiser = "icm";
+    x.frames = x.frames_ok = 3;
+    x.counts = counts(std::string(f) == "L" ? 9 : 10);
+    x.times.processing =
+        std::string(f) == "L" ? std::vector<double>{2, 4, 6} : std::vector<double>{10, 10, 13};
+    x.times.features = {1, 1, 1};
+    x.times.mrf = {1, 3, 5};
+    x.times.total = x.times.processing;
+    r.runs.push_back(x);
+  }
+  return r;
+}
+
+TEST(SweepReport, AccuracyTableHasTheHandDerivedRates) {
+  const SweepResult r = handMade();
+  const std::string t = accuracyTable(r, "d", "icm");
+  // Road, L: TP 20, FN 2 (called obstacle), FP 1 (the missed obstacle), TN 5 + 9 = 14 (rough
+  // and the obstacles found) → TPR 20/22 = 90.9 %, FPR 1/15 = 6.7 %. L+H: FP 0, TN 15 → 0.0 %.
+  EXPECT_NE(t.find("| Road/TPR | 90.9 % | 90.9 % |"), std::string::npos) << t;
+  EXPECT_NE(t.find("| Road/FPR | 6.7 % | 0.0 % |"), std::string::npos) << t;
+  // Rough: TPR 5/5; FPR 0/32 (L) and 0/32.
+  EXPECT_NE(t.find("| Rough/TPR | 100.0 % | 100.0 % |"), std::string::npos) << t;
+  // Obstacle, L: 9/10 = 90.0 %, FPR 2 of the 27 non-obstacle cells = 7.4 %; L+H 100.0 %, 7.4 %.
+  EXPECT_NE(t.find("| Obstacle/TPR | 90.0 % | 100.0 % |"), std::string::npos) << t;
+  EXPECT_NE(t.find("| Obstacle/FPR | 7.4 % | 7.4 % |"), std::string::npos) << t;
+  EXPECT_EQ(t.find("†"), std::string::npos);  // no frame failed
+}
+
+TEST(SweepReport, RuntimeTableHasTheHandDerivedStatistics) {
+  const SweepResult r = handMade();
+  const std::string t = runtimeTable(r, "d");
+  // L: 2, 4, 6 ms → mean 4.0, sample std 2.0, max 6.0, min 2.0; features 1.0, MRF (1+3+5)/3.
+  EXPECT_NE(t.find("| L | 4.0 ms | 2.0 ms | 6.0 ms | 2.0 ms | 3 | 1.0 ms | 3.0 ms |"),
+            std::string::npos)
+      << t;
+  // L+H: 10, 10, 13 → mean 11.0, std √((1 + 1 + 4)/2) = 1.73.
+  EXPECT_NE(t.find("| L+H | 11.0 ms | 1.7 ms | 13.0 ms | 10.0 ms | 3 |"), std::string::npos) << t;
+}
+
+TEST(SweepReport, CsvFilesHaveTheHandDerivedNumbers) {
+  const SweepResult r = handMade();
+  test::TempDir dir;
+  writeSweepReport(r, dir.str());
+  const std::string ev = readFile(dir.str() + "/evaluation.csv");
+  // Cell-wise obstacle of L: TP 9, FP 2, FN 1, TN 25 (20 + 5); precision 9/11, recall 0.9.
+  // Wilson 95 % of 9/11: centre (0.8182 + 3.8415/22)/(1 + 3.8415/11) = 0.9928/1.3492 =
+  // 0.7358, half-width 1.96·√(0.8182·0.1818/11 + 3.8415/484)/1.3492 = 0.2128 → [0.5230,
+  // 0.9486].
+  const std::string row = "d,icm,L,ok,cell,obstacle,9,2,1,25,0.818182,0.9,";
+  const auto at = ev.find(row);
+  ASSERT_NE(at, std::string::npos) << ev;
+  const std::string line = ev.substr(at, ev.find('\n', at) - at);
+  std::vector<std::string> f;
+  std::stringstream ss(line);
+  for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+  ASSERT_EQ(f.size(), 23u) << line;
+  EXPECT_NEAR(std::stod(f[19]), 0.5230, 5e-4) << line;
+  EXPECT_NEAR(std::stod(f[20]), 0.9486, 5e-4) << line;
+  const std::string rt = readFile(dir.str() + "/runtime.csv");
+  EXPECT_NE(rt.find("d,L,icm,ok,3,4,2,6,2,4,1,3,4\n"), std::string::npos) << rt;
+}
+
+}  // namespace
+}  // namespace terramrf
