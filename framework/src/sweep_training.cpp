@@ -375,11 +375,28 @@ TrainResult trainModel(const TrainOptions& o) {
     job.features = o.features;
     job.features_mark = YAML::Mark::null_mark();
     job.features_from_command_line = true;
-    if (stats_params["min_sigma"] && stats_params["min_sigma"].IsSequence() &&
-        stats_params["min_sigma"].size() != job.features.size() && fs_features != job.features) {
-      log << "note: the config's feature_stats min_sigma list is for its own features; using the "
-             "plugin default for --features\n";
+    // A list of floors is one per feature of the config's own list, in its unit: carried over
+    // by name, never by position (a floor of 0.0001 for normal_eigenvalue put on roughness
+    // changed its σ fivefold). A single value is for every feature and stays.
+    const YAML::Node ms = stats_params["min_sigma"];
+    if (ms && ms.IsSequence() && ms.size() > 1 && fs_features != job.features) {
+      YAML::Node mapped(YAML::NodeType::Sequence);
+      const bool by_name = ms.size() == fs_features.size();
+      for (const auto& f : job.features) {
+        const auto at = std::find(fs_features.begin(), fs_features.end(), f);
+        if (!by_name || at == fs_features.end()) {
+          mapped = YAML::Node();
+          break;
+        }
+        mapped.push_back(ms[std::size_t(at - fs_features.begin())]);
+      }
       stats_params.remove("min_sigma");
+      if (mapped) {
+        stats_params["min_sigma"] = mapped;
+      } else {
+        log << "note: the config's feature_stats min_sigma list is for its own features, which "
+               "do not include every one of --features; using the plugin default for them\n";
+      }
     }
   } else if (!fs_features.empty()) {
     job.features = fs_features;

@@ -102,11 +102,22 @@ class FeatureStats final : public Output {
       }
       if (labelled < static_cast<uint32_t>(min_points_)) continue;
       std::size_t best = 1;
-      for (std::size_t k = 1; k < K; ++k)
-        if (count[k] > count[best]) best = k;
+      bool tied = false;
+      for (std::size_t k = 2; k < K; ++k) {
+        if (count[k] > count[best])
+          best = k, tied = false;
+        else if (count[k] == count[best])
+          tied = true;
+      }
       const bool obstacle_cell = obstacle_rule_ && obstacle_ > 0 && count[obstacle_] > 0;
       if (obstacle_cell) best = obstacle_;
-      else if (count[best] < min_purity_ * labelled) continue;
+      // At min_purity 0.5 two classes can both reach it: such a cell is no sample of either
+      // (it would have gone to the lower id).
+      else if (tied || count[best] < min_purity_ * labelled)
+        continue;
+      bool any_value = false;
+      for (std::size_t f = 0; f < F; ++f) any_value |= !std::isnan(layers[f][c]);
+      if (!any_value) continue;  // no feature measured here: nothing to learn, no mixture weight
       if (components_ > 1)
         for (std::size_t f = 0; f < F; ++f) cells_[best].push_back(layers[f][c]);
       for (std::size_t f = 0; f < F; ++f) {
@@ -124,19 +135,8 @@ class FeatureStats final : public Output {
   }
 
   void end(const RunSummary&) override {
-    std::ostringstream o;
-    o << "# Per-class Gaussian feature model (paper 000 §4.6), learnt by the feature_stats output.\n";
-    o << "provenance: \"config " << info_.config_path << ", " << frames_
-      << " labelled frame(s), cells with purity >= " << min_purity_ << " and >= " << min_points_
-      << " labelled points" << (obstacle_rule_ ? ", any obstacle point makes an obstacle cell" : "")
-      << ", " << estimator_ << " estimates"
-      << (components_ > 1 ? ", up to " + std::to_string(components_) + " Gaussians per class" : "")
-      << "\"\n";
-    if (!origins_.empty()) {
-      o << "feature_origins:  # how each feature was computed: stage, parameters, inputs\n";
-      for (const auto& [f, text] : origins_) o << "  " << f << ": " << text << "\n";
-    }
-    o << "classes:\n";
+    std::ostringstream o;   // the classes; the header, which reports on them, goes before
+    std::string unsettled;  // classes whose mixture EM did not settle
     const std::size_t K = info_.labels->size(), F = features_.size();
     checkEveryFeatureMeasured(K, F);
     o.precision(6);
@@ -157,13 +157,18 @@ class FeatureStats final : public Output {
       }
       if (!any) continue;
       o << "  " << info_.labels->name(static_cast<LabelId>(k)) << ":\n";
-      const std::vector<Component> mix =
-          components_ > 1 ? mixture(cells_[k], single, learnt) : std::vector<Component>{};
+      bool converged = true;
+      const std::vector<Component> mix = components_ > 1
+                                             ? mixture(cells_[k], single, learnt, &converged)
+                                             : std::vector<Component>{};
       if (mix.size() < 2) {
         o << cls.str();
         continue;
       }
-      o << "    components:  # " << cells_[k].size() / F << " cells, classification EM\n";
+      if (!converged)
+        unsettled += (unsettled.empty() ? "" : ", ") + info_.labels->name(static_cast<LabelId>(k));
+      o << "    components:  # " << cells_[k].size() / F << " cells, classification EM"
+        << (converged ? "" : " (cells still moving after 100 rounds)") << "\n";
       for (const Component& m : mix) {
         o << "      - weight: " << m.weight << "  # " << m.cells << " cells\n"
           << "        features:\n";
@@ -173,9 +178,28 @@ class FeatureStats final : public Output {
               << ", sigma: " << m.g[f].sigma << "}\n";
       }
     }
+    std::ostringstream head;
+    head << "# Per-class Gaussian feature model (paper 000 §4.6), learnt by the feature_stats "
+            "output.\n";
+    head << "provenance: \"config " << info_.config_path << ", " << frames_
+         << " labelled frame(s), cells with purity >= " << min_purity_ << " and >= " << min_points_
+         << " labelled points"
+         << (obstacle_rule_ ? ", any obstacle point makes an obstacle cell" : "") << ", "
+         << estimator_ << " estimates, sigma floors " << floorsText()
+         << (components_ > 1 ? ", up to " + std::to_string(components_) + " Gaussians per class"
+                             : "")
+         << (unsettled.empty() ? ""
+                               : ", mixture EM did not settle in 100 rounds for " + unsettled +
+                                     " (estimates of its last assignment)")
+         << "\"\n";
+    if (!origins_.empty()) {
+      head << "feature_origins:  # how each feature was computed: stage, parameters, inputs\n";
+      for (const auto& [f, text] : origins_) head << "  " << f << ": " << text << "\n";
+    }
+    head << "classes:\n";
     const std::string path =
         out_path_.front() == '/' ? out_path_ : info_.output_dir + "/" + out_path_;
-    writeFileAtomic(path, o.str());
+    writeFileAtomic(path, head.str() + o.str());
   }
 
  private:
@@ -214,6 +238,14 @@ class FeatureStats final : public Output {
           "from the feature list");
   }
 
+  /// "height_diff 0.02, roughness 0.005": the floors as applied, for the provenance.
+  std::string floorsText() const {
+    std::ostringstream t;
+    for (std::size_t f = 0; f < features_.size(); ++f)
+      t << (f ? ", " : "") << features_[f] << " " << sigmaFloor(f);
+    return t.str();
+  }
+
   double sigmaFloor(std::size_t f) const {
     return min_sigma_.empty() ? 0 : min_sigma_[min_sigma_.size() == 1 ? 0 : f];
   }
@@ -222,11 +254,14 @@ class FeatureStats final : public Output {
   /// shares of the cells ordered by the first feature, then alternates: estimate each component
   /// from its cells (as the single model would: `estimator`, σ floors; a feature without values
   /// in a component takes the class's single estimate) and move each cell to the component under
-  /// which it is most likely. Components under 10 cells are dropped. Deterministic.
+  /// which it is most likely. Components under 10 cells are dropped. Deterministic. Stops when
+  /// no cell moves (`*converged`) or after 100 rounds; either way the estimates are those of the
+  /// final assignment.
   std::vector<Component> mixture(const std::vector<float>& x, const std::vector<Gaussian>& single,
-                                 const std::vector<bool>& learnt) const {
+                                 const std::vector<bool>& learnt, bool* converged) const {
     const std::size_t F = features_.size(), n = x.size() / F;
     constexpr std::size_t kMinCells = 10;
+    constexpr int kMaxRounds = 100;
     int M = components_;
     if (n < kMinCells * 2) return {};
     std::vector<std::size_t> order(n);
@@ -241,8 +276,8 @@ class FeatureStats final : public Output {
     for (std::size_t r = 0; r < n; ++r) z[order[r]] = static_cast<int>(r * M / n);
     std::vector<Component> comp;
     std::vector<float> vals;
-    for (int iter = 0; iter < 100; ++iter) {
-      // M-step.
+    // Estimates of each component from its cells, as the single model would make them.
+    auto mStep = [&]() {
       comp.assign(M, {});
       for (int m = 0; m < M; ++m) {
         comp[m].g = single;
@@ -266,6 +301,10 @@ class FeatureStats final : public Output {
           comp[m].g[f] = {mean, std::max(sigmaFloor(f), sigma)};
         }
       }
+    };
+    *converged = false;
+    for (int iter = 0; iter < kMaxRounds; ++iter) {
+      mStep();
       // Drop components too small to estimate; their cells move in the next assignment.
       std::vector<Component> kept;
       for (auto& c : comp)
@@ -274,6 +313,7 @@ class FeatureStats final : public Output {
       comp = std::move(kept);
       M = static_cast<int>(comp.size());
       if (M < 2) return {};
+      // Components renumbered: the assignment below refers to the kept ones.
       // Assignment step: the most likely component (log weight + log likelihood).
       bool changed = dropped;
       for (std::size_t i = 0; i < n; ++i) {
@@ -292,22 +332,29 @@ class FeatureStats final : public Output {
         changed |= z[i] != best;
         z[i] = best;
       }
-      if (!changed) break;
+      if (!changed) {
+        *converged = true;
+        break;
+      }
     }
-    // Weights and counts of the final assignment (the estimates are of the assignment before it,
-    // identical when EM converged).
-    for (auto& c : comp) c.cells = 0;
-    for (std::size_t i = 0; i < n; ++i) ++comp[z[i]].cells;
+    // Estimates, weights and counts of the final assignment. Converged, they are those of the
+    // last round; otherwise (the robust estimator does not make hard EM monotone, and it can
+    // cycle) the last round's estimates belonged to the assignment before it.
+    mStep();
     std::vector<Component> out;
     for (auto& c : comp)
-      if (c.cells) {
-        c.weight = static_cast<double>(c.cells) / n;
-        out.push_back(c);
-      }
+      if (c.cells >= kMinCells) out.push_back(c);
+    if (out.size() < comp.size()) {  // renormalise over the components kept
+      std::size_t kept_cells = 0;
+      for (const auto& c : out) kept_cells += c.cells;
+      for (auto& c : out) c.weight = double(c.cells) / double(kept_cells);
+    }
     return out.size() < 2 ? std::vector<Component>{} : out;
   }
 
-  // Median and 1.4826·MAD: σ of a Gaussian core, unaffected by up to half of outliers.
+  // Median and 1.4826·MAD: σ of a Gaussian core, unaffected by up to half of outliers. Of an
+  // even count it takes the upper of the two middle values (a median all the same: it minimises
+  // the absolute deviations as well as their mean does); the shipped models were learnt so.
   static void robustEstimate(std::vector<float>& v, double& mean, double& sigma) {
     auto median = [](std::vector<float>& x) {
       auto mid = x.begin() + x.size() / 2;
