@@ -381,17 +381,17 @@ TrainResult trainModel(const TrainOptions& o) {
     const YAML::Node ms = stats_params["min_sigma"];
     if (ms && ms.IsSequence() && ms.size() > 1 && fs_features != job.features) {
       YAML::Node mapped(YAML::NodeType::Sequence);
-      const bool by_name = ms.size() == fs_features.size();
+      bool all_named = ms.size() == fs_features.size();
       for (const auto& f : job.features) {
         const auto at = std::find(fs_features.begin(), fs_features.end(), f);
-        if (!by_name || at == fs_features.end()) {
-          mapped = YAML::Node();
+        if (!all_named || at == fs_features.end()) {
+          all_named = false;
           break;
         }
         mapped.push_back(ms[std::size_t(at - fs_features.begin())]);
       }
       stats_params.remove("min_sigma");
-      if (mapped) {
+      if (all_named) {
         stats_params["min_sigma"] = mapped;
       } else {
         log << "note: the config's feature_stats min_sigma list is for its own features, which "

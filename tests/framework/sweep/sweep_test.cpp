@@ -1669,6 +1669,36 @@ TEST(Train, AFeatureOfTheCommandLineThatNoStageWritesIsAnError) {
   EXPECT_TRUE(fs::exists(o.model_out));
 }
 
+// The config's min_sigma list is one floor per feature of its own list: --features in another
+// order takes each feature's floor by name (by position, roughness got normal_eigenvalue's
+// 0.0001 and height_diff relative_height's 0.05); features the list does not name get the
+// plugin default, with a note.
+TEST(Train, MinSigmaFollowsTheFeaturesByNameUnderDashDashFeatures) {
+  test::TempDir dir;
+  std::ostringstream log;
+  std::string text = readFile(test::sourceDir() + "/configs/train/simulator.yaml");
+  text = test::edited(text, "frames: 10,", "frames: 1,");
+  text = test::edited(text, "{frames: [0, 9]}", "{frames: [0, 0]}");
+  TrainOptions o = quietTraining(put(dir, "t.yaml", text), dir, log);
+  o.features = {"relative_height", "roughness", "normal_eigenvalue", "height_diff"};
+  trainModel(o);
+  EXPECT_NE(YAML::LoadFile(o.model_out)["provenance"].as<std::string>().find(
+                "sigma floors relative_height 0.05, roughness 0.005, normal_eigenvalue 0.0001, "
+                "height_diff 0.02"),
+            std::string::npos)
+      << readFile(o.model_out);
+  o.features = {"roughness", "height_diff", "preclass"};
+  trainModel(o);
+  EXPECT_NE(YAML::LoadFile(o.model_out)["provenance"].as<std::string>().find(
+                "sigma floors roughness 0.0001, height_diff 0.0001, preclass 0.0001"),
+            std::string::npos)
+      << readFile(o.model_out);
+  EXPECT_NE(log.str().find("min_sigma list is for its own features, which do not include every "
+                           "one of --features"),
+            std::string::npos)
+      << log.str();
+}
+
 TEST(Train, WithoutASplitTheModelSaysNothingIsHeldOut) {
   test::TempDir dir;
   std::ostringstream log;
