@@ -157,6 +157,11 @@ std::string checkParamValue(const ParamSpec& spec, const YAML::Node& value) {
   return convert(spec, value, v);
 }
 
+std::string canonicalParamValue(const ParamSpec& spec, const YAML::Node& value) {
+  ParamValue v;
+  return convert(spec, value, v).empty() ? toYaml(v) : "";
+}
+
 std::string didYouMean(const std::string& word, const std::vector<std::string>& candidates) {
   std::string best;
   std::size_t best_d = std::max<std::size_t>(2, word.size() / 3) + 1;

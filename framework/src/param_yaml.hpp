@@ -29,6 +29,9 @@ std::vector<ParamIssue> applyParams(Plugin& plugin, const YAML::Node& params,
 /// Why `value` cannot be the value of `spec` (wrong type, out of range, not one of the choices),
 /// or "" if it can. Nothing is set.
 std::string checkParamValue(const ParamSpec& spec, const YAML::Node& value);
+/// The value as the plugin would take it (`seed: 07` and `seed: 7` are the same 7), or "" if
+/// it does not convert.
+std::string canonicalParamValue(const ParamSpec& spec, const YAML::Node& value);
 
 /// The plugin's current parameter values as a YAML map (flow style lines "key: value").
 YAML::Node currentParams(Plugin& plugin);

@@ -88,19 +88,30 @@ void identify(Item& it, const std::string& base_dir, PluginRegistry& reg) {
     return;
   }
   std::map<std::string, std::string> kv;
+  std::map<std::string, ParamSpec> specs;
   if (const PluginInfo* info = reg.find(it.type)) {
     (void)info;
     try {
       auto p = reg.create(it.type);
-      for (const auto& s : declaredParams(*p)) kv[s.name] = toYaml(s.default_value);
+      for (auto& s : declaredParams(*p)) {
+        kv[s.name] = toYaml(s.default_value);
+        specs.emplace(s.name, std::move(s));
+      }
     } catch (const std::exception&) {
     }
   }
   if (params && params.IsMap()) {
     for (auto p = params.begin(); p != params.end(); ++p) {
-      YAML::Emitter em;
-      em << YAML::Flow << p->second;
-      kv[p->first.Scalar()] = em.c_str();
+      // Compared as the plugin takes them, not as written: `seed: 07` is world 7 too.
+      const auto spec = specs.find(p->first.Scalar());
+      std::string value =
+          spec == specs.end() ? "" : detail::canonicalParamValue(spec->second, p->second);
+      if (value.empty()) {
+        YAML::Emitter em;
+        em << YAML::Flow << p->second;
+        value = em.c_str();
+      }
+      kv[p->first.Scalar()] = value;
     }
   }
   kv.erase("frames");

@@ -144,6 +144,32 @@ optimisers: [icm]
       << e.what();
 }
 
+// A seed written otherwise is the same world: 07, '7' and +7 are seed 7 to the simulator, so they
+// must be to the overlap check too (compared as written, the test world was trained on).
+TEST(SweepSplit, TheSameSeedWrittenOtherwiseIsTheSameWorld) {
+  test::TempDir dir;
+  for (const char* spelling : {"07", "'7'", "+7"}) {
+    SCOPED_TRACE(spelling);
+    const std::string sweep = put(dir, "seed.yaml",
+                                  std::string(R"(version: 1
+datasets:
+  a: {type: simulator, params: {seed: 7, frames: 2, )") +
+                                      kSim + R"(}}
+  b: {type: simulator, params: {seed: )" +
+                                      spelling + ", frames: 2, " + kSim + R"(}}
+split: {train: [a], test: [b]}
+feature_sets:
+  L: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
+optimisers: [icm]
+)");
+    const ConfigError e = expectConfigError(sweep);
+    ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+    EXPECT_NE(e.diagnostics()[0].message.find("(simulator seed 7), all frames in both"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(SweepSplit, DisjointRangesAndOtherSeedsAreAccepted) {
   test::TempDir dir;
   const std::string sweep = put(dir, "ok.yaml",
