@@ -117,6 +117,12 @@ void parseSelect(const YAML::Node& sel, Sweep& s, PluginRegistry& reg, Diags& d)
           if (f.energy[key])
             d.add(it->first.Mark(), what + "." + key + ": also set in feature set '" + f.name +
                                         "' energy; give it in one place");
+      // A feature set's own floors would be replaced by the candidates' without a word.
+      if (!energy && key == "min_sigma")
+        for (const auto& f : s.feature_sets)
+          if (f.min_sigma)
+            d.add(it->first.Mark(), what + ".min_sigma: also set in feature set '" + f.name +
+                                        "' (min_sigma); give it in one place");
       if (!it->second.IsSequence() || it->second.size() == 0) {
         d.add(it->second.Mark(),
               what + "." + key + ": expected a non-empty list of candidate values, e.g. [1, 2]");

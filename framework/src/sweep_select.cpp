@@ -76,7 +76,9 @@ std::string validate(SweepRun& run, const FeatureSet& f, const Candidate& cand,
 }  // namespace
 
 std::vector<Candidate> candidatesFor(const Selection& sel, const FeatureSet& f) {
-  // A given model was learnt with its stages as they are: only its energy is selected.
+  // A given model was learnt with its stages as they are, and nothing trains it: only its energy
+  // is selected (training candidates would be identical runs reported as "trained").
+  const bool given = !f.model.empty();
   auto has = [&](const std::string& stage) {
     if (!f.model.empty()) return false;
     for (const YAML::Node& e : f.stages)
@@ -86,6 +88,10 @@ std::vector<Candidate> candidatesFor(const Selection& sel, const FeatureSet& f) 
   std::vector<Candidate> out;
   for (const Candidate& c : sel.candidates) {
     Candidate k = c;
+    if (given) {
+      k.training.reset(YAML::Node(YAML::NodeType::Map));
+      k.training_text.clear();
+    }
     // reset(), not '=': assigning a YAML::Node writes into the node it shares with `c`.
     k.stages.reset(YAML::Node(YAML::NodeType::Map));
     k.stages_text.clear();
@@ -101,7 +107,7 @@ std::vector<Candidate> candidatesFor(const Selection& sel, const FeatureSet& f) 
     // A candidate whose stage values all missed this set's stages is another one again; values
     // listed twice by the sweep itself stay (the sweep asked for them).
     bool seen = false;
-    if (k.stages_text != c.stages_text)
+    if (k.stages_text != c.stages_text || k.training_text != c.training_text)
       for (const Candidate& o : out) seen = seen || o.text() == k.text();
     if (!seen) out.push_back(std::move(k));
   }

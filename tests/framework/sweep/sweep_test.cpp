@@ -1110,7 +1110,7 @@ TEST(SweepSelect, BadSelectionsAreReportedWithTheirPlace) {
   test::TempDir dir;
   std::string text = selectSweep(R"(training: {components: 2}
 select:
-  training: {componets: [1, 2], components: [1, 0], min_purity: [0.9]}
+  training: {componets: [1, 2], components: [1, 0], min_purity: [0.9], min_sigma: [[0.3]]}
   energy: {beta: 0.8, model: [a.yaml]}
   refit: maybe
   optimiser: icn
@@ -1131,6 +1131,11 @@ select:
       << all;
   EXPECT_NE(all.find("select.training.components: also set in 'training'"), std::string::npos)
       << all;
+  // The feature sets' own floors would have been replaced without a word.
+  EXPECT_NE(all.find("select.training.min_sigma: also set in feature set 'L0' (min_sigma); give "
+                     "it in one place"),
+            std::string::npos)
+      << all;
   // components 0 is out of feature_stats' range: reported at the value.
   EXPECT_NE(all.find(sweep + ":" + sel_line +
                      ":49: select.training.components: candidate 0: value 0 out of range"),
@@ -1148,6 +1153,29 @@ select:
   EXPECT_NE(all.find("select.score: 'accuracy'; expected macro_f1"), std::string::npos) << all;
   EXPECT_NE(all.find("select.refit: expected true or false, got 'maybe'"), std::string::npos)
       << all;
+}
+
+// Nothing trains a feature set's given model, so select's training values do not apply to it:
+// it was "selected" over identical runs and reported as trained on the train split.
+TEST(SweepSelect, AGivenModelIsNotSelectedOverTrainingCandidates) {
+  test::TempDir dir;
+  const std::string model = test::sourceDir() + "/configs/models/laser_simulator.yaml";
+  std::string text = selectSweep("select: {training: {components: [1, 2]}}\n");
+  text = test::edited(text, "    min_sigma: [0.02, 0.0001]\n",
+                      "    min_sigma: [0.02, 0.0001]\n    model: " + model + "\n");
+  const SweepPlan plan = planSweep(put(dir, "given.yaml", text), {test::pluginDir()});
+  EXPECT_EQ(plan.selection_runs, (std::vector<std::string>{"L: sim_val × icm [components=1]",
+                                                           "L: sim_val × icm [components=2]"}));
+  // With energy values too, the given model's set is selected over those alone.
+  text =
+      test::edited(text, "select: {training: {components: [1, 2]}}",
+                   "select: {training: {components: [1, 2]}, energy: {beta_diagonal: [0.8, 1.6]}}");
+  const SweepPlan both = planSweep(put(dir, "given2.yaml", text), {test::pluginDir()});
+  std::vector<std::string> l0;
+  for (const auto& r : both.selection_runs)
+    if (r.rfind("L0:", 0) == 0) l0.push_back(r);
+  EXPECT_EQ(l0, (std::vector<std::string>{"L0: sim_val × icm [beta_diagonal=0.8]",
+                                          "L0: sim_val × icm [beta_diagonal=1.6]"}));
 }
 
 TEST(SweepSelect, SelectNeedsAValidationSplitDisjointFromTrainAndTest) {
