@@ -404,6 +404,14 @@ TrainResult trainFeatureSet(SweepRun& run, const FeatureSet& f, const YAML::Node
 std::vector<Candidate> candidatesFor(const Selection& sel, const FeatureSet& f);
 
 /// Whether `select:` has anything to choose for `f` (not only stage values for stages it lacks).
+/// Scores one candidate's validation counts by `score` ("f1_<class>", or "macro_f1" over
+/// `classes`, the classes of the validation truth: truthClasses).
+double selectionScore(const EvalCounts& counts, const LabelSet& labels, const std::string& score,
+                      const std::vector<LabelId>& classes);
+/// The classes some cell of the validation truth holds, over the candidates without a note.
+std::vector<LabelId> truthClasses(const std::vector<EvalCounts>& counts,
+                                  const std::vector<std::string>& notes, std::size_t labels);
+
 inline bool selectsFor(const std::vector<Candidate>& cands) {
   return !cands.empty() && !(cands.size() == 1 && cands[0].text().empty());
 }

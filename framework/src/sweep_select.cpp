@@ -8,25 +8,6 @@
 namespace terramrf::sweep_detail {
 namespace {
 
-/// Scores `counts` by `score`: cell-wise F1 of one class ("f1_<class>") or averaged over the
-/// classes that occur in the validation data or were predicted there ("macro_f1").
-double selectionScore(const EvalCounts& counts, const LabelSet& labels, const std::string& score) {
-  auto f1 = [&](LabelId c) { return counts.cell_wise.scores(c).f1(); };
-  if (score.rfind("f1_", 0) == 0) {
-    const int c = labels.find(score.substr(3));
-    return c > 0 ? f1(static_cast<LabelId>(c)) : kNaN;
-  }
-  double sum = 0;
-  int n = 0;
-  for (std::size_t c = 1; c < labels.size(); ++c) {
-    const double v = f1(static_cast<LabelId>(c));
-    if (std::isnan(v)) continue;
-    sum += v;
-    ++n;
-  }
-  return n ? sum / n : kNaN;
-}
-
 /// The validation counts of one candidate summed over `items` (added to `sum`), or why there
 /// are none.
 std::string validate(SweepRun& run, const FeatureSet& f, const Candidate& cand,
@@ -74,6 +55,44 @@ std::string validate(SweepRun& run, const FeatureSet& f, const Candidate& cand,
 }
 
 }  // namespace
+
+/// Scores `counts` by `score`: cell-wise F1 of one class ("f1_<class>") or averaged over
+/// `classes` ("macro_f1"), the classes of the validation truth, the same for every candidate:
+/// averaged over what each candidate happened to predict, one stray cell of a class the data
+/// lacks (F1 0) outweighed being better on every class it has.
+double selectionScore(const EvalCounts& counts, const LabelSet& labels, const std::string& score,
+                      const std::vector<LabelId>& classes) {
+  auto f1 = [&](LabelId c) { return counts.cell_wise.scores(c).f1(); };
+  if (score.rfind("f1_", 0) == 0) {
+    const int c = labels.find(score.substr(3));
+    return c > 0 ? f1(static_cast<LabelId>(c)) : kNaN;
+  }
+  double sum = 0;
+  int n = 0;
+  for (LabelId c : classes) {
+    const double v = f1(c);
+    if (std::isnan(v)) continue;  // only if the tie rule gave this candidate no such cell
+    sum += v;
+    ++n;
+  }
+  return n ? sum / n : kNaN;
+}
+
+/// The classes some cell of the validation truth holds, over every candidate scored (the truth
+/// is the candidates' own but for the tie rule, which follows the prediction).
+std::vector<LabelId> truthClasses(const std::vector<EvalCounts>& counts,
+                                  const std::vector<std::string>& notes, std::size_t labels) {
+  std::vector<LabelId> out;
+  for (std::size_t c = 1; c < labels; ++c)
+    for (std::size_t k = 0; k < counts.size(); ++k) {
+      const ClassScores s = counts[k].cell_wise.scores(static_cast<LabelId>(c));
+      if (notes[k].empty() && s.tp + s.fn > 0) {
+        out.push_back(static_cast<LabelId>(c));
+        break;
+      }
+    }
+  return out;
+}
 
 std::vector<Candidate> candidatesFor(const Selection& sel, const FeatureSet& f) {
   // A given model was learnt with its stages as they are, and nothing trains it: only its energy
@@ -220,9 +239,12 @@ Selected selectParameters(SweepRun& run, const FeatureSet& f) {
     if (note.empty() && sum.scans == 0) note = "no validation frame with ground truth";
     sr.models.push_back(models);
     sr.counts.push_back(sum);
-    sr.scores.push_back(note.empty() ? selectionScore(sum, run.labels, sel.score) : kNaN);
     sr.notes.push_back(note);
   }
+  const std::vector<LabelId> classes = truthClasses(sr.counts, sr.notes, run.labels.size());
+  for (std::size_t c = 0; c < cands.size(); ++c)
+    sr.scores.push_back(
+        sr.notes[c].empty() ? selectionScore(sr.counts[c], run.labels, sel.score, classes) : kNaN);
   // The first candidate within `tie` of the best score: a few cells are noise, not a reason for
   // a larger model.
   double best = -INFINITY;

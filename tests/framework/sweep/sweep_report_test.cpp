@@ -6,6 +6,7 @@
 #include <sstream>
 #include <string>
 
+#include "sweep_internal.hpp"  // framework/src: selection scoring
 #include "terramrf/sweep.hpp"
 #include "test_support.hpp"
 
@@ -103,6 +104,39 @@ TEST(SweepReport, CsvFilesHaveTheHandDerivedNumbers) {
   EXPECT_NEAR(std::stod(f[20]), 0.9486, 5e-4) << line;
   const std::string rt = readFile(dir.str() + "/runtime.csv");
   EXPECT_NE(rt.find("d,L,icm,ok,3,4,2,6,2,4,1,3,4\n"), std::string::npos) << rt;
+}
+
+// Validation data without rough cells. A: road and obstacle F1 0.95 each, and one cell called
+// rough; B: 0.90 each, never rough. Averaged over what each predicted, A scored (0.95 + 0.95 +
+// 0) / 3 = 0.633 and lost to B's 0.90; over the classes of the truth A wins with 0.95.
+TEST(SweepSelectScore, MacroF1AveragesOverTheClassesOfTheTruthForEveryCandidate) {
+  const LabelSet labels = LabelSet::defaults();
+  auto counts = [](uint64_t right, uint64_t wrong, bool stray_rough) {
+    EvalCounts c(4);
+    // F1 = 2·TP / (2·TP + FP + FN): 190 right and 10 cells swapped each way give 380/400.
+    c.cell_wise.add(labels::kRoad, labels::kRoad, right);
+    c.cell_wise.add(labels::kObstacle, labels::kObstacle, right);
+    c.cell_wise.add(labels::kRoad, labels::kObstacle, wrong);
+    c.cell_wise.add(labels::kObstacle, labels::kRoad, wrong);
+    if (stray_rough) c.cell_wise.add(labels::kRoad, labels::kRough, 1);
+    return c;
+  };
+  const std::vector<EvalCounts> both = {counts(190, 10, true), counts(180, 20, false)};
+  const std::vector<LabelId> classes = sweep_detail::truthClasses(both, {"", ""}, labels.size());
+  EXPECT_EQ(classes, (std::vector<LabelId>{labels::kRoad, labels::kObstacle}));
+  const double a = sweep_detail::selectionScore(both[0], labels, "macro_f1", classes);
+  const double b = sweep_detail::selectionScore(both[1], labels, "macro_f1", classes);
+  // A: road TP 190, FP 10, FN 10 + 1 → 380/401; obstacle 380/400. B: 360/400 each.
+  EXPECT_NEAR(a, (380.0 / 401 + 380.0 / 400) / 2, 1e-12);
+  EXPECT_NEAR(b, 0.9, 1e-12);
+  EXPECT_GT(a, b);
+  // A candidate that failed (a note) does not bring classes of its own.
+  EvalCounts rough_only(4);
+  rough_only.cell_wise.add(labels::kRough, labels::kRough, 5);
+  EXPECT_EQ(
+      sweep_detail::truthClasses({rough_only, both[1]}, {"training failed", ""}, labels.size()),
+      (std::vector<LabelId>{labels::kRoad, labels::kObstacle}));
+  EXPECT_NEAR(sweep_detail::selectionScore(both[0], labels, "f1_obstacle", classes), 0.95, 1e-12);
 }
 
 }  // namespace
