@@ -83,7 +83,9 @@ struct OpeningBuffers {
   b.nonground.assign(N, 0);
   b.surface.resize(N);
   for (int c = 0; c < N; ++c) b.surface[c] = zmin[c] == zmin[c] ? zmin[c] : kInf;  // NaN: +inf
-  int prev_full = 1;
+  // Zhang et al. (2003): the first window (3 cells) takes the initial threshold itself; each
+  // larger one adds slope × its growth in width.
+  int prev_full = 3;
   for (int w = 1;; w = std::min(2 * w, p.w_max)) {
     morph<true>(b.surface, b.tmp, b.eroded, R, C, w);
     for (float& v : b.eroded) v = v == kInf ? -kInf : v;  // no data stays neutral for the dilation
@@ -153,9 +155,11 @@ class HeightAboveGround final : public Stage {
     const int R = g.rows(), C = g.cols(), N = R * C;
     const float cell = static_cast<float>(g.geometry().cell_m);
 
-    const OpeningParams params{
-        std::max(1, static_cast<int>(std::lround(max_window_m_ / cell - 1) / 2)), cell, dh0_,
-        slope_, dh_max_};
+    // Half-width of the largest window, rounded up so that it spans at least max_window_m
+    // (rounded down, 8 m of 0.5 m cells was a 7.5 m window, and a 7.6 m object stayed ground).
+    const int w_max =
+        std::max(1, static_cast<int>(std::ceil((std::lround(max_window_m_ / cell) - 1) / 2.0)));
+    const OpeningParams params{w_max, cell, dh0_, slope_, dh_max_};
 #if defined(TERRAMRF_SIMD_DISPATCH)
     if (useAvx2())
       progressiveOpeningAvx2(zmin, R, C, params, opening_);

@@ -62,12 +62,37 @@ TEST(HeightAboveGround, SlopeWithinToleranceStaysGround) {
 
 TEST(HeightAboveGround, ObjectWiderThanTheLargestWindowIsGround) {
   test::StageHarness h;
-  // A 0.5 m plateau 10 m wide: wider than a 4 m window, so it is terrain to the filter.
-  scene(h, 0.0, 0.5, -5, 5, -10, 10);
+  // A 0.6 m plateau 10 m wide: wider than a 4 m window, so it is terrain to the filter. (At
+  // 0.5 m it would be terrain under a 16 m window too: the last window grows by 16 cells, 8 m,
+  // and the 5 % slope tolerance then allows 0.1 + 0.05 · 8 = 0.5 m.)
+  scene(h, 0.0, 0.6, -5, 5, -10, 10);
   h.make("height_above_ground", "{max_window_m: 4}")->process(h.ctx);
   EXPECT_NEAR(h.at("height_above_ground", 0.2, 0.2), 0.0, 1e-4);
   h.make("height_above_ground", "{max_window_m: 16}")->process(h.ctx);
+  EXPECT_NEAR(h.at("height_above_ground", 0.2, 0.2), 0.6, 1e-4);
+}
+
+// The largest window spans at least max_window_m: a 7.5 m plateau (15 cells) is an object under
+// an 8 m window (17 cells; rounded down it was 15 cells, and the plateau stayed ground).
+TEST(HeightAboveGround, TheLargestWindowSpansAtLeastMaxWindow) {
+  test::StageHarness h;
+  scene(h, 0.0, 0.5, -4.0, 3.5, -10, 10);
+  h.make("height_above_ground", "{max_window_m: 8}")->process(h.ctx);
   EXPECT_NEAR(h.at("height_above_ground", 0.2, 0.2), 0.5, 1e-4);
+  h.make("height_above_ground", "{max_window_m: 7}")->process(h.ctx);  // 15 cells: terrain
+  EXPECT_NEAR(h.at("height_above_ground", 0.2, 0.2), 0.0, 1e-4);
+}
+
+// The first, 3-cell window takes the initial threshold itself (Zhang et al. 2003): a kerb-like
+// object 0.12 m high and 1 m wide stands out against 0.10 m. (The slope term was added to it,
+// 0.15 m, and the object read 0.04 m, its road neighbours −0.04 m.)
+TEST(HeightAboveGround, TheFirstWindowUsesTheInitialThreshold) {
+  test::StageHarness h;
+  scene(h, 0.0, 0.12, 0.0, 1.0, -10, 10);
+  h.make("height_above_ground", "{}")->process(h.ctx);
+  EXPECT_NEAR(h.at("height_above_ground", 0.2, 0.2), 0.12, 1e-4);
+  EXPECT_NEAR(h.at("height_above_ground", -0.8, 0.2), 0.0, 1e-4);
+  EXPECT_NEAR(h.at("height_above_ground", 1.2, 0.2), 0.0, 1e-4);
 }
 
 TEST(HeightAboveGround, EmptyCellsNaNAndBadThresholdsRejected) {
@@ -113,7 +138,7 @@ std::vector<float> referenceHag(const TerrainGrid& g, const std::vector<float>& 
         out[r * C + c] = v;
       }
   };
-  int prev_full = 1;
+  int prev_full = 3;  // Zhang et al.: the 3-cell window's threshold is dh0
   for (int w = 1;; w = std::min(2 * w, w_max)) {
     window(surface, eroded, w, true);
     for (float& v : eroded) v = v == inf ? -inf : v;
@@ -178,7 +203,8 @@ TEST(HeightAboveGround, EqualsBruteForceFilterOnBothVectorPaths) {
   h.bin();
   const auto& zr = h.grid.zRange(h.frame.points);
   const std::vector<float> ref =
-      referenceHag(h.grid, zr.min, zr.max, 7, 0.5, 0.1, 0.05, 2.5, 1);  // the plugin's defaults
+      referenceHag(h.grid, zr.min, zr.max, 8, 0.5, 0.1, 0.05, 2.5, 1);  // the plugin's defaults:
+                                                                        // 8 m = 17 cells
   std::vector<float> got[2];
   for (const bool sse2 : {false, true}) {
     SCOPED_TRACE(sse2 ? "SSE2" : "widest vectors of this CPU");
