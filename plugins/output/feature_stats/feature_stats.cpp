@@ -168,7 +168,8 @@ class FeatureStats final : public Output {
       if (!converged)
         unsettled += (unsettled.empty() ? "" : ", ") + info_.labels->name(static_cast<LabelId>(k));
       o << "    components:  # " << cells_[k].size() / F << " cells, classification EM"
-        << (converged ? "" : " (cells still moving after 100 rounds)") << "\n";
+        << (converged ? "" : " (unsettled after 100 rounds: the assignment of lowest energy)")
+        << "\n";
       for (const Component& m : mix) {
         o << "      - weight: " << m.weight << "  # " << m.cells << " cells\n"
           << "        features:\n";
@@ -190,7 +191,7 @@ class FeatureStats final : public Output {
                              : "")
          << (unsettled.empty() ? ""
                                : ", mixture EM did not settle in 100 rounds for " + unsettled +
-                                     " (estimates of its last assignment)")
+                                     " (the assignment of lowest energy seen is kept)")
          << "\"\n";
     if (!origins_.empty()) {
       head << "feature_origins:  # how each feature was computed: stage, parameters, inputs\n";
@@ -255,8 +256,8 @@ class FeatureStats final : public Output {
   /// from its cells (as the single model would: `estimator`, σ floors; a feature without values
   /// in a component takes the class's single estimate) and move each cell to the component under
   /// which it is most likely. Components under 10 cells are dropped. Deterministic. Stops when
-  /// no cell moves (`*converged`) or after 100 rounds; either way the estimates are those of the
-  /// final assignment.
+  /// no cell moves (`*converged`) or after 100 rounds, then with the assignment of lowest
+  /// energy seen; either way the estimates are those of the assignment returned.
   std::vector<Component> mixture(const std::vector<float>& x, const std::vector<Gaussian>& single,
                                  const std::vector<bool>& learnt, bool* converged) const {
     const std::size_t F = features_.size(), n = x.size() / F;
@@ -303,6 +304,8 @@ class FeatureStats final : public Output {
       }
     };
     *converged = false;
+    double best_energy = INFINITY;
+    std::vector<int> best_z;
     for (int iter = 0; iter < kMaxRounds; ++iter) {
       mStep();
       // Drop components too small to estimate; their cells move in the next assignment.
@@ -314,8 +317,12 @@ class FeatureStats final : public Output {
       M = static_cast<int>(comp.size());
       if (M < 2) return {};
       // Components renumbered: the assignment below refers to the kept ones.
-      // Assignment step: the most likely component (log weight + log likelihood).
+      // Assignment step: the most likely component (log weight + log likelihood). On the way,
+      // the energy of the assignment the estimates came from (the classification likelihood
+      // of z and its estimates), unless components were just dropped (z names old ones).
       bool changed = dropped;
+      double energy = 0;
+      std::vector<int> previous = z;
       for (std::size_t i = 0; i < n; ++i) {
         int best = 0;
         double best_e = INFINITY;
@@ -328,18 +335,23 @@ class FeatureStats final : public Output {
             e += (v - g.mean) * (v - g.mean) / (2 * g.sigma * g.sigma) + std::log(g.sigma);
           }
           if (e < best_e) best_e = e, best = m;
+          if (!dropped && m == z[i]) energy += e;
         }
         changed |= z[i] != best;
         z[i] = best;
       }
+      if (!dropped && energy < best_energy) best_energy = energy, best_z = std::move(previous);
       if (!changed) {
         *converged = true;
         break;
       }
     }
-    // Estimates, weights and counts of the final assignment. Converged, they are those of the
-    // last round; otherwise (the robust estimator does not make hard EM monotone, and it can
-    // cycle) the last round's estimates belonged to the assignment before it.
+    // With the robust estimator hard EM is not monotone and can cycle: unsettled, it keeps the
+    // assignment of lowest energy seen. Estimates, weights and counts are of the assignment kept.
+    if (!*converged && !best_z.empty()) {
+      z = best_z;
+      M = 1 + *std::max_element(z.begin(), z.end());
+    }
     mStep();
     std::vector<Component> out;
     for (auto& c : comp)

@@ -29,12 +29,14 @@ void addRing(PointCloud& pc, uint16_t ring, double r, int n, const std::vector<d
 TEST(Roughness, SmoothRingIsZeroAndAlternatingRingKnown) {
   test::StageHarness h;
   addRing(h.frame.points, 10, 5.0, 2000, {0.0});
-  // Alternating ±2 cm along the ring: with window 1 the residual is ±(2 − (−2)) = ±4 cm.
+  // Alternating ±2 cm along the ring, 1.7 m below the sensor: with window 1 the residual is the
+  // difference of the 3D ranges, √(8.02² + 1.7²) − √(7.98² + 1.7²) = 8.19820 − 8.15907 =
+  // 0.03913 m (4 cm horizontally).
   addRing(h.frame.points, 20, 8.0, 2000, {0.02, -0.02});
   h.bin();
   h.make("roughness", "{window: 1}")->process(h.ctx);
   EXPECT_LT(h.at("roughness", 4.9, 0.05), 1e-4);
-  EXPECT_NEAR(h.at("roughness", 7.9, 0.05), 0.04, 1e-3);
+  EXPECT_NEAR(h.at("roughness", 7.9, 0.05), 0.03913, 1e-4);
   EXPECT_TRUE(std::isnan(h.at("roughness", 2.0, 2.0)));
   EXPECT_EQ(h.ctx.metrics.at("roughness.points_without_ring"), 0);
 }
@@ -47,7 +49,7 @@ TEST(Roughness, PointsWithoutRingAreLeftOutAndCounted) {
   addRing(h.frame.points, kUnknownRing, 9.0, 1500, {0.0});
   h.bin();
   h.make("roughness", "{window: 1}")->process(h.ctx);
-  EXPECT_NEAR(h.at("roughness", 7.9, 0.05), 0.04, 1e-3);
+  EXPECT_NEAR(h.at("roughness", 7.9, 0.05), 0.03913, 1e-4);  // as above
   EXPECT_TRUE(std::isnan(h.at("roughness", 8.9, 0.05)));
   EXPECT_EQ(h.ctx.metrics.at("roughness.points_without_ring"), 1500);
 }

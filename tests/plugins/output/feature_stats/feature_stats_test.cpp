@@ -176,7 +176,8 @@ TEST(FeatureStats, CellsWithoutAnyFeatureValueDoNotWeighInAMixture) {
 
 // Hard EM with the robust estimator can cycle (median and MAD do not make it monotone). This
 // class of 257 cells (a heavy-tailed draw; seed 444 of a search over 2000) still moves cells
-// after 100 rounds: the model says so, and its weights are those of the final assignment.
+// after 100 rounds: the model says so, and keeps the assignment of lowest energy it met (its
+// weights are shares of whole cells of it).
 TEST(FeatureStats, MixtureThatDoesNotSettleIsRecorded) {
   std::mt19937 rng(444);
   const std::size_t n = 30 + rng() % 300;
@@ -192,8 +193,8 @@ TEST(FeatureStats, MixtureThatDoesNotSettleIsRecorded) {
   const YAML::Node m =
       s.learn("{features: [f], min_labelled_points: 1, estimator: robust, components: 2}");
   EXPECT_NE(m["provenance"].as<std::string>().find(
-                "mixture EM did not settle in 100 rounds for road (estimates of its last "
-                "assignment)"),
+                "mixture EM did not settle in 100 rounds for road (the assignment of lowest "
+                "energy seen is kept)"),
             std::string::npos)
       << m["provenance"];
   const YAML::Node comps = m["classes"]["road"]["components"];
