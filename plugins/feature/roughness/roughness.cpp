@@ -7,7 +7,9 @@
 //
 // Filter: residual_i = r_i − mean(r_{i−w..i+w} \ r_i) over the ring's neighbours in scan order
 // (azimuth order for rings the cloud stores shuffled, see sortRings);
-// a neighbour beyond `max_jump_m` or missing ends the window (object edges are not roughness);
+// a neighbour beyond `max_jump_m`, or the ring's end, ends the window (object edges are not
+// roughness); a gap of missing returns between ring neighbours does not (ending the window there
+// changed the real-data sweeps by a few cells either way: docs/benchmarks.md, session 33);
 // a neighbour whose beam elevation differs by more than `max_elevation_step_deg` belongs to
 // another laser and is passed over. Rings recovered by elevation binning from voxel-thinned
 // clouds (the Open3D-ML scans) interleave two lasers near the sensor, whose ground ranges differ
