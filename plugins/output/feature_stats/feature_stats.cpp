@@ -316,7 +316,6 @@ class FeatureStats final : public Output {
       comp = std::move(kept);
       M = static_cast<int>(comp.size());
       if (M < 2) return {};
-      // Components renumbered: the assignment below refers to the kept ones.
       // Assignment step: the most likely component (log weight + log likelihood). On the way,
       // the energy of the assignment the estimates came from (the classification likelihood
       // of z and its estimates), unless components were just dropped (z names old ones).
