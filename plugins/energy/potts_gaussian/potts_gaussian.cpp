@@ -156,6 +156,7 @@ class PottsGaussian final : public Stage {
     std::vector<const float*> ev(evidence_layers_.size());
     for (std::size_t k = 0; k < ev.size(); ++k) ev[k] = g.layer(evidence_layers_[k]).data();
     const float alpha = static_cast<float>(alpha_);
+    std::size_t from_evidence = 0;  // cells without points classified from evidence alone
     for (int c = 0, n = static_cast<int>(g.cells()); c < n; ++c) {
       const bool has_points = g.count(c) >= static_cast<uint32_t>(min_points_);
       const bool has_evidence = !ev.empty() && evidenceAt(ev, c, g);
@@ -172,6 +173,7 @@ class PottsGaussian final : public Stage {
           if (u[k] < u[best]) best = k;
         }
         em.initial[c] = static_cast<uint8_t>(best);
+        ++from_evidence;
         continue;
       }
       for (int k = 0; k < K; ++k) {
@@ -214,6 +216,7 @@ class PottsGaussian final : public Stage {
       }
       em.initial[c] = static_cast<uint8_t>(best);
     }
+    if (!ev.empty()) ctx.metrics[name() + ".cells_from_evidence"] = double(from_evidence);
   }
 
  private:

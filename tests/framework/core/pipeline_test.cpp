@@ -310,6 +310,10 @@ TEST(Pipeline, EvidenceFromThePreviousFrameFillsCellsWithoutPoints) {
   for (int k = 0; k < 4; ++k)
     EXPECT_EQ(carried_run.metrics[k].second.at("carry.chain_depth"), want_depth[k]) << k;
   EXPECT_EQ(carried_run.metrics[0].second.count("carry.cells_carried"), 0u);
+  // The occluded cells are classified from the evidence alone: 9 of the hole's 4 × 4 (the
+  // lattice's float coordinates leave points in the cells along two of its edges).
+  EXPECT_EQ(carried_run.metrics[0].second.at("mrf.cells_from_evidence"), 0.0);
+  EXPECT_EQ(carried_run.metrics[1].second.at("mrf.cells_from_evidence"), 9.0);
   EXPECT_GT(carried_run.metrics[1].second.at("carry.cells_carried"), 1000);
 
   // With poses that move 2 m forward per frame the evidence is looked up 2 m further on, where

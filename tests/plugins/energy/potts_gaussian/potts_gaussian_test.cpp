@@ -147,6 +147,7 @@ TEST(PottsGaussian, EvidenceAddsToTheUnaryAndClassifiesCellsWithoutPoints) {
   EXPECT_EQ(em.initial[empty_with], 2);
   EXPECT_EQ(em.fixed[empty_part], 1);
   EXPECT_EQ(em.fixed[empty_none], 1);
+  EXPECT_EQ(h.ctx.metrics.at("potts_gaussian.cells_from_evidence"), 1.0);
 
   // Every optimiser then labels that cell; a cell with neither stays unknown.
   for (const char* opt : {"icm", "gibbs", "alpha_expansion"}) {
