@@ -469,6 +469,14 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
   ctx.layer_origins = &p.layer_origins;
 
   YAML::Node resolved = YAML::Clone(root);
+  // Folders as this run found them: relative ones would be read against the output folder, where
+  // the resolved config is written.
+  if (root["plugin_path"] && root["plugin_path"].IsSequence()) {
+    YAML::Node dirs(YAML::NodeType::Sequence);
+    for (const auto& dir : common.plugin_dirs) dirs.push_back(fs::absolute(dir).string());
+    resolved["plugin_path"] = dirs;
+  }
+  if (root["output_dir"]) resolved["output_dir"] = p.output_dir;
   // A `grid:` that is not a map is already a diagnostic; indexing into it would throw yaml-cpp's
   // own error instead of the list of problems.
   if (!resolved["grid"].IsMap()) resolved["grid"] = YAML::Node(YAML::NodeType::Map);

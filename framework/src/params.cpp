@@ -1,5 +1,6 @@
 #include "terramrf/params.hpp"
 
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -22,9 +23,11 @@ namespace {
 std::string num(double d) {
   if (std::isnan(d)) return ".nan";
   if (std::isinf(d)) return d > 0 ? ".inf" : "-.inf";
+  // The shortest text that reads back as the same double: a resolved config must reproduce the
+  // run (ten digits turned 0.12000000000123 into 0.12, and simulated another cloud).
   char buf[32];
-  std::snprintf(buf, sizeof buf, "%.10g", d);
-  std::string s(buf);
+  const auto r = std::to_chars(buf, buf + sizeof buf, d);
+  std::string s(buf, r.ptr);
   if (s.find_first_of(".eE") == std::string::npos) s += ".0";
   return s;
 }

@@ -105,7 +105,12 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   std::ostream& log = opt.log ? *opt.log : std::cerr;
   RunResult res;
   std::filesystem::create_directories(p.output_dir);
-  writeFileAtomic(p.output_dir + "/resolved_config.yaml", p.resolved_yaml);
+  std::string frames_run;  // the frames are chosen on the command line, not in the config
+  if (opt.first > 0 || opt.limit > 0)
+    frames_run = "# This run: --first " + std::to_string(opt.first) +
+                 (opt.limit ? " --limit " + std::to_string(opt.limit) : std::string()) +
+                 " (give them again to run the same frames)\n";
+  writeFileAtomic(p.output_dir + "/resolved_config.yaml", frames_run + p.resolved_yaml);
 
   const std::size_t n_all = p.source->size();
   const std::size_t first = std::min(opt.first, n_all);
@@ -272,7 +277,8 @@ std::string metricsCsv(const RunResult& r) {
 
 void writeRunReports(const std::string& dir, const RunResult& r) {
   writeFileAtomic(dir + "/timing.md", timingTable(r));
-  if (!r.metrics.empty()) writeFileAtomic(dir + "/metrics.csv", metricsCsv(r));
+  // Always written, if only its header: an earlier run's file would pass for this one's.
+  writeFileAtomic(dir + "/metrics.csv", metricsCsv(r));
 }
 
 }  // namespace terramrf

@@ -32,7 +32,8 @@ class FusionOverlayOutput final : public Output {
         .unit("1")
         .range(0, 1);
     d.add("draw_unknown", draw_unknown_,
-          "also draw points of cells labelled unknown and of points outside the grid (grey)");
+          "also draw points of cells labelled unknown and of points outside the grid (in the "
+          "label set's unknown colour)");
   }
 
   void configure(const PluginContext& ctx) override {
@@ -91,7 +92,8 @@ class FusionOverlayOutput final : public Output {
       for (int k = 0; k < 3; ++k)
         out.data[3 * i + k] = src.data[i * src.channels + (src.channels == 3 ? k : 0)];
     auto colour = [&](int cell, bool* ok) {
-      std::array<uint8_t, 3> rgb{128, 128, 128};
+      // Unknown (and points off the grid) in the label set's unknown colour: grey was road's.
+      std::array<uint8_t, 3> rgb = labels[labels::kUnknown].rgb;
       *ok = draw_unknown_;
       if (cell < 0) return rgb;
       const LabelId l = g.labels()[cell];

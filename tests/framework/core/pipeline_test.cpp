@@ -1,6 +1,7 @@
 #include "terramrf/pipeline.hpp"
 
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <cmath>
 #include <filesystem>
@@ -186,6 +187,33 @@ TEST(Pipeline, StageMetricsOfCompletedFramesAreWrittenAsCsv) {
   EXPECT_EQ(csv.rfind("frame,metric,value\n", 0), 0u) << csv;
   EXPECT_NE(csv.find("\n000002,solve.sweeps,"), std::string::npos) << csv;
   EXPECT_EQ(csv.find("000001,"), std::string::npos) << csv;
+  // A later run into the same folder that measures nothing leaves its own, empty table, not the
+  // earlier run's rows.
+  writeRunReports(out, RunResult{});
+  EXPECT_EQ(readFile(out + "/metrics.csv"), "frame,metric,value\n");
+}
+
+// The resolved config reproduces the run: numbers to the last bit, folders as this run found
+// them, and the frames chosen on the command line said in its first line.
+TEST(Pipeline, TheResolvedConfigReproducesTheRun) {
+  test::ConfigFixture f;
+  std::filesystem::create_directories(f.dir.str() + "/plugins");
+  std::string text = "plugin_path: [plugins]\noutput_dir: somewhere\n" +
+                     test::ConfigFixture::validPipeline("{frames: 3, spacing_m: 0.10000000000123}");
+  LoadOptions lo;
+  Pipeline p = loadPipeline(f.write("c.yaml", text), lo, f.registry);
+  RunOptions ro;
+  ro.progress = false;
+  ro.first = 1;
+  ro.limit = 1;
+  runPipeline(p, ro);
+  const std::string resolved = readFile(p.output_dir + "/resolved_config.yaml");
+  EXPECT_EQ(resolved.rfind("# This run: --first 1 --limit 1 (give them again", 0), 0u) << resolved;
+  const YAML::Node y = YAML::Load(resolved);
+  EXPECT_EQ(y["source"]["params"]["spacing_m"].as<double>(), 0.10000000000123);
+  EXPECT_EQ(y["plugin_path"][0].as<std::string>(), f.dir.str() + "/plugins");
+  EXPECT_EQ(y["output_dir"].as<std::string>(), f.dir.str() + "/somewhere");
+  EXPECT_EQ(p.output_dir, f.dir.str() + "/somewhere");
 }
 
 }  // namespace terramrf

@@ -80,6 +80,22 @@ TEST(FusionOverlay, DrawsPointsAndCellsInClassColours) {
   EXPECT_EQ(img.at(190, 20)[2], 40);
 }
 
+// Unknown cells are drawn (draw_unknown) in the label set's unknown colour, never in a class's:
+// they were grey, road's colour.
+TEST(FusionOverlay, UnknownIsDrawnInTheUnknownColour) {
+  Fixture fx;
+  fx.runner.grid.labels()[fx.cell] = labels::kUnknown;
+  auto out = fx.output("{point_radius_px: 0, cell_alpha: 0, draw_unknown: true}");
+  out->write(fx.runner.ctx);
+  const Image img = readImage(fx.png());
+  const uint8_t* p = img.at(98, 70);  // a point of the cell (first test)
+  const auto want = fx.runner.labels[labels::kUnknown].rgb;
+  EXPECT_EQ(p[0], want[0]);
+  EXPECT_EQ(p[1], want[1]);
+  EXPECT_EQ(p[2], want[2]);
+  EXPECT_NE(want, fx.runner.labels[labels::kRoad].rgb);
+}
+
 TEST(FusionOverlay, WritesAtomically) {
   Fixture fx;
   auto out = fx.output("{}");
