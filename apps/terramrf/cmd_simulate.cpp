@@ -55,8 +55,10 @@ int cmdSimulate(const Args& args) {
   } else {
     source.reset(static_cast<Source*>(reg.create("simulator").release()));
   }
-  // A config's source is configured already; the simulator made here still needs configure().
-  if (config.empty() || overrides.str() != "{}") {
+  // Configured (again) with the default label set whatever the config lists: the files hold
+  // the default project classes (docs/plugins/simulator.md), and a config's own set renumbered
+  // the pixel truth only when no --frames or --seed configured it once more.
+  {
     try {
       setParams(*source, overrides.str(), ctx);
     } catch (const std::exception& e) {  // e.g. --seed beyond the simulator's range

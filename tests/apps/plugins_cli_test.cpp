@@ -282,6 +282,34 @@ TEST(SimulateCli, LabelsAreTheSameWhateverTheConfigsLabelSet) {
   EXPECT_TRUE(la == readFile(dir.str() + "/b/labels/000000.label"));
 }
 
+// The same for the camera's pixel truth, which holds project classes: the default ids whatever
+// the config lists (a config's own set renumbered it unless --frames or --seed was given too).
+TEST(SimulateCli, PixelTruthIsInTheDefaultClassesWhateverTheConfigsLabelSet) {
+  test::TempDir dir;
+  const std::string plain = oneStageConfig(dir, "frames: 1, seed: 4");
+  const std::string own = dir.str() + "/own.yaml";
+  std::ofstream(own) << "labels:\n  - {name: unknown, color: [0, 0, 0]}\n"
+                        "  - {name: obstacle, color: [1, 1, 1]}\n"
+                        "  - {name: rough, color: [2, 2, 2]}\n"
+                        "  - {name: road, color: [3, 3, 3]}\n"
+                     << readFile(plain);
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  const int a = cli::cmdSimulate({"--out", dir.str() + "/a", "--config", plain});
+  const int b = cli::cmdSimulate({"--out", dir.str() + "/b", "--config", own});
+  const int c = cli::cmdSimulate({"--out", dir.str() + "/c", "--config", own, "--frames", "1"});
+  testing::internal::GetCapturedStderr();
+  testing::internal::GetCapturedStdout();
+  ASSERT_EQ(a, cli::kOk);
+  ASSERT_EQ(b, cli::kOk);
+  ASSERT_EQ(c, cli::kOk);
+  const std::string truth = "/image_2_truth/000000.png";
+  const std::string ta = readFile(dir.str() + "/a" + truth);
+  EXPECT_FALSE(ta.empty());
+  EXPECT_TRUE(ta == readFile(dir.str() + "/b" + truth));
+  EXPECT_TRUE(ta == readFile(dir.str() + "/c" + truth));
+}
+
 // main() itself: an unknown command is a usage error that lists the commands.
 TEST(MainCli, UnknownCommandIsAUsageErrorListingTheCommands) {
   test::TempDir dir;
