@@ -257,18 +257,24 @@ TEST(SimulateCli, WritesFramesAndRefusesWhatItCannotSimulate) {
   }
 }
 
+/// `config` with a label set of its own in front, which renumbers road, rough and obstacle.
+std::string withOwnLabelSet(test::TempDir& dir, const std::string& config) {
+  const std::string own = dir.str() + "/own.yaml";
+  std::ofstream(own) << "labels:\n  - {name: unknown, color: [0, 0, 0]}\n"
+                        "  - {name: obstacle, color: [1, 1, 1]}\n"
+                        "  - {name: rough, color: [2, 2, 2]}\n"
+                        "  - {name: road, color: [3, 3, 3]}\n"
+                     << readFile(config);
+  return own;
+}
+
 // The labels simulate writes are the simulation's own ids (configs/label_maps/simulator.yaml),
 // whatever classes the config lists: with a label set of its own, which renumbers road, rough
 // and obstacle in the frames' truth, the files are the same as without one.
 TEST(SimulateCli, LabelsAreTheSameWhateverTheConfigsLabelSet) {
   test::TempDir dir;
   const std::string plain = oneStageConfig(dir, "frames: 1, seed: 4, enable_camera: false");
-  const std::string own = dir.str() + "/own.yaml";
-  std::ofstream(own) << "labels:\n  - {name: unknown, color: [0, 0, 0]}\n"
-                        "  - {name: obstacle, color: [1, 1, 1]}\n"
-                        "  - {name: rough, color: [2, 2, 2]}\n"
-                        "  - {name: road, color: [3, 3, 3]}\n"
-                     << readFile(plain);
+  const std::string own = withOwnLabelSet(dir, plain);
   testing::internal::CaptureStdout();
   testing::internal::CaptureStderr();
   const int a = cli::cmdSimulate({"--out", dir.str() + "/a", "--config", plain});
@@ -287,12 +293,7 @@ TEST(SimulateCli, LabelsAreTheSameWhateverTheConfigsLabelSet) {
 TEST(SimulateCli, PixelTruthIsInTheDefaultClassesWhateverTheConfigsLabelSet) {
   test::TempDir dir;
   const std::string plain = oneStageConfig(dir, "frames: 1, seed: 4");
-  const std::string own = dir.str() + "/own.yaml";
-  std::ofstream(own) << "labels:\n  - {name: unknown, color: [0, 0, 0]}\n"
-                        "  - {name: obstacle, color: [1, 1, 1]}\n"
-                        "  - {name: rough, color: [2, 2, 2]}\n"
-                        "  - {name: road, color: [3, 3, 3]}\n"
-                     << readFile(plain);
+  const std::string own = withOwnLabelSet(dir, plain);
   testing::internal::CaptureStdout();
   testing::internal::CaptureStderr();
   const int a = cli::cmdSimulate({"--out", dir.str() + "/a", "--config", plain});
