@@ -26,7 +26,7 @@ std::string num(double d) {
   // The shortest text that reads back as the same double: a resolved config must reproduce the
   // run (ten digits turned 0.12000000000123 into 0.12, and simulated another cloud).
   char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, d);
+  const auto r = std::to_chars(buf, buf + sizeof buf, d, std::chars_format::general);
   std::string s(buf, r.ptr);
   if (s.find_first_of(".eE") == std::string::npos) s += ".0";
   return s;
