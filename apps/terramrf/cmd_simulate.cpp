@@ -58,13 +58,11 @@ int cmdSimulate(const Args& args) {
   // Configured (again) with the default label set whatever the config lists: the files hold
   // the default project classes (docs/plugins/simulator.md), and a config's own set renumbered
   // the pixel truth only when no --frames or --seed configured it once more.
-  {
-    try {
-      setParams(*source, overrides.str(), ctx);
-    } catch (const std::exception& e) {  // e.g. --seed beyond the simulator's range
-      std::cerr << "terramrf simulate: " << e.what() << "\n";
-      return kUsage;
-    }
+  try {
+    setParams(*source, overrides.str(), ctx);
+  } catch (const std::exception& e) {  // e.g. --seed beyond the simulator's range
+    std::cerr << "terramrf simulate: " << e.what() << "\n";
+    return kUsage;
   }
   KittiSequenceWriter writer(out);
   const std::size_t n = source->size();
