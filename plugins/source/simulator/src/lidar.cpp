@@ -36,6 +36,25 @@ LidarModel::LidarModel(const World& world, const LidarParams& params) : world_(&
   }
 }
 
+double LidarModel::canopyShift(const RayHit& hit, const Eigen::Vector3d& dir,
+                               double shift_m) const {
+  // Blades and stones stand only on their own ground: a return moved back along the beam past the
+  // material's edge (over a road, a ditch) would hang there with the wrong label. The beam meets
+  // the canopy at that edge at the latest, so the shift ends there.
+  auto same = [&](double s) {
+    const Eigen::Vector3d q = hit.point - s * dir;
+    return world_->groundMaterial(q.x(), q.y()) == hit.material;
+  };
+  if (same(shift_m)) return shift_m;
+  double lo = 0.0, hi = shift_m;  // same(lo), !same(hi)
+  for (int i = 0; i < 12; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (same(mid) ? lo : hi) = mid;
+  }
+  // A few millimetres inside the edge, so the point's float coordinates do not cross it.
+  return std::max(0.0, lo - 0.005);
+}
+
 double LidarModel::columnAzimuth(int c) const {
   double a = kPi - c * (2 * kPi / columns_);
   if (a <= -kPi) a += 2 * kPi;
@@ -88,7 +107,7 @@ void LidarModel::scan(const std::function<Eigen::Isometry3d(double)>& pose_at, u
       const double depth = hit.material == Material::kGrass    ? p_.grass_depth_m
                            : hit.material == Material::kGravel ? p_.gravel_depth_m
                                                                : 0.0;
-      if (depth > 0) range -= rng.uniform(0.0, depth) / std::max(0.1, cosi);
+      if (depth > 0) range -= canopyShift(hit, dw, rng.uniform(0.0, depth) / std::max(0.1, cosi));
       if (range < p_.min_range_m || range > p_.max_range_m) continue;
       const double inten =
           reflectivity(hit.material) * (0.35 + 0.65 * cosi) + p_.intensity_noise * rng.normal();

@@ -147,6 +147,31 @@ TEST(SimLidar, GrassAndGravelReturnFromWithinTheirDepth) {
   }
 }
 
+// A canopy return moves back along its beam only as far as its material reaches: it never hangs
+// over the road or the ditch beside it with its own label. A deep canopy makes the shift up to
+// 3 m (depth / 0.1), so without the bound many returns would cross an edge.
+TEST(SimLidar, CanopyReturnsStayOverTheirMaterial) {
+  LidarParams canopy;
+  canopy.range_noise_m = 0;
+  canopy.azimuth_step_deg = 0.5;
+  canopy.grass_depth_m = 0.3;
+  canopy.gravel_depth_m = 0.3;
+  const Scene s(2, canopy);
+  const Eigen::Isometry3d T = s.traj.pose(0);
+  std::map<Material, int> seen;
+  for (std::size_t i = 0; i < s.frame.points.size(); ++i) {
+    const Material m = Material(s.frame.truth.raw[i]);
+    if (m != Material::kGrass && m != Material::kGravel) continue;
+    const Eigen::Vector3d p =
+        T * Eigen::Vector3d(s.frame.points.x[i], s.frame.points.y[i], s.frame.points.z[i]);
+    ASSERT_EQ(s.world.groundMaterial(p.x(), p.y()), m)
+        << "point " << i << " at " << p.transpose() << " (" << materialName(m) << ")";
+    ++seen[m];
+  }
+  EXPECT_GT(seen[Material::kGrass], 5000);
+  EXPECT_GT(seen[Material::kGravel], 1000);
+}
+
 TEST(SimLidar, MotionDistortionShiftsLateColumns) {
   LidarParams a, b;
   a.azimuth_step_deg = b.azimuth_step_deg = 1.0;

@@ -58,6 +58,10 @@ class LidarModel {
             Frame& frame) const;
 
  private:
+  /// How far a canopy/grain return at `hit` moves back along the beam `dir` (unit, world frame):
+  /// `shift_m`, or less where its material ends before that [m].
+  double canopyShift(const RayHit& hit, const Eigen::Vector3d& dir, double shift_m) const;
+
   const World* world_;
   LidarParams p_;
   int columns_ = 0;
