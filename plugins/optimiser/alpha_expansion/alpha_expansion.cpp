@@ -157,14 +157,20 @@ class AlphaExpansion final : public Stage {
     // The running energy is a sum of changes; the promise "never above the initial labelling"
     // is kept on exact totals (an argmin start can end above a good given initial labelling).
     e = em.energy(lab);
+    bool returned_initial = false;
     if (e > e_initial) {
       lab = em.initial;
       e = e_initial;
+      // No expansion was tried from the labelling returned: it is no local minimum of the moves,
+      // and the counts below describe the run that was discarded.
+      converged = false;
+      returned_initial = true;
     }
     rep.initial_energy = e_initial;
     rep.final_energy = e;
     rep.iterations = cycle;
     rep.converged = converged;
+    ctx.metrics[name() + ".returned_initial"] = returned_initial ? 1 : 0;
     writeOutputs(ctx, lab);
     ctx.metrics[name() + ".cycles"] = cycle;
     ctx.metrics[name() + ".expansions"] = expansions;

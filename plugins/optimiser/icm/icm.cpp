@@ -15,8 +15,9 @@ class Icm final : public Stage {
         .unit("sweeps")
         .range(1, 10000);
     d.add("report_energy", report_energy_,
-          "compute the initial and final total energy for the report (costs two passes); false "
-          "reports both as NaN (not computed), never as a number that could be read as an energy");
+          "compute the initial and final total energy for the report (costs two passes) and return "
+          "the initial labelling should float rounding have ended above it; false reports both as "
+          "NaN (not computed), never as a number that could be read as an energy");
   }
   std::vector<std::string> reads() const override { return {artefacts::kEnergy}; }
   std::vector<std::string> writes() const override { return {artefacts::kLabels}; }
@@ -36,11 +37,22 @@ class Icm final : public Stage {
     rep.iterations = sweep;
     rep.converged = converged;
     rep.final_energy = report_energy_ ? em.energy(lab) : kNotComputed;
+    // Labels are chosen on float local scores; where two labels' scores differ by less than their
+    // rounding, a step can be uphill in the exact total. The promise "never above the initial
+    // labelling" is kept on exact totals, as Gibbs and α-expansion keep it.
+    bool returned_initial = false;
+    if (report_energy_ && rep.final_energy > rep.initial_energy) {
+      lab = em.initial;
+      rep.final_energy = rep.initial_energy;
+      rep.converged = false;
+      returned_initial = true;
+    }
     em.writeGridLabels(lab, ctx.grid->labels());
     ctx.metrics[name() + ".sweeps"] = sweep;
     if (report_energy_) {
       ctx.metrics[name() + ".energy"] = rep.final_energy;
       ctx.metrics[name() + ".initial_energy"] = rep.initial_energy;
+      ctx.metrics[name() + ".returned_initial"] = returned_initial ? 1 : 0;
     }
   }
 
