@@ -21,6 +21,7 @@ int cmdMesh(const Args& args) {
   PluginRegistry reg(PluginRegistry::defaultSearchDirs());
   Pipeline p;
   if (!loadOrReport(config, ra.load, reg, p)) return kUsage;
+  if (!firstFrameInRange(p, ro, "mesh")) return kUsage;
   std::string mesh_dir = p.output_dir + "/mesh";
   bool have = false;
   for (const auto& o : p.outputs) have = have || o->type() == "textured_mesh";

@@ -52,6 +52,7 @@ int cmdValidate(const Args& args) {
     }
     PluginRegistry reg(PluginRegistry::defaultSearchDirs());
     Pipeline p = loadPipeline(config, lo, reg);
+    checkTrainSplit(config);  // what `train` will check of its split: section
     std::cout << config << ": ok (" << p.stages.size() << " stages, " << p.outputs.size()
               << " outputs, " << p.source->size() << " frames)\n";
     return kOk;
@@ -97,6 +98,15 @@ bool loadOrReport(const std::string& config, const LoadOptions& options, PluginR
   }
 }
 
+bool firstFrameInRange(const Pipeline& p, const RunOptions& ro, const char* command) {
+  const std::size_t n = p.source->size();
+  if (ro.first == 0 || ro.first < n) return true;
+  std::cerr << "terramrf " << command << ": --first " << ro.first << ": the source ("
+            << p.source->type() << ") has " << n << " frame(s)"
+            << (n ? ", numbered 0 to " + std::to_string(n - 1) : std::string()) << "\n";
+  return false;
+}
+
 int cmdRun(const Args& args) {
   RunArgs ra;
   if (parseRunArgs(args, "run", ra) != kOk) return kUsage;
@@ -105,6 +115,7 @@ int cmdRun(const Args& args) {
   PluginRegistry reg(PluginRegistry::defaultSearchDirs());
   Pipeline p;
   if (!loadOrReport(config, ra.load, reg, p)) return kUsage;
+  if (!firstFrameInRange(p, ro, "run")) return kUsage;
   std::cerr << "terramrf: " << p.source->size() << " frame(s) from " << p.source->type()
             << ", outputs in " << p.output_dir << "\n";
   RunResult r = runPipeline(p, ro);
@@ -169,11 +180,9 @@ int cmdDescribe(const Args& args) {
     if (s.required) std::cout << ", required";
     else std::cout << ", default " << toYaml(s.default_value);
     if (s.min || s.max) {
-      // Stream formatting, as the validator's messages: 1e-09 stays 1e-09 (to_string: 0.000000).
+      // Exact, as the validator's messages: 1e-09 stays 1e-09, 4194304 is not 4.1943e+06.
       auto bound = [](const auto& b, const char* none) {
-        std::ostringstream o;
-        if (b) o << *b; else o << none;
-        return o.str();
+        return b ? numberText(double(*b)) : std::string(none);
       };
       std::cout << ", range [" << bound(s.min, "-inf") << ", " << bound(s.max, "inf") << "]";
     }

@@ -1,5 +1,6 @@
 #pragma once
 // One function per CLI command; each returns the process exit status.
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -22,7 +23,14 @@ int cmdMesh(const Args& args);
 /// Exit statuses shared by all commands.
 enum Exit { kOk = 0, kError = 1, kUsage = 2, kSomeFramesFailed = 3, kFailed = 4 };
 
-/// Value of `--name VALUE` (or "--name=VALUE") in args; "" if absent. Removes it from args.
+/// A command line that cannot mean anything (exit status kUsage).
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Value of `--name VALUE` (or "--name=VALUE") in args; "" if absent. Removes it from args. An
+/// option given without a value, or with an empty one, is a UsageError: `--out=` would otherwise
+/// read as "not given" and write to the default folder.
 std::string takeOption(Args& args, const std::string& name);
 bool takeFlag(Args& args, const std::string& name);
 /// `--name N` as a whole number >= `min` into `out` (left alone if the option is absent). Prints
@@ -39,6 +47,10 @@ struct RunArgs {
   RunOptions run;
 };
 int parseRunArgs(const Args& args, const char* command, RunArgs& out);
+
+/// --first within the source's frames; otherwise prints what the source holds and returns false
+/// (a run past the end would run nothing, exit 0 and overwrite the summaries with empty ones).
+bool firstFrameInRange(const Pipeline& p, const RunOptions& ro, const char* command);
 
 /// Loads and validates a config; on failure prints every diagnostic and returns false.
 bool loadOrReport(const std::string& config, const LoadOptions& options, PluginRegistry& registry,

@@ -65,6 +65,9 @@ int main(int argc, char** argv) {
   }
   try {
     return it->second(Args(argv + 2, argv + argc));
+  } catch (const UsageError& e) {
+    std::cerr << "terramrf " << cmd << ": " << e.what() << "\n";
+    return kUsage;
   } catch (const std::exception& e) {
     std::cerr << "terramrf " << cmd << ": " << e.what() << "\n";
     return kError;

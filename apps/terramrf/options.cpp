@@ -9,17 +9,19 @@ namespace terramrf::cli {
 
 std::string takeOption(Args& args, const std::string& name) {
   for (std::size_t i = 0; i < args.size(); ++i) {
+    std::string v;
     if (args[i] == name) {
-      if (i + 1 >= args.size()) throw std::runtime_error("option " + name + " needs a value");
-      std::string v = args[i + 1];
+      if (i + 1 >= args.size()) throw UsageError("option " + name + " needs a value");
+      v = args[i + 1];
       args.erase(args.begin() + i, args.begin() + i + 2);
-      return v;
-    }
-    if (args[i].rfind(name + "=", 0) == 0) {
-      std::string v = args[i].substr(name.size() + 1);
+    } else if (args[i].rfind(name + "=", 0) == 0) {
+      v = args[i].substr(name.size() + 1);
       args.erase(args.begin() + i);
-      return v;
+    } else {
+      continue;
     }
+    if (v.empty()) throw UsageError("option " + name + " needs a value, got an empty one");
+    return v;
   }
   return "";
 }

@@ -45,8 +45,16 @@ void writeFileAtomic(const std::string& path, std::string_view bytes) {
     off += static_cast<std::size_t>(w);
   }
   ::fchmod(fd, 0644);
-  ::fsync(fd);
-  ::close(fd);
+  // A write error can surface only at fsync or close (a full disk, NFS); renaming then would
+  // replace a good file with a short one.
+  const bool synced = ::fsync(fd) == 0 || errno == EINVAL;  // EINVAL: a file that cannot sync
+  const std::string sync_why = synced ? "" : std::strerror(errno);
+  const bool closed = ::close(fd) == 0;
+  if (!synced || !closed) {
+    const std::string why = !synced ? sync_why : std::strerror(errno);
+    ::unlink(tmpl.c_str());
+    throw std::runtime_error("cannot write output '" + path + "': " + why);
+  }
   if (::rename(tmpl.c_str(), path.c_str()) != 0) {
     const std::string why = std::strerror(errno);
     ::unlink(tmpl.c_str());

@@ -22,10 +22,12 @@ std::string Diagnostic::str() const {
   o << file;
   if (line > 0) o << ":" << line << ":" << column;
   o << ": ";
-  if (!stage.empty() || !type.empty()) {
+  if (!stage.empty()) {
     o << "stage '" << stage << "'";
     if (!type.empty()) o << " (" << type << ")";
     o << ": ";
+  } else if (!type.empty()) {
+    o << "stage of type '" << type << "': ";
   }
   o << message;
   return o.str();
@@ -104,6 +106,41 @@ YAML::Node copyEntryKeepingPositions(const YAML::Node& entry) {
   return out;
 }
 
+YAML::Mark valueMark(const YAML::Node& map, const std::string& key) {
+  if (!map.IsMap()) return map.Mark();
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    if (!it->first.IsScalar() || it->first.Scalar() != key) continue;
+    return it->second.IsNull() ? it->first.Mark() : it->second.Mark();
+  }
+  return map.Mark();
+}
+
+YAML::Node unaliasedCopy(const YAML::Node& n) {
+  switch (n.Type()) {
+    case YAML::NodeType::Map: {
+      YAML::Node out(YAML::NodeType::Map);
+      for (auto it = n.begin(); it != n.end(); ++it)
+        out[unaliasedCopy(it->first)] = unaliasedCopy(it->second);
+      return out;
+    }
+    case YAML::NodeType::Sequence: {
+      YAML::Node out(YAML::NodeType::Sequence);
+      for (const auto& v : n) out.push_back(unaliasedCopy(v));
+      return out;
+    }
+    case YAML::NodeType::Scalar: {
+      YAML::Node out(n.Scalar());
+      out.SetTag(n.Tag());
+      out.SetStyle(n.Style());
+      return out;
+    }
+    case YAML::NodeType::Null:
+      return YAML::Node(YAML::NodeType::Null);
+    default:
+      return YAML::Node();
+  }
+}
+
 void checkDuplicateKeys(const YAML::Node& n, Diags& d) {
   for (const RepeatedYamlKey& r : repeatedYamlKeys(n)) {
     YAML::Mark m;
@@ -116,6 +153,10 @@ void checkDuplicateKeys(const YAML::Node& n, Diags& d) {
 YAML::Node loadYamlFile(const std::string& path, Diags& d, const std::string& what) {
   if (!fs::exists(path)) {
     d.add(YAML::Mark::null_mark(), what + " does not exist");
+    d.throwIfAny();
+  }
+  if (fs::is_directory(path)) {
+    d.add(YAML::Mark::null_mark(), what + " is a folder; expected a YAML file");
     d.throwIfAny();
   }
   YAML::Node root;
@@ -338,8 +379,33 @@ EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const st
     d.add(e.Mark(), section + " entries must be maps {name, type, params}");
     return ep;
   }
-  ep.type = e["type"] ? e["type"].Scalar() : "";
-  ep.name = e["name"] ? e["name"].Scalar() : ep.type;
+  // Scalar() of a list or a null is "": such a name or type would pass for an empty one.
+  const YAML::Node type_node = e["type"], name_node = e["name"];
+  if (type_node && (type_node.IsSequence() || type_node.IsMap())) {  // a null is "empty" below
+    d.add(type_node.Mark(), "'type' must be a plugin type name, got " +
+                                std::string(type_node.IsSequence() ? "a list" : "a map"));
+    return ep;
+  }
+  ep.type = type_node ? type_node.Scalar() : "";
+  if (name_node) {
+    // Stage names head timing rows, metric keys (<name>.<metric>) and table cells.
+    const std::string n = name_node.IsScalar() ? name_node.Scalar() : "";
+    const bool plain = !n.empty() && std::all_of(n.begin(), n.end(), [](unsigned char ch) {
+      return std::isalnum(ch) || ch == '_' || ch == '-' || ch == '.';
+    });
+    if (!plain) {
+      d.add(valueMark(e, "name"),
+            "'name' must be a non-empty name of letters, digits, '_', '-' and '.' (it heads the "
+            "timing table's rows and the metric keys), got " +
+                (name_node.IsSequence() ? std::string("a list")
+                 : name_node.IsMap()    ? std::string("a map")
+                 : name_node.IsNull()   ? std::string("nothing")
+                                        : "'" + n + "'"),
+            "", ep.type);
+      return ep;
+    }
+  }
+  ep.name = name_node ? name_node.Scalar() : ep.type;
   if (checks.key_errors_name_the_stage) {
     checkKeys(d, e, kEntryKeys, section + " entry", checks.key_hint,
               e["name"] ? e["name"].Scalar() : "", ep.type);
@@ -421,6 +487,7 @@ void recordLayerOrigins(Plugin& stage, double cell_m, std::map<std::string, std:
 }  // namespace detail
 
 bool isSweepFile(const std::string& path) {
+  if (!fs::is_regular_file(path)) return false;  // the loader says what it is
   try {
     const YAML::Node root = YAML::LoadFile(path);
     return root.IsMap() && !detail::presentKeys(root, detail::kSweepOnlyKeys).empty() &&
@@ -454,9 +521,19 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
 
   // output dir
   p.output_dir = options.output_dir;
+  const YAML::Node od = root["output_dir"];
+  // A list, a null or "" would read as "" and put every output next to the config.
+  const bool od_ok = !od || (od.IsScalar() && !od.Scalar().empty());
+  if (!od_ok)
+    c.add(detail::valueMark(root, "output_dir"),
+          "'output_dir' must be a folder name (a non-empty string), got " +
+              std::string(od.IsSequence() ? "a list"
+                          : od.IsMap()    ? "a map"
+                          : od.IsNull()   ? "nothing"
+                                          : "an empty string"));
   if (p.output_dir.empty()) {
-    p.output_dir = root["output_dir"] ? (fs::path(config_dir) / root["output_dir"].Scalar()).string()
-                                      : (fs::current_path() / "out").string();
+    p.output_dir = od && od_ok ? (fs::path(config_dir) / od.Scalar()).string()
+                               : (fs::current_path() / "out").string();
   }
   p.output_dir = fs::absolute(p.output_dir).lexically_normal().string();
 
@@ -468,7 +545,8 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
   // Grows as the stages are made: each sees how the layers before it are computed.
   ctx.layer_origins = &p.layer_origins;
 
-  YAML::Node resolved = YAML::Clone(root);
+  // Unaliased: stages that share their params through a YAML alias get one resolved copy each.
+  YAML::Node resolved = detail::unaliasedCopy(root);
   // Folders as this run found them: relative ones would be read against the output folder, where
   // the resolved config is written.
   if (root["plugin_path"] && root["plugin_path"].IsSequence()) {
@@ -476,7 +554,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
     for (const auto& dir : common.plugin_dirs) dirs.push_back(fs::absolute(dir).string());
     resolved["plugin_path"] = dirs;
   }
-  if (root["output_dir"]) resolved["output_dir"] = p.output_dir;
+  if (od) resolved["output_dir"] = p.output_dir;
   // A `grid:` that is not a map is already a diagnostic; indexing into it would throw yaml-cpp's
   // own error instead of the list of problems.
   if (!resolved["grid"].IsMap()) resolved["grid"] = YAML::Node(YAML::NodeType::Map);
@@ -540,7 +618,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
   };
   if (const auto st = root["stages"]) {
     if (!st.IsSequence()) {
-      c.add(st.Mark(), "'stages' must be a list");
+      c.add(detail::valueMark(root, "stages"), "'stages' must be a list");
     } else {
       bool seen_non_ego = false;
       for (std::size_t i = 0; i < st.size(); ++i) {
@@ -572,7 +650,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
 
   if (const auto out = root["outputs"]) {
     if (!out.IsSequence()) {
-      c.add(out.Mark(), "'outputs' must be a list");
+      c.add(detail::valueMark(root, "outputs"), "'outputs' must be a list");
     } else {
       for (std::size_t i = 0; i < out.size(); ++i) {
         auto pl = make(out[i], "outputs", {PluginKind::kOutput}, nullptr, {}, resolved["outputs"][i]);

@@ -54,6 +54,14 @@ YAML::Node copyMapKeepingPositions(const YAML::Node& map);
 /// and left as it is (shared) if it is not a map, for the caller to report.
 YAML::Node copyEntryKeepingPositions(const YAML::Node& entry);
 
+/// Where to point at the value of `key` in `map`: the value's position, or the key's when the
+/// value is empty (yaml-cpp places an empty value at the next token, often the next line's key).
+YAML::Mark valueMark(const YAML::Node& map, const std::string& key);
+
+/// A deep copy in which no two places share a node. YAML::Clone keeps the file's aliases (`*p`
+/// is the node `&p` names), so a value set at one use would be set at every other.
+YAML::Node unaliasedCopy(const YAML::Node& n);
+
 /// Reports every repeated key of every map under `n` at the repeat.
 void checkDuplicateKeys(const YAML::Node& n, Diags& d);
 

@@ -144,6 +144,7 @@ EvalCounts& EvalCounts::operator+=(const EvalCounts& o) {
   scans += o.scans;
   frames_without_truth += o.frames_without_truth;
   frames_failed += o.frames_failed;
+  frames_failed_after_evaluation += o.frames_failed_after_evaluation;
   if (point_precision.size() < o.point_precision.size()) {
     point_precision.resize(o.point_precision.size());
     point_recall.resize(o.point_recall.size());
@@ -380,6 +381,7 @@ std::string toJson(const EvalCounts& c, const LabelSet& labels, EvalRules rules,
     << "    \"scans\": " << c.scans << ",\n"
     << "    \"frames_without_truth\": " << c.frames_without_truth << ",\n"
     << "    \"frames_failed\": " << c.frames_failed << ",\n"
+    << "    \"frames_failed_after_evaluation\": " << c.frames_failed_after_evaluation << ",\n"
     << "    \"points\": " << c.points << ",\n"
     << "    \"labelled_points\": " << c.labelled_points << ",\n"
     << "    \"classified_points\": " << c.classified_points << ",\n"
@@ -509,6 +511,10 @@ std::string toTable(const EvalCounts& c, const LabelSet& labels, EvalRules rules
   o << "- Tie rule: " << kTieRule << "\n";
   if (c.frames_failed > 0)
     o << "- " << grouped(c.frames_failed) << " frames failed in the pipeline (not evaluated)\n";
+  if (c.frames_failed_after_evaluation > 0)
+    o << "- " << grouped(c.frames_failed_after_evaluation)
+      << " frames failed in a later output after they were evaluated (counted here; the run "
+         "reports them failed)\n";
   if (c.frames_without_truth > 0) {
     o << "- " << grouped(c.frames_without_truth) << " frames without ground truth (skipped)\n";
   }

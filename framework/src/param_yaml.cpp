@@ -67,9 +67,12 @@ bool parseDouble(const YAML::Node& n, double& out) {
 
 std::string rangeText(const ParamSpec& s) {
   std::ostringstream o;
-  if (s.min && s.max) o << "in [" << *s.min << ", " << *s.max << "]";
-  else if (s.min) o << ">= " << *s.min;
-  else if (s.max) o << "<= " << *s.max;
+  if (s.min && s.max)
+    o << "in [" << numberText(*s.min) << ", " << numberText(*s.max) << "]";
+  else if (s.min)
+    o << ">= " << numberText(*s.min);
+  else if (s.max)
+    o << "<= " << numberText(*s.max);
   if (!s.unit.empty() && s.unit != "1") o << " " << s.unit;
   return o.str();
 }
@@ -80,7 +83,7 @@ std::string convert(const ParamSpec& s, const YAML::Node& n, ParamValue& out) {
   auto checkRange = [&](double v) -> std::string {
     if ((s.min && v < *s.min) || (s.max && v > *s.max) || std::isnan(v)) {
       std::ostringstream o;
-      o << "value " << v << " out of range: expected " << rangeText(s);
+      o << "value " << numberText(v) << " out of range: expected " << rangeText(s);
       return o.str();
     }
     return "";
@@ -189,7 +192,9 @@ std::vector<ParamIssue> applyParams(Plugin& plugin, const YAML::Node& params,
       issues.push_back({spec.name, mark, "parameter '" + spec.name + "': " + err});
       return;
     }
-    if (spec.existing_path) {
+    // An optional path given as "" is the default's "none" (a resolved config writes it so).
+    const bool none = spec.existing_path && !spec.required && std::get<std::string>(v).empty();
+    if (spec.existing_path && !none) {
       const std::string p = ctx.resolve(std::get<std::string>(v));
       if (!std::filesystem::exists(p)) {
         issues.push_back({spec.name, mark,
@@ -206,8 +211,22 @@ std::vector<ParamIssue> applyParams(Plugin& plugin, const YAML::Node& params,
       issues.push_back({"", params.Mark(), "'params' must be a map of parameter: value"});
     } else {
       for (auto it = params.begin(); it != params.end(); ++it) {
-        const std::string key = it->first.as<std::string>();
         const YAML::Mark mark = it->first.Mark();
+        if (!it->first.IsScalar()) {
+          // `? [a, b] : 3` and merge keys' maps: no parameter is named by a list or a map.
+          issues.push_back({"", mark,
+                            "parameter names must be plain words, got a " +
+                                std::string(it->first.IsSequence() ? "list" : "map")});
+          continue;
+        }
+        const std::string key = it->first.Scalar();
+        if (key == "<<") {
+          issues.push_back({key, mark,
+                            "YAML merge keys ('<<: *anchor') are not supported; give the "
+                            "parameters themselves, or the whole params map as an alias "
+                            "(params: *anchor)"});
+          continue;
+        }
         const ParamSpec* spec = decl.find(key);
         if (!spec) {
           std::string m = "unknown parameter '" + key + "'";

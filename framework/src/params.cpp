@@ -19,6 +19,16 @@ const char* toString(ParamType t) {
   return "?";
 }
 
+std::string numberText(double d) {
+  if (std::isnan(d)) return "nan";
+  if (std::isinf(d)) return d > 0 ? "inf" : "-inf";
+  // Whole numbers as such: general notation writes 4194304 as 4.194304e+06.
+  if (d == std::trunc(d) && std::abs(d) < 1e15) return std::to_string(static_cast<int64_t>(d));
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, d, std::chars_format::general);
+  return std::string(buf, r.ptr);
+}
+
 namespace {
 std::string num(double d) {
   if (std::isnan(d)) return ".nan";

@@ -305,6 +305,53 @@ using sweep_detail::readFrame0;
 using sweep_detail::runTraining;
 using sweep_detail::stringList;
 
+namespace {
+/// Names each item by what it reads and checks that no test item overlaps a train item.
+void identifyAndCheckDisjoint(std::vector<std::unique_ptr<Item>>& train,
+                              std::vector<std::unique_ptr<Item>>& test, const std::string& base_dir,
+                              PluginRegistry& reg, Diags& d, const std::string& train_note = "") {
+  // Train configs have no dataset names: an item is named by what it reads (the canonical data
+  // folder, or the source type and its distinguishing parameters), which is what a model's
+  // provenance and held_out must say, not a path relative to the config or a bare type.
+  for (auto* items : {&train, &test})
+    for (auto& it : *items) {
+      identify(*it, base_dir, reg);
+      if (!it->identity_text.empty()) it->label = it->identity_text;
+    }
+  std::vector<Item*> tr, te;
+  for (auto& it : train) tr.push_back(it.get());
+  for (auto& it : test) te.push_back(it.get());
+  if (train_note.empty()) {
+    checkDisjoint(tr, te, d);
+    return;
+  }
+  // --data items have no position in the file; name them in the message instead.
+  Diags od;
+  od.file = d.file;
+  checkDisjoint(tr, te, od);
+  for (auto& x : od.list) x.message += train_note;
+  od.throwIfAny();
+}
+}  // namespace
+
+void checkTrainSplit(const std::string& config_path, const std::vector<std::string>& plugin_dirs) {
+  Diags d;
+  d.file = config_path;
+  const YAML::Node root = detail::loadYamlFile(config_path, d, "file");
+  const YAML::Node split = root.IsMap() ? root["split"] : YAML::Node();
+  if (!split) return;
+  PluginRegistry reg(pluginDirs(plugin_dirs));
+  Frame0 f0;
+  f0.file = config_path;
+  f0.base_dir = fs::absolute(config_path).parent_path().lexically_normal().string();
+  readFrame0(root, f0, d, reg);
+  std::vector<std::unique_ptr<Item>> train, test;
+  parseSplit(split, nullptr, root["source"], f0.base_dir, d, train, test, false);
+  d.throwIfAny();
+  identifyAndCheckDisjoint(train, test, f0.base_dir, reg, d);
+  d.throwIfAny();
+}
+
 TrainResult trainModel(const TrainOptions& o) {
   std::ostream& log = o.log ? *o.log : std::cerr;
   if (o.model_out.empty()) throw std::runtime_error("no model file given (--out MODEL)");
@@ -444,27 +491,8 @@ TrainResult trainModel(const TrainOptions& o) {
     train.push_back(std::move(it));
   }
   d.throwIfAny();
-  // Train configs have no dataset names: an item is named by what it reads (the canonical data
-  // folder, or the source type and its distinguishing parameters), which is what a model's
-  // provenance and held_out must say, not a path relative to the config or a bare type.
-  for (auto* items : {&train, &test})
-    for (auto& it : *items) {
-      identify(*it, f0.base_dir, reg);
-      if (!it->identity_text.empty()) it->label = it->identity_text;
-    }
-  std::vector<Item*> tr, te;
-  for (auto& it : train) tr.push_back(it.get());
-  for (auto& it : test) te.push_back(it.get());
-  if (!o.data.empty()) {
-    // --data items have no position in the file; name them in the message instead.
-    Diags od;
-    od.file = o.config_path;
-    checkDisjoint(tr, te, od);
-    for (auto& x : od.list) x.message += " (train item from --data)";
-    od.throwIfAny();
-  } else {
-    checkDisjoint(tr, te, d);
-  }
+  identifyAndCheckDisjoint(train, test, f0.base_dir, reg, d,
+                           o.data.empty() ? "" : " (train item from --data)");
   for (auto& it : test) job.held_out.push_back(it->described());
   d.throwIfAny();
 

@@ -180,6 +180,9 @@ TEST(RunCli, BadArgumentsAreUsageErrorsAndRunNothing) {
       {{config, "--out", out, "--data", dir.str()},
        "c.yaml:3:9: stage 'simulator' (simulator): cannot set 'path' from the command line "
        "(--data sets 'path'): this plugin has no such parameter"},
+      // Past the end it would run nothing, exit 0 and replace the summaries with empty ones.
+      {{config, "--out", out, "--first", "1"},
+       "terramrf run: --first 1: the source (simulator) has 1 frame(s), numbered 0 to 0"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.message);
@@ -189,6 +192,17 @@ TEST(RunCli, BadArgumentsAreUsageErrorsAndRunNothing) {
     EXPECT_NE(err.find(c.message), std::string::npos) << err;
     EXPECT_FALSE(fs::exists(out + "/resolved_config.yaml"));
   }
+  // An option with an empty value is no option left out: `--out=` would write to ./out.
+  for (const cli::Args& args : std::vector<cli::Args>{
+           {config, "--out="}, {config, "--out", ""}, {config, "--out", out, "--data="}}) {
+    try {
+      cli::cmdRun(args);
+      ADD_FAILURE() << "no error for " << args.back();
+    } catch (const cli::UsageError& e) {
+      EXPECT_NE(std::string(e.what()).find("needs a value"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_FALSE(fs::exists(out + "/resolved_config.yaml"));
 }
 
 // `mesh` on a config that lists no textured_mesh output adds one with its defaults; an output

@@ -139,6 +139,41 @@ TEST(ValidateCli, ChecksASweepAsASweep) {
   EXPECT_EQ(cli::cmdValidate({sweep, "extra"}), cli::kUsage);
 }
 
+// A train config's split: is checked by validate as train checks it (before, validate said ok and
+// train then failed on the typo); a folder is said to be one.
+TEST(ValidateCli, ChecksATrainConfigsSplitAndRefusesAFolder) {
+  test::TempDir dir;
+  const std::string ok = put(dir, "ok.yaml",
+                             std::string(kTrainConfig) +
+                                 "split:\n  train: [{frames: [0, 0]}]\n"
+                                 "  test: [{params: {seed: 1}}]\n");
+  testing::internal::CaptureStdout();
+  EXPECT_EQ(cli::cmdValidate({ok}), cli::kOk);
+  testing::internal::GetCapturedStdout();
+  const std::string typo =
+      put(dir, "typo.yaml", std::string(kTrainConfig) + "split:\n  trian: [{frames: [0, 0]}]\n");
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(cli::cmdValidate({typo}), cli::kUsage);
+  std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("typo.yaml:10:3: unknown key 'trian' in split (did you mean 'train'?)"),
+            std::string::npos)
+      << err;
+  const std::string overlap = put(dir, "overlap.yaml",
+                                  std::string(kTrainConfig) +
+                                      "split:\n  train: [{frames: [0, 0]}]\n"
+                                      "  test: [{frames: [0, 0]}]\n");
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(cli::cmdValidate({overlap}), cli::kUsage);
+  err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("overlaps train item"), std::string::npos) << err;
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(cli::cmdValidate({dir.str()}), cli::kUsage);
+  err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find(dir.str() + ": config file is a folder; expected a YAML file"),
+            std::string::npos)
+      << err;
+}
+
 TEST(ValidateCli, TheWrongKindOfFileIsOneErrorNamingTheCommand) {
   // Before, each command listed every key of the other kind as unknown and its own as missing:
   // eleven errors for configs/sweeps/simulator.yaml given to run, none saying what was wrong.

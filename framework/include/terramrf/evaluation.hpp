@@ -152,6 +152,9 @@ struct EvalCounts {
   /// Frames of the run that failed in the pipeline before they were evaluated (set by whoever
   /// runs the evaluation: the evaluator never sees them), so totals say what they leave out.
   uint64_t frames_failed = 0;
+  /// Frames evaluated (and counted in these totals) that then failed in a later output: the run
+  /// reports them failed, so the totals say they hold them.
+  uint64_t frames_failed_after_evaluation = 0;
   uint64_t points = 0;                ///< 3D points in the evaluated frames
   uint64_t labelled_points = 0;       ///< ground truth not unknown ("annotated points")
   uint64_t classified_points = 0;     ///< points (any truth) in cells predicted not unknown

@@ -20,6 +20,9 @@ using ParamValue =
 
 /// Renders a value as YAML flow text (for describe and the resolved config).
 std::string toYaml(const ParamValue& v);
+/// The shortest text that reads back as `d` (4194304, 1e-09, 0.12000000000123): for messages,
+/// which must state the limits exactly (six digits made 4194304 read 4.1943e+06).
+std::string numberText(double d);
 
 struct ParamSpec {
   std::string name;

@@ -75,6 +75,12 @@ struct TrainResult {
 /// frame, a feature no stage writes, …).
 TrainResult trainModel(const TrainOptions& options);
 
+/// The checks `train` makes of a pipeline config's `split:` section (keys, items, disjoint train
+/// and test sets), without training: for `terramrf validate`. Throws ConfigError; a config
+/// without `split:` passes.
+void checkTrainSplit(const std::string& config_path,
+                     const std::vector<std::string>& plugin_dirs = {});
+
 // ---- compare ------------------------------------------------------------------------------------
 
 struct CompareOptions {

@@ -66,8 +66,14 @@ class EvaluationOutput : public Output {
   void end(const RunSummary& summary) override {
     if (!evaluator_) evaluator_.emplace(labels_, rules_id_);
     EvalCounts total = evaluator_->total();
-    // A frame that failed in an output after this one was evaluated all the same.
-    for (const auto& failed : summary.failed) total.frames_failed += seen_.count(failed.first) == 0;
+    // A frame that failed in an output after this one was evaluated all the same: counted, and
+    // said so, as the run reports it failed.
+    for (const auto& failed : summary.failed) {
+      if (seen_.count(failed.first))
+        ++total.frames_failed_after_evaluation;
+      else
+        ++total.frames_failed;
+    }
     std::string table = toTable(total, labels_, rules_id_);
     if (total.scans == 0) {
       table += "- no frame with ground truth was evaluated; all ratios are undefined\n";

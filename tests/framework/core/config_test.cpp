@@ -108,20 +108,64 @@ TEST(Config, AStageThatCannotBeMadeIsNotReportedAgainByTheReadsAfterIt) {
 // in timing.md and be counted as reading in compare's runtime table.
 TEST(Config, StageNamesOfTheRunnersOwnTimingAreRejected) {
   test::ConfigFixture f;
-  for (const std::string name : {"read", "read wait", "grid", "total"}) {
+  for (const std::string name : {"read", "grid", "total"}) {
     std::string text = test::ConfigFixture::validPipeline();
     text.replace(text.find("name: hdiff"), 11, "name: '" + name + "'");
-    text.replace(text.find("features: [height_diff]"), 23, "features: [height_diff]");
     const auto errs = errorsOf(f, text);
     EXPECT_TRUE(contains(errs, "c.yaml:6:12: stage '" + name +
                                    "' (height_difference): stage name '" + name +
                                    "' is the runner's own"))
         << joined(errs);
   }
+  // "read wait" cannot be a stage name anyway: names are plain words.
+  std::string wait = test::ConfigFixture::validPipeline();
+  wait.replace(wait.find("name: hdiff"), 11, "name: 'read wait'");
+  EXPECT_TRUE(contains(errorsOf(f, wait),
+                       "c.yaml:6:12: stage of type 'height_difference': 'name' "
+                       "must be a non-empty name"))
+      << joined(errorsOf(f, wait));
   // Outputs are timed as "output:<name>", so the names stay free there.
   std::string text = test::ConfigFixture::validPipeline();
   text.replace(text.find("outputs: []"), 11, "outputs: [{name: grid, type: grid_png}]");
   EXPECT_TRUE(errorsOf(f, text).empty()) << joined(errorsOf(f, text));
+}
+
+// Values that yaml-cpp's Scalar() reads as "" (a list, a null) are errors at their own line,
+// not an empty name, type or folder.
+TEST(Config, NamesTypesAndFoldersMustBeWords) {
+  test::ConfigFixture f;
+  auto with = [](const std::string& from, const std::string& to) {
+    std::string text = test::ConfigFixture::validPipeline();
+    text.replace(text.find(from), from.size(), to);
+    return text;
+  };
+  struct Case {
+    std::string text, error;
+  };
+  const std::vector<Case> cases = {
+      {with("name: hdiff", "name: [a, b]"),
+       "c.yaml:6:12: stage of type 'height_difference': 'name' must be a non-empty name of "
+       "letters, digits, '_', '-' and '.' (it heads the timing table's rows and the metric "
+       "keys), got a list"},
+      {with("name: hdiff", "name: ~"), "c.yaml:6:6: stage of type 'height_difference': 'name' "},
+      {with("name: hdiff", "name: 'a|b'"), "got 'a|b'"},
+      {with("type: icm", "type: [icm]"),
+       "c.yaml:8:25: 'type' must be a plugin type name, got a list"},
+      {with("outputs: []", "output_dir: [a, b]\noutputs: []"),
+       "c.yaml:9:13: 'output_dir' must be a folder name (a non-empty string), got a list"},
+      {with("outputs: []", "output_dir:\noutputs: []"),
+       "c.yaml:9:1: 'output_dir' must be a folder name (a non-empty string), got nothing"},
+      {with("outputs: []", "output_dir: ''\noutputs: []"), "got an empty string"},
+      {with("outputs: []", "outputs:\nlabels: ~"), "c.yaml:9:1: 'outputs' must be a list"},
+      {with("type: height_difference}", "type: height_difference, params: {? [a, b] : 3}}"),
+       "stage 'hdiff' (height_difference): parameter names must be plain words, got a list"},
+      {with("type: height_difference}", "type: height_difference, params: {<<: {min_points: 2}}}"),
+       "YAML merge keys ('<<: *anchor') are not supported"},
+  };
+  for (const Case& c : cases) {
+    const auto errs = errorsOf(f, c.text);
+    EXPECT_TRUE(contains(errs, c.error)) << c.text << "\n" << joined(errs);
+  }
 }
 
 TEST(Config, OptimiserWithoutEnergyIsRejected) {

@@ -70,6 +70,31 @@ TEST(Params, CollectsEveryProblem) {
   }
 }
 
+// Limits and values are stated exactly: six significant digits made 4294967296 read 4.29497e+09
+// and a range end 4194304 read 4.1943e+06.
+TEST(Params, RangeMessagesStateNumbersExactly) {
+  struct Big : Stage {
+    int64_t seed = 1;
+    double step_m = 0.5;
+    void declare(ParamDecl& d) override {
+      d.add("seed", seed, "seed").range(0, 4194304);
+      d.add("step_m", step_m, "step").unit("m").range(0.000123457, 0.5);
+    }
+    void process(FrameContext&) override {}
+  } b;
+  try {
+    setParams(b, "{seed: 4294967296, step_m: 0.0001234566}", PluginContext{});
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("value 4294967296 out of range: expected in [0, 4194304]"), std::string::npos)
+        << m;
+    EXPECT_NE(m.find("value 0.0001234566 out of range: expected in [0.000123457, 0.5] m"),
+              std::string::npos)
+        << m;
+  }
+}
+
 TEST(Params, ConfigureErrorNamesTheParameter) {
   Demo d;
   try {

@@ -216,6 +216,35 @@ TEST(Pipeline, TheResolvedConfigReproducesTheRun) {
   EXPECT_EQ(p.output_dir, f.dir.str() + "/somewhere");
 }
 
+// Two stages sharing their params through a YAML alias: each keeps its own in the resolved
+// config (assigning the first's resolved params through the shared node gave it the second's).
+TEST(Pipeline, TheResolvedConfigKeepsAliasedParamsApart) {
+  test::ConfigFixture f;
+  std::string text = test::ConfigFixture::validPipeline();
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"type: eigen_preclass}", "type: eigen_preclass, params: &p {min_points: 4}}"},
+           {"type: height_difference}", "type: height_difference, params: *p}"}})
+    text.replace(text.find(from), from.size(), to);
+  LoadOptions lo;
+  lo.output_dir = f.dir.str() + "/out";
+  Pipeline p = loadPipeline(f.write("alias.yaml", text), lo, f.registry);
+  RunOptions ro;
+  ro.progress = false;
+  ro.limit = 1;
+  runPipeline(p, ro);
+  const std::string resolved = readFile(p.output_dir + "/resolved_config.yaml");
+  const YAML::Node y = YAML::Load(resolved);
+  EXPECT_EQ(y["stages"][0]["params"]["min_points"].as<int>(), 4);
+  EXPECT_EQ(y["stages"][1]["params"]["min_points"].as<int>(), 4);
+  EXPECT_TRUE(y["stages"][0]["params"]["threshold_m2"]) << resolved;  // eigen_preclass's own
+  EXPECT_FALSE(y["stages"][0]["params"]["layer"]) << resolved;        // height_difference's
+  EXPECT_EQ(resolved.find('*'), std::string::npos) << resolved;
+  // And it loads again as the same pipeline.
+  LoadOptions again;
+  again.output_dir = f.dir.str() + "/out2";
+  EXPECT_NO_THROW(loadPipeline(f.write("resolved.yaml", resolved), again, f.registry));
+}
+
 }  // namespace terramrf
 
 namespace terramrf {

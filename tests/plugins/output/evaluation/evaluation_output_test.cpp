@@ -156,7 +156,13 @@ TEST_F(EvaluationOutputTest, DefaultsAndNoPerFrameFiles) {
       << printed;
   const fs::path ev = dir.path() / "evaluation";  // default subdir
   ASSERT_TRUE(fs::exists(ev / "summary.json"));
-  EXPECT_EQ(YAML::LoadFile((ev / "summary.json").string())["counts"]["frames_failed"].as<int>(), 1);
+  const YAML::Node counts = YAML::LoadFile((ev / "summary.json").string())["counts"];
+  EXPECT_EQ(counts["frames_failed"].as<int>(), 1);
+  // "x" is in the totals, and the summary says so: the run reports it failed.
+  EXPECT_EQ(counts["frames_failed_after_evaluation"].as<int>(), 1);
+  EXPECT_NE(printed.find("- 1 frames failed in a later output after they were evaluated"),
+            std::string::npos)
+      << printed;
   EXPECT_FALSE(fs::exists(ev / "x.json"));
 }
 
