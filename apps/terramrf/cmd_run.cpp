@@ -35,6 +35,7 @@ int cmdValidate(const Args& args) {
     std::cerr << "terramrf validate: unexpected argument '" << a[0] << "'\n";
     return kUsage;
   }
+  PluginRegistry reg(PluginRegistry::defaultSearchDirs());
   try {
     if (isSweepFile(config)) {
       if (!lo.data_override.empty()) {
@@ -50,13 +51,14 @@ int cmdValidate(const Args& args) {
         std::cout << "  skip " << run << ": " << why << "\n";
       return kOk;
     }
-    PluginRegistry reg(PluginRegistry::defaultSearchDirs());
     Pipeline p = loadPipeline(config, lo, reg);
+    printProblems(reg);
     checkTrainSplit(config);  // what `train` will check of its split: section
     std::cout << config << ": ok (" << p.stages.size() << " stages, " << p.outputs.size()
               << " outputs, " << p.source->size() << " frames)\n";
     return kOk;
   } catch (const ConfigError& e) {
+    printProblems(reg);
     for (const auto& d : e.diagnostics()) std::cerr << d.str() << "\n";
     std::cerr << e.diagnostics().size() << " error(s) in " << config << "\n";
     return kUsage;
@@ -88,10 +90,14 @@ int parseRunArgs(const Args& args, const char* command, RunArgs& out) {
 
 bool loadOrReport(const std::string& config, const LoadOptions& options, PluginRegistry& registry,
                   Pipeline& out) {
+  // Plugin files that did not load (or a config's plugin_path copy that shadows a built-in):
+  // without them an "unknown plugin type" would not say why.
   try {
     out = loadPipeline(config, options, registry);
+    printProblems(registry);
     return true;
   } catch (const ConfigError& e) {
+    printProblems(registry);
     for (const auto& d : e.diagnostics()) std::cerr << d.str() << "\n";
     std::cerr << e.diagnostics().size() << " error(s) in " << config << "; nothing was run\n";
     return false;

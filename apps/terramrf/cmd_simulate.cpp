@@ -64,6 +64,17 @@ int cmdSimulate(const Args& args) {
     std::cerr << "terramrf simulate: " << e.what() << "\n";
     return kUsage;
   }
+  // Frames of another run (another seed, more frames) would stay beside these and be read as
+  // one sequence; nothing is overwritten, the folder is refused.
+  for (const char* held : {"velodyne", "labels", "rings", "image_2", "image_3", "image_2_truth",
+                           "calib.txt", "times.txt", "poses.txt"}) {
+    std::error_code ec;
+    if (std::filesystem::exists(std::filesystem::path(out) / held, ec)) {
+      std::cerr << "terramrf simulate: " << out << " already holds a sequence (" << held
+                << "); frames of this run would mix with it: give an empty or new folder\n";
+      return kUsage;
+    }
+  }
   KittiSequenceWriter writer(out);
   const std::size_t n = source->size();
   for (std::size_t i = 0; i < n; ++i) {

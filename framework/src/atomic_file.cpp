@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -68,6 +69,23 @@ std::string safeFileName(std::string s) {
   }
   if (s.empty() || s == "." || s == "..") s = "_" + s;
   return s;
+}
+
+std::vector<std::string> frameFilesIn(const std::string& dir, const std::string& stem,
+                                      const std::string& ext) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> out;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.size() < stem.size() + ext.size() || name.rfind(stem, 0) != 0 ||
+        name.compare(name.size() - ext.size(), ext.size(), ext) != 0)
+      continue;
+    const std::string middle = name.substr(stem.size(), name.size() - stem.size() - ext.size());
+    if (middle.empty() || middle[0] == '_') out.push_back(e.path().string());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
 }
 
 std::string readFile(const std::string& path) {

@@ -124,6 +124,34 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   info.labels = p.labels.get();
   info.grid = p.grid;
   for (auto& o : p.outputs) o->begin(info);
+  // An earlier run's summaries would pass for this run's should it stop before the end, where
+  // they are written again; its per-frame files are removed only for frames that fail (below).
+  const auto run_start = std::filesystem::file_time_type::clock::now();
+  auto inOutputDir = [&](const std::string& f) {
+    const std::filesystem::path path(f);
+    return path.is_absolute() ? path : std::filesystem::path(p.output_dir) / path;
+  };
+  {
+    std::vector<std::string> summaries = {"timing.md", "metrics.csv"};
+    for (auto& o : p.outputs)
+      for (const auto& f : o->summaryFiles()) summaries.push_back(f);
+    for (const auto& f : summaries) {
+      std::error_code ec;
+      std::filesystem::remove(inOutputDir(f), ec);
+    }
+  }
+  auto removeStaleFrameFiles = [&](const std::string& frame_id) {
+    for (auto& o : p.outputs) {
+      for (const auto& f : o->frameFiles(frame_id)) {
+        std::error_code ec;
+        const auto path = inOutputDir(f);
+        const auto t = std::filesystem::last_write_time(path, ec);
+        if (ec || t >= run_start) continue;  // absent, or this run's own
+        if (std::filesystem::remove(path, ec))
+          log << "  removed " << path.string() << ", left by an earlier run\n";
+      }
+    }
+  };
 
   // Timing slots: read, read wait, egomotion stages, grid, other stages, outputs, total.
   std::vector<std::string> slot_names = {"read", "read wait"};
@@ -227,6 +255,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       res.summary.failed.push_back({id, why});
       if (opt.progress) std::fprintf(stderr, "%s", ::isatty(2) ? "\n" : "");
       log << "frame " << id << " failed and was skipped: " << why << "\n";
+      removeStaleFrameFiles(id);
     }
     progress.update(k + 1, id, msSince(t_frame), res.summary.failed.size());
   }

@@ -205,6 +205,28 @@ TEST(RunCli, BadArgumentsAreUsageErrorsAndRunNothing) {
   EXPECT_FALSE(fs::exists(out + "/resolved_config.yaml"));
 }
 
+// A plugin file in the config's plugin_path that does not load: run and validate say why, not
+// only that the type is unknown (before, only `terramrf plugins` with the environment's path did).
+TEST(RunCli, PluginFilesThatDoNotLoadAreNamedWithTheirReason) {
+  test::TempDir dir;
+  fs::create_directories(dir.str() + "/plugins");
+  std::ofstream(dir.str() + "/plugins/libmyfeat.so") << "not a library";
+  const std::string config = dir.str() + "/c.yaml";
+  std::ofstream(config) << "version: 1\nplugin_path: [plugins]\ngrid: {size_m: 30, cell_m: 0.5}\n"
+                           "source: {type: simulator, params: {frames: 1}}\n"
+                           "stages:\n  - {name: a, type: myfeat}\noutputs: []\n";
+  for (auto* cmd : {&cli::cmdRun, &cli::cmdValidate}) {
+    testing::internal::CaptureStderr();
+    EXPECT_EQ((*cmd)(cli::Args{config}), cli::kUsage);  // a config error: nothing runs
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_NE(
+        err.find("warning: " + dir.str() + "/plugins/libmyfeat.so: not a loadable shared library"),
+        std::string::npos)
+        << err;
+    EXPECT_NE(err.find("unknown plugin type 'myfeat'"), std::string::npos) << err;
+  }
+}
+
 // `mesh` on a config that lists no textured_mesh output adds one with its defaults; an output
 // folder that cannot be made is an error before anything runs.
 TEST(MeshCli, AddsTheMeshOutputAndRefusesAFolderThatIsAFile) {
@@ -261,6 +283,11 @@ TEST(SimulateCli, WritesFramesAndRefusesWhatItCannotSimulate) {
       {{"--out", out, "--config", kitti},
        kitti + ": the source is 'semantickitti', but simulate needs a simulator source"},
       {{"--out", out, "--config", dir.str() + "/none.yaml"}, "none.yaml"},
+      // Another world into the same folder would leave the first run's frames beside it.
+      {{"--out", out, "--frames", "2", "--seed", "5"},
+       "terramrf simulate: " + out +
+           " already holds a sequence (velodyne); frames of this run "
+           "would mix with it: give an empty or new folder"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.message);

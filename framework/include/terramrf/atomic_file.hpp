@@ -3,6 +3,7 @@
 // crash or a failing frame never leaves a truncated file or replaces a good one.
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace terramrf {
 
@@ -13,6 +14,12 @@ void writeFileAtomic(const std::string& path, std::string_view bytes);
 /// A frame id or camera name made safe as one file-name component inside an output folder: path
 /// separators, ':' and spaces become '_', and "", "." and ".." get a leading '_'.
 std::string safeFileName(std::string s);
+
+/// The files of folder `dir` (not its subfolders) named `<stem><ext>` or `<stem>_<anything><ext>`:
+/// what an output wrote for one frame, camera images included (`Output::frameFiles`). None if the
+/// folder does not exist.
+std::vector<std::string> frameFilesIn(const std::string& dir, const std::string& stem,
+                                      const std::string& ext);
 
 /// Reads a whole file; throws InputError naming it if it cannot be read.
 std::string readFile(const std::string& path);

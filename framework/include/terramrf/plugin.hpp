@@ -134,6 +134,13 @@ class Output : public Plugin {
   virtual void write(const FrameContext& ctx) = 0;
   /// Called once at the end (e.g. evaluation totals). Files written here must be atomic.
   virtual void end(const RunSummary& /*summary*/) {}
+  /// The files write() makes for frame `frame_id` (absolute, or relative to the run's output
+  /// folder). When the frame fails, the runner removes those an earlier run left there, so they
+  /// cannot pass for this run's.
+  virtual std::vector<std::string> frameFiles(const std::string& /*frame_id*/) const { return {}; }
+  /// The files end() makes. The runner removes them before the first frame: a run that stops
+  /// early leaves none of an earlier run's summaries beside its own resolved config.
+  virtual std::vector<std::string> summaryFiles() const { return {}; }
 };
 
 // ---- registration -------------------------------------------------------------------------

@@ -83,6 +83,13 @@ class EvaluationOutput : public Output {
     std::cout << table << std::flush;
   }
 
+  std::vector<std::string> frameFiles(const std::string& frame_id) const override {
+    return {path(frame_id + ".json")};
+  }
+  std::vector<std::string> summaryFiles() const override {
+    return {path("summary.json"), path("summary.md")};
+  }
+
  private:
   std::string path(const std::string& file) const {
     return (std::filesystem::path(output_dir_) / subdir_ / file).string();

@@ -51,6 +51,10 @@ class FusionOverlayOutput final : public Output {
     if (info.labels) labels_ = *info.labels;
   }
 
+  std::vector<std::string> frameFiles(const std::string& frame_id) const override {
+    return frameFilesIn(path(""), safeFileName(frame_id), ".png");
+  }
+
   void write(const FrameContext& ctx) override {
     if (!ctx.frame || !ctx.grid)
       throw std::invalid_argument("fusion_overlay: frame context without a frame or a grid");

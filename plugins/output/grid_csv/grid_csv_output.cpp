@@ -55,6 +55,11 @@ class GridCsvOutput : public Output {
     writeFileAtomic((std::filesystem::path(output_dir_) / subdir_ / (id + ".csv")).string(), csv);
   }
 
+  std::vector<std::string> frameFiles(const std::string& frame_id) const override {
+    return {(std::filesystem::path(output_dir_) / subdir_ / (safeFileName(frame_id) + ".csv"))
+                .string()};
+  }
+
  private:
   std::string subdir_ = "grid_csv";
   std::vector<std::string> layers_;

@@ -63,6 +63,10 @@ class GridPngOutput : public Output {
     }
   }
 
+  std::vector<std::string> frameFiles(const std::string& frame_id) const override {
+    return frameFilesIn(path(""), safeFileName(frame_id), ".png");
+  }
+
  private:
   std::string path(const std::string& file) const {
     return (std::filesystem::path(output_dir_) / subdir_ / file).string();

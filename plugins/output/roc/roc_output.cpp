@@ -97,6 +97,10 @@ class RocOutput final : public Output {
     std::cout << "\n" << std::flush;
   }
 
+  std::vector<std::string> summaryFiles() const override {
+    return {path("summary.json"), path("roc.csv"), path("roc.svg")};
+  }
+
  private:
   std::string path(const std::string& f) const {
     return (std::filesystem::path(output_dir_) / subdir_ / f).string();

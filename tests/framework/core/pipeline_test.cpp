@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
@@ -214,6 +215,57 @@ TEST(Pipeline, TheResolvedConfigReproducesTheRun) {
   EXPECT_EQ(y["plugin_path"][0].as<std::string>(), f.dir.str() + "/plugins");
   EXPECT_EQ(y["output_dir"].as<std::string>(), f.dir.str() + "/somewhere");
   EXPECT_EQ(p.output_dir, f.dir.str() + "/somewhere");
+}
+
+namespace {
+/// An output that notes, when its first frame comes, whether a file exists.
+struct ExistsProbe : Output {
+  std::string file;
+  int seen = -1;
+  void write(const FrameContext&) override {
+    if (seen < 0) seen = std::filesystem::exists(file) ? 1 : 0;
+  }
+};
+}  // namespace
+
+// A run into a folder an earlier run wrote: a frame that fails leaves no earlier frame file that
+// could pass for its result, and no earlier summary stays beside this run's resolved config
+// while the run is under way (a run stopped then would leave them looking like its own).
+TEST(Pipeline, EarlierRunsFilesCannotPassForThisRuns) {
+  namespace fs = std::filesystem;
+  test::ConfigFixture f;
+  std::string text = test::ConfigFixture::validPipeline("{frames: 3, bad_frames: [1]}");
+  text.replace(text.find("outputs: []"), 11, "outputs: [{type: grid_csv}, {type: evaluation}]");
+  const std::string out = f.dir.str() + "/out";
+  const auto old_time = fs::file_time_type::clock::now() - std::chrono::hours(1);
+  for (const char* file : {"grid_csv/000000.csv", "grid_csv/000001.csv", "evaluation/000001.json",
+                           "evaluation/summary.md", "timing.md"}) {
+    fs::create_directories(fs::path(out + "/" + file).parent_path());
+    std::ofstream(out + "/" + file) << "earlier run\n";
+    fs::last_write_time(out + "/" + file, old_time);
+  }
+  LoadOptions lo;
+  lo.output_dir = out;
+  Pipeline p = loadPipeline(f.write("c.yaml", text), lo, f.registry);
+  auto probe = std::make_unique<ExistsProbe>();
+  probe->file = out + "/evaluation/summary.md";
+  ExistsProbe* seen = probe.get();
+  p.outputs.push_back(std::move(probe));
+  std::ostringstream log;
+  RunOptions ro;
+  ro.progress = false;
+  ro.log = &log;
+  const RunResult r = runPipeline(p, ro);
+  ASSERT_EQ(r.summary.failed.size(), 1u);
+  EXPECT_EQ(seen->seen, 0) << "the earlier summary was still there during the run";
+  EXPECT_FALSE(fs::exists(out + "/grid_csv/000001.csv")) << log.str();
+  EXPECT_FALSE(fs::exists(out + "/evaluation/000001.json")) << log.str();
+  EXPECT_NE(log.str().find("removed " + out + "/grid_csv/000001.csv, left by an earlier run"),
+            std::string::npos)
+      << log.str();
+  EXPECT_NE(readFile(out + "/grid_csv/000000.csv"), "earlier run\n");  // this run's
+  EXPECT_NE(readFile(out + "/evaluation/summary.md"), "earlier run\n");
+  EXPECT_FALSE(fs::exists(out + "/timing.md"));  // written by the command after the run
 }
 
 // Two stages sharing their params through a YAML alias: each keeps its own in the resolved
