@@ -17,6 +17,7 @@
 
 #include "fs_checks.hpp"
 #include "terramrf/errors.hpp"
+#include "terramrf/io/natural_order.hpp"
 #include "text_numbers.hpp"
 
 namespace terramrf {
@@ -57,13 +58,14 @@ Eigen::Isometry3d isoFrom34(const std::vector<double>& v) {
   return T;
 }
 
+/// Stems of the `ext` files of `dir` in natural order (9 before 10; names need no zero padding).
 std::vector<std::string> sortedStems(const fs::path& dir, const std::string& ext) {
   std::vector<std::string> stems;
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(dir, ec))
     if (e.is_regular_file() && e.path().extension() == ext)
       stems.push_back(e.path().stem().string());
-  std::sort(stems.begin(), stems.end());
+  sortNatural(stems);
   return stems;
 }
 
@@ -420,7 +422,7 @@ KittiLayout resolveKittiLayout(const std::string& path, const std::string& seque
     std::vector<std::string> seqs;
     for (const auto& e : fs::directory_iterator(p / "sequences"))
       if (e.is_directory()) seqs.push_back(e.path().filename().string());
-    std::sort(seqs.begin(), seqs.end());
+    sortNatural(seqs);
     std::string list;
     for (const auto& s : seqs) list += (list.empty() ? "" : ", ") + s;
     if (sequence.empty()) {

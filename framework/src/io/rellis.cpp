@@ -10,6 +10,7 @@
 
 #include "fs_checks.hpp"
 #include "terramrf/errors.hpp"
+#include "terramrf/io/natural_order.hpp"
 #include "terramrf/yaml_keys.hpp"
 
 namespace terramrf {
@@ -82,8 +83,10 @@ RellisLayout resolveRellisLayout(const std::string& path) {
     if (auto it = pngs.find(frameNumber(id)); it != pngs.end()) f.image_label = it->second;
     L.frames.push_back(std::move(f));
   }
-  std::sort(L.frames.begin(), L.frames.end(),
-            [](const RellisFrameFiles& a, const RellisFrameFiles& b) { return a.id < b.id; });
+  // Natural order: the full release pads ids to six digits, but other copies need not.
+  std::sort(
+      L.frames.begin(), L.frames.end(),
+      [](const RellisFrameFiles& a, const RellisFrameFiles& b) { return naturalLess(a.id, b.id); });
   if (L.frames.empty())
     throw ParamError("path", "no RELLIS-3D scans (NNNNNN.bin) in '" + scans.string() + "'");
   L.camera_info = firstExisting({p / "camera_info.txt", p.parent_path() / "camera_info.txt"});

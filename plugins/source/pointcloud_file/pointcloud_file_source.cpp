@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "terramrf/io/label_map.hpp"
+#include "terramrf/io/natural_order.hpp"
 #include "terramrf/io/ring_recovery.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -160,7 +161,8 @@ const pcl::PCLPointField* findField(const pcl::PCLPointCloud2& c, const std::str
 class PointCloudFileSource : public Source {
  public:
   void declare(ParamDecl& d) override {
-    d.add("path", path_, "a .pcd or .ply file, or a folder of them (frames sorted by name)")
+    d.add("path", path_,
+          "a .pcd or .ply file, or a folder of them (frames in natural name order: 9 before 10)")
         .required()
         .existingPath();
     d.add("label_map", label_map_,
@@ -188,7 +190,7 @@ class PointCloudFileSource : public Source {
     if (fs::is_directory(p)) {
       for (const auto& e : fs::directory_iterator(p))
         if (e.is_regular_file() && usable(e.path())) files_.push_back(e.path().string());
-      std::sort(files_.begin(), files_.end());
+      sortNatural(files_);  // scan9 before scan10, as recorded
       if (files_.empty()) throw ParamError("path", "no .pcd or .ply files in '" + path_ + "'");
     } else {
       if (!usable(p)) throw ParamError("path", "'" + path_ + "' is not a .pcd or .ply file");

@@ -552,6 +552,17 @@ TEST(KittiLayout, DatasetRootErrorsNameTheFolderAndWhatIsExpected) {
   }
 }
 
+// Frames come in the order they were recorded, also when their names are not zero-padded: text
+// order put 10.bin before 9.bin (and 100.bin before 11.bin).
+TEST(KittiLayout, UnpaddedFrameNamesComeInNumericOrder) {
+  test::TempDir dir;
+  std::filesystem::create_directories(dir.str() + "/velodyne");
+  for (const char* n : {"10", "9", "100", "1", "11", "0"})
+    test::writeScan(dir.str() + "/velodyne/" + n + ".bin", {});
+  EXPECT_EQ(resolveKittiLayout(dir.str(), "").stems,
+            (std::vector<std::string>{"0", "1", "9", "10", "11", "100"}));
+}
+
 TEST(KittiScan, ReadTimeOfAFullScanWithLabels) {
   const std::string bin = seqFile("velodyne/000000.bin"), lab = seqFile("labels/000000.label");
   const LabelMap map = skMap();

@@ -56,6 +56,17 @@ TEST(Rellis, ImagesAreMatchedByFrameNumberWhateverTheirPadding) {
   EXPECT_NE(by_id.at("000000")->image.find("frame0-4.jpg"), std::string::npos);
 }
 
+// Frames come in the order they were recorded, also when scan names are not zero-padded: text
+// order put 10.bin before 9.bin.
+TEST(Rellis, UnpaddedScanNamesComeInNumericOrder) {
+  test::TempDir dir;
+  for (const char* n : {"10", "9", "100", "1", "11"})
+    std::ofstream(dir.str() + "/" + n + ".bin") << "";
+  std::vector<std::string> ids;
+  for (const auto& f : resolveRellisLayout(dir.str()).frames) ids.push_back(f.id);
+  EXPECT_EQ(ids, (std::vector<std::string>{"1", "9", "10", "11", "100"}));
+}
+
 TEST(Rellis, ScanLabelsAndOrganisedRings) {
   const RellisLayout L = resolveRellisLayout(test::dataPath(kDir));
   const auto& files = L.frames[0];

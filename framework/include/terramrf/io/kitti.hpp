@@ -98,7 +98,8 @@ Eigen::Isometry3d kittiLidarPose(const Eigen::Isometry3d& cam0_pose, const Eigen
 /// times.txt: one timestamp [s] per line.
 std::vector<double> readKittiTimes(const std::string& path);
 
-/// Where the files of a KITTI-style dataset are. Frames are velodyne/*.bin sorted by name.
+/// Where the files of a KITTI-style dataset are. Frames are velodyne/*.bin in natural name order
+/// (naturalLess: 9.bin before 10.bin).
 struct KittiLayout {
   enum class Kind { kSequence, kObject };
   Kind kind = Kind::kSequence;
@@ -106,7 +107,7 @@ struct KittiLayout {
   std::string calib_file;          ///< sequence: calib.txt (may not exist)
   std::string poses_file;          ///< sequence: poses.txt or <dataset>/poses/NN.txt; "" if none
   std::string times_file;          ///< sequence: times.txt; "" if none
-  std::vector<std::string> stems;  ///< frame ids (file stems), sorted
+  std::vector<std::string> stems;  ///< frame ids (file stems), in natural order
 
   std::string scanPath(std::size_t i) const;
   std::string labelPath(std::size_t i) const;  ///< labels/<stem>.label (may not exist)

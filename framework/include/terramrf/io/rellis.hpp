@@ -23,7 +23,7 @@ struct RellisLayout {
   std::string root;
   std::string camera_info;               ///< camera_info.txt ("" if absent)
   std::string transforms;                ///< transforms.yaml ("" if absent)
-  std::vector<RellisFrameFiles> frames;  ///< sorted by id
+  std::vector<RellisFrameFiles> frames;  ///< by id in natural order (9 before 10)
 };
 
 /// Accepts the flat example layout (NNNNNN.bin, NNNNNN.label, frameNNNNNN-*.jpg/.png,

@@ -125,6 +125,21 @@ TEST_F(PointCloudFileTest, BinaryAndAsciiPcd) {
   }
 }
 
+// A folder of clouds is read in recording order, also when the names are not zero-padded: text
+// order read 10.pcd before 9.pcd.
+TEST_F(PointCloudFileTest, UnpaddedFileNamesComeInNumericOrder) {
+  test::TempDir dir;
+  const auto cloud = makeCloud(kPoints, true, true);
+  for (const char* n : {"scan10.pcd", "scan9.pcd", "scan100.pcd", "scan1.pcd"})
+    ASSERT_EQ(savePcd(dir.str() + "/" + n, cloud), 0);
+  auto src = make("{path: " + dir.str() + ", label_map: " + skMap() + "}");
+  ASSERT_EQ(src->size(), 4u);
+  std::vector<std::string> ids;
+  for (std::size_t i = 0; i < src->size(); ++i) ids.push_back(src->frameId(i));
+  EXPECT_EQ(ids, (std::vector<std::string>{"scan1", "scan9", "scan10", "scan100"}));
+  EXPECT_EQ(src->read(1).source_path, dir.str() + "/scan9.pcd");
+}
+
 TEST_F(PointCloudFileTest, Ply) {
   test::TempDir dir;
   const std::string file = dir.str() + "/scan.ply";
