@@ -2,6 +2,7 @@
 
 #include <Eigen/QR>
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -67,6 +68,31 @@ std::vector<std::string> sortedStems(const fs::path& dir, const std::string& ext
       stems.push_back(e.path().stem().string());
   sortNatural(stems);
   return stems;
+}
+
+/// The last name of `p` as given ("…/sequences/00/" and "." name their folder too).
+std::string folderName(const fs::path& p) {
+  std::error_code ec;
+  fs::path abs = fs::absolute(p, ec).lexically_normal();
+  if (ec) abs = p.lexically_normal();
+  if (abs.filename().empty()) abs = abs.parent_path();
+  return abs.filename().string();
+}
+
+/// Whether `sequence` names the sequence folder `name`: the same text, or the same number ("0"
+/// and "00", as under sequences/).
+bool namesSequence(const std::string& sequence, const std::string& name) {
+  if (sequence == name) return true;
+  auto digits = [](const std::string& s) {
+    return !s.empty() &&
+           std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); });
+  };
+  if (!digits(sequence) || !digits(name)) return false;
+  auto value = [](const std::string& s) {
+    const std::size_t first = s.find_first_not_of('0');
+    return first == std::string::npos ? std::string("0") : s.substr(first);
+  };
+  return value(sequence) == value(name);
 }
 
 using io_detail::finiteNumber;
@@ -459,6 +485,22 @@ KittiLayout resolveKittiLayout(const std::string& path, const std::string& seque
   KittiLayout L;
   L.root = folder.string();
   L.kind = isDir(folder / "calib") ? KittiLayout::Kind::kObject : KittiLayout::Kind::kSequence;
+  // `sequence` picks a folder under sequences/. A path that is a sequence or object folder itself
+  // has nothing to pick, and reading it for another sequence would label the results with the
+  // wrong one. The parameter defaults to "", so a value here was set on purpose.
+  if (!sequence.empty() && dataset_root.empty()) {
+    if (L.kind == KittiLayout::Kind::kObject)
+      throw ParamError("sequence", "is '" + sequence + "', but path '" + path +
+                                       "' is a KITTI object folder, which has no sequences; "
+                                       "leave sequence empty");
+    const std::string name = folderName(p);
+    if (!namesSequence(sequence, name))
+      throw ParamError("sequence", "is '" + sequence + "', but path '" + path +
+                                       "' is itself the sequence folder '" + name +
+                                       "' (it holds velodyne/); give the dataset root (the folder "
+                                       "holding sequences/) as path to choose a sequence, or "
+                                       "leave sequence empty");
+  }
   L.stems = sortedStems(folder / "velodyne", ".bin");
   if (L.kind == KittiLayout::Kind::kSequence) {
     L.calib_file = (folder / "calib.txt").string();

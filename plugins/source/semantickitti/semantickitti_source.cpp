@@ -34,7 +34,9 @@ class SemanticKittiSource : public Source {
           "training folder (velodyne/, image_2/, calib/)")
         .required()
         .existingPath();
-    d.add("sequence", sequence_, "sequence NN under <path>/sequences (empty: the only one)");
+    d.add("sequence", sequence_,
+          "sequence NN under <path>/sequences (empty: the only one). With a sequence folder as "
+          "path it must be empty or that folder's name; with an object folder, empty");
     d.add("label_map", label_map_,
           "label-map YAML for labels/*.label (empty: configs/label_maps/semantickitti.yaml)")
         .existingPath();

@@ -563,6 +563,40 @@ TEST(KittiLayout, UnpaddedFrameNamesComeInNumericOrder) {
             (std::vector<std::string>{"0", "1", "9", "10", "11", "100"}));
 }
 
+// `sequence` picks a folder under sequences/. A path that is already a sequence folder (or a KITTI
+// object folder) has nothing to pick: `path: …/sequences/00, sequence: "08"` used to read 00
+// without a word. A sequence naming the folder itself ("00", or "0" for "00") is fine.
+TEST(KittiLayout, SequenceThatDisagreesWithASequenceFolderPathIsAnError) {
+  const std::string seq = test::dataPath(kSeq);
+  for (const char* same : {"", "00", "0"})
+    EXPECT_EQ(resolveKittiLayout(seq, same).stems.size(), 6u) << same;
+  EXPECT_EQ(resolveKittiLayout(seq + "/", "00").stems.size(), 6u);  // a trailing slash
+  try {
+    resolveKittiLayout(seq, "08");
+    ADD_FAILURE() << "read sequence 00 for sequence: 08";
+  } catch (const ParamError& e) {
+    EXPECT_EQ(e.param(), "sequence");
+    EXPECT_NE(std::string(e.what()).find("is '08', but path '" + seq +
+                                         "' is itself the sequence folder '00'"),
+              std::string::npos)
+        << e.what();
+  }
+  // The object benchmark has no sequences; its folder and its parent both refuse one.
+  for (const std::string& object :
+       {test::dataPath("kitti_object_fusion/training"), test::dataPath("kitti_object_fusion")}) {
+    try {
+      resolveKittiLayout(object, "00");
+      ADD_FAILURE() << "accepted sequence: 00 for " << object;
+    } catch (const ParamError& e) {
+      EXPECT_EQ(e.param(), "sequence");
+      EXPECT_NE(
+          std::string(e.what()).find("is '00', but path '" + object + "' is a KITTI object folder"),
+          std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST(KittiScan, ReadTimeOfAFullScanWithLabels) {
   const std::string bin = seqFile("velodyne/000000.bin"), lab = seqFile("labels/000000.label");
   const LabelMap map = skMap();

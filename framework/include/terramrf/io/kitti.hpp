@@ -119,7 +119,9 @@ struct KittiLayout {
 
 /// Accepts a sequence folder (holding velodyne/), a dataset root with sequences/NN/ (`sequence`
 /// picks NN; may be empty when there is just one), a KITTI object `training` folder (velodyne/,
-/// image_2/, calib/) or its parent. Throws ParamError("path" or "sequence", ...) otherwise.
+/// image_2/, calib/) or its parent. Throws ParamError("path" or "sequence", ...) otherwise, and
+/// ParamError("sequence") for a non-empty `sequence` with a sequence folder of another name (a
+/// sequence folder "00" takes "", "00" or "0") or with an object folder.
 KittiLayout resolveKittiLayout(const std::string& path, const std::string& sequence);
 
 }  // namespace terramrf

@@ -135,6 +135,23 @@ TEST_F(SemanticKittiSourceTest, DatasetRootWithSequence) {
   EXPECT_FALSE(f.points.hasRing());  // 50 points carry no ring structure
 }
 
+// A sequence folder as path with another sequence asked for: a parameter error naming both,
+// before any frame is read (it used to read the folder's own sequence).
+TEST_F(SemanticKittiSourceTest, SequenceParameterThatDisagreesWithTheFolderIsAnError) {
+  const std::string seq = test::dataPath("semantickitti_seq00_000000-000005/sequences/00");
+  EXPECT_EQ(make("{path: " + seq + ", sequence: '00'}")->size(), 6u);
+  try {
+    make("{path: " + seq + ", sequence: '08'}");
+    FAIL() << "expected an error for sequence 08 with the folder of sequence 00";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    // (The path as the parameter resolved it: the data folder's "/../" is gone.)
+    EXPECT_NE(what.find("parameter 'sequence': is '08', but path '"), std::string::npos) << what;
+    EXPECT_NE(what.find("sequences/00' is itself the sequence folder '00'"), std::string::npos)
+        << what;
+  }
+}
+
 TEST_F(SemanticKittiSourceTest, MissingDataPathIsAParameterError) {
   try {
     make("{path: /nonexistent/kitti}");
