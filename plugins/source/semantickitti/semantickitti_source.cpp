@@ -213,7 +213,17 @@ class SemanticKittiSource : public Source {
 
   void recentreFrame(Frame& f) {
     const SensorOriginEstimate est = estimateSensorOrigin(f.points);
-    if (!est.ok || est.origin_m.norm() < recentre_min_m_) return;
+    if (!est.ok) {
+      // Asked for and not done: the scan may be off-centre, and the grid, ring recovery and
+      // features would all see it there. Said on stderr, like the shift when it is applied.
+      std::fprintf(stderr,
+                   "semantickitti: %s: recentre: auto could not estimate the sensor origin (%s); "
+                   "the cloud is left as stored\n",
+                   f.source_path.c_str(), est.note.c_str());
+      return;
+    }
+    // Within the estimate's accuracy of (0, 0): deliberately left alone, silently.
+    if (est.origin_m.norm() < recentre_min_m_) return;
     const Eigen::Vector2d shift = -est.origin_m;
     translateXY(f.points, shift.x(), shift.y());
     // Keep camera projections and the pose valid for the moved points.

@@ -214,6 +214,31 @@ TEST_F(SemanticKittiSourceTest, RecentresTheShiftedOpen3dMlScan) {
   EXPECT_EQ(b0.points.y, b1.points.y);
 }
 
+// recentre: auto on a cloud whose sensor origin cannot be estimated: the cloud stays as stored,
+// and stderr says so naming the scan (it used to stay off-centre without a word). An estimate
+// shorter than recentre_min_m is a deliberate, silent skip.
+TEST_F(SemanticKittiSourceTest, RecentreThatCannotEstimateTheOriginSaysSoNamingTheScan) {
+  test::TempDir dir;
+  const std::string seq = tinySequence(dir);  // 3 points: no ring to fit
+  auto src = make("{path: " + seq + ", recentre: auto, ring_method: none}");
+  testing::internal::CaptureStderr();
+  const Frame f = src->read(0);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(f.points.x, (std::vector<float>{5, 6, 7}));  // left as stored
+  EXPECT_NE(err.find("semantickitti: " + seq +
+                     "/velodyne/000000.bin: recentre: auto could not estimate the sensor origin "
+                     "(too few points (3)); the cloud is left as stored"),
+            std::string::npos)
+      << err;
+  // Seq 00 frame 0: the estimate lies within recentre_min_m of (0, 0), nothing is said.
+  auto real = make("{path: " + test::dataPath("semantickitti_seq00_000000-000005/sequences/00") +
+                   ", recentre: auto}");
+  testing::internal::CaptureStderr();
+  const Frame g = real->read(0);
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  EXPECT_EQ(g.points.size(), 124668u);
+}
+
 TEST_F(SemanticKittiSourceTest, MissingImageOrCalibrationWhenRequested) {
   test::TempDir dir;
   const std::string seq = tinySequence(dir);
