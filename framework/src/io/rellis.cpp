@@ -7,11 +7,15 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
+#include <sstream>
+#include <vector>
 
 #include "fs_checks.hpp"
 #include "terramrf/errors.hpp"
 #include "terramrf/io/natural_order.hpp"
 #include "terramrf/yaml_keys.hpp"
+#include "text_numbers.hpp"
 
 namespace terramrf {
 namespace fs = std::filesystem;
@@ -109,9 +113,31 @@ void organisedRings(PointCloud& cloud, const ScanReadInfo& info, int rings) {
 Matrix34d readRellisIntrinsics(const std::string& path) {
   std::ifstream in(path);
   if (!isFile(path) || !in) throw InputError(path, "camera intrinsics file does not exist");
-  double fx, fy, cx, cy;
-  if (!(in >> fx >> fy >> cx >> cy) || fx <= 0 || fy <= 0)
-    throw InputError(path, "expected 'fx fy cx cy' [px] with positive focal lengths");
+  // Every number is read: a file with more than the four (distortion coefficients, a full K)
+  // would otherwise lose them silently and project with a model other than the one calibrated.
+  std::vector<double> v;
+  std::string line, tok;
+  for (int lineno = 1; std::getline(in, line); ++lineno) {
+    std::istringstream ss(line);
+    while (ss >> tok) {
+      const std::optional<double> x = io_detail::finiteNumber(tok);
+      if (!x)
+        throw InputError(path, "line " + std::to_string(lineno) + ": '" + tok +
+                                   "' is not a finite number; expected 'fx fy cx cy' [px]");
+      v.push_back(*x);
+    }
+  }
+  if (v.size() != 4)
+    throw InputError(path, "has " + std::to_string(v.size()) +
+                               " numbers; expected exactly 4, 'fx fy cx cy' [px]" +
+                               (v.size() > 4 ? " (no distortion or other entries: they would be "
+                                               "dropped, and the reader has the pinhole model "
+                                               "only)"
+                                             : ""));
+  const double fx = v[0], fy = v[1], cx = v[2], cy = v[3];
+  if (fx <= 0 || fy <= 0)
+    throw InputError(path, "expected 'fx fy cx cy' [px] with positive focal lengths, got fx " +
+                               std::to_string(fx) + ", fy " + std::to_string(fy));
   Matrix34d P = Matrix34d::Zero();
   P(0, 0) = fx;
   P(1, 1) = fy;

@@ -164,6 +164,42 @@ TEST(Rellis, VelodyneScanBinsIntoTheVlp32cLaserAngles) {
     EXPECT_NEAR(st.ring_median_elevation_deg[k], vlp32c[k], 0.1) << "ring " << k;
 }
 
+// camera_info.txt holds "fx fy cx cy" (the release's file: four numbers on one line). A file with
+// more — distortion coefficients, a full K — used to be read for its first four numbers and the
+// rest dropped, giving a camera model other than the one calibrated.
+TEST(Rellis, IntrinsicsWithMoreThanFourNumbersAreRefusedNamingTheCount) {
+  const Matrix34d real =
+      readRellisIntrinsics(test::dataPath("rellis3d_example_000104/camera_info.txt"));
+  EXPECT_NEAR(real(0, 2), 969.285772, 1e-9);
+  test::TempDir dir;
+  const std::string ci = dir.str() + "/camera_info.txt";
+  struct Case {
+    std::string text, expect;
+  };
+  for (const Case& c :
+       {Case{"2813.64 2808.33 969.29 624.05 -0.134313 -0.025905 0.002181 0.00084 0\n",
+             "has 9 numbers; expected exactly 4, 'fx fy cx cy' [px] (no distortion or other "
+             "entries: they would be dropped"},
+        Case{"2813.64 2808.33\n969.29 624.05\n0\n", "has 5 numbers; expected exactly 4"},
+        Case{"2813.64 2808.33 969.29\n", "has 3 numbers; expected exactly 4"},
+        Case{"2813.64 2808.33 969.29 624.05 k1\n",
+             "line 1: 'k1' is not a finite number; expected 'fx fy cx cy' [px]"},
+        Case{"2813.64 2808.33 nan 624.05\n", "line 1: 'nan' is not a finite number"},
+        Case{"-2813.64 2808.33 969.29 624.05\n", "positive focal lengths"}}) {
+    std::ofstream(ci) << c.text;
+    try {
+      readRellisIntrinsics(ci);
+      ADD_FAILURE() << "accepted " << c.text;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), ci);
+      EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos) << e.what();
+    }
+  }
+  // Four numbers over several lines, with surrounding blanks, are still the four.
+  std::ofstream(ci) << "  2813.64\t2808.33\n969.29 624.05  \n\n";
+  EXPECT_NEAR(readRellisIntrinsics(ci)(1, 2), 624.05, 1e-9);
+}
+
 TEST(Rellis, CalibrationErrorsNameTheFile) {
   test::TempDir dir;
   const std::string ci = dir.str() + "/camera_info.txt", tf = dir.str() + "/transforms.yaml";

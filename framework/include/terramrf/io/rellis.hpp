@@ -38,7 +38,9 @@ RellisLayout resolveRellisLayout(const std::string& path);
 /// columns × 64 rings in this order (checked on 000104: elevation spread within a ring ~1e-6°).
 void organisedRings(PointCloud& cloud, const ScanReadInfo& info, int rings);
 
-/// camera_info.txt: "fx fy cx cy" [px] -> P = K [I | 0]. Throws InputError naming the file.
+/// camera_info.txt: "fx fy cx cy" [px] -> P = K [I | 0]. Exactly four finite numbers (the
+/// release's file has just these, no distortion); more (distortion coefficients that would be
+/// dropped), fewer, a word or non-positive focal lengths: InputError naming the file (and line).
 Matrix34d readRellisIntrinsics(const std::string& path);
 
 /// transforms.yaml: `os1_cloud_node-pylon_camera_node: {q: {w, x, y, z}, t: {x, y, z}}`. The file
