@@ -150,10 +150,20 @@ class SemanticKittiSource : public Source {
       readKittiLabels(label_path, f.source_path, info, map_.get(), f.truth);
 
     const long frame_no = frameNumber(f.id);
-    if (!times_.empty() && frame_no >= 0 && std::size_t(frame_no) < times_.size())
+    if (!layout_.times_file.empty()) {
+      // Line i is frame i. A frame past the end must not fall back to i × 0.1 s: that is another
+      // time base than the file's (often seconds since the recording started, or epoch).
+      if (frame_no < 0 || std::size_t(frame_no) >= times_.size())
+        throw InputError(layout_.times_file,
+                         "has " + std::to_string(times_.size()) +
+                             " time(s), one per line, but frame " + f.id +
+                             (frame_no < 0 ? " is not a frame number (no line of its own)"
+                                           : " needs line " + std::to_string(frame_no + 1)) +
+                             "; expected a time for every frame of the sequence");
       f.timestamp_s = times_[frame_no];
-    else if (layout_.kind == KittiLayout::Kind::kSequence && frame_no >= 0)
+    } else if (layout_.kind == KittiLayout::Kind::kSequence && frame_no >= 0) {
       f.timestamp_s = 0.1 * frame_no;  // KITTI sweeps at 10 Hz
+    }
 
     if (!poses_.empty()) {
       if (frame_no < 0 || std::size_t(frame_no) >= poses_.size())

@@ -527,6 +527,31 @@ TEST_F(SemanticKittiSourceTest, PosesFileShorterThanTheSequenceNamesFileAndFrame
   }
 }
 
+// A times.txt shorter than the sequence: the frame past its end is an InputError naming the
+// file, its count and the frame (it used to get frame number x 0.1 s, silently on another time
+// base than the frames before it). Without times.txt the 10 Hz rule stays.
+TEST_F(SemanticKittiSourceTest, TimesFileShorterThanTheSequenceNamesFileCountAndFrame) {
+  test::TempDir dir;
+  const std::string seq = tinySequence(dir);
+  std::filesystem::copy_file(seq + "/velodyne/000000.bin", seq + "/velodyne/000001.bin");
+  auto plain = make("{path: " + seq + "}");
+  EXPECT_NEAR(plain->read(1).timestamp_s, 0.1, 1e-12);  // no times.txt: 10 Hz
+  std::ofstream(seq + "/times.txt") << "1.000000e+03\n";
+  auto src = make("{path: " + seq + "}");
+  ASSERT_EQ(src->size(), 2u);
+  EXPECT_EQ(src->read(0).timestamp_s, 1000.0);
+  try {
+    const Frame f = src->read(1);
+    FAIL() << "expected InputError for frame 000001 past times.txt, got time " << f.timestamp_s;
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), seq + "/times.txt");
+    EXPECT_NE(std::string(e.what()).find("has 1 time(s), one per line, but frame 000001 needs "
+                                         "line 2; expected a time for every frame"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST_F(SemanticKittiSourceTest, ReadTime) {
   // Thread CPU time, so other jobs on the machine do not count; bounds only catch gross
   // regressions (e.g. per-point allocation), the printed numbers are what docs report.
