@@ -170,6 +170,39 @@ TEST_F(Rellis3dSourceTest, PixelLabelImageOfTheWrongSizeOrChannelsIsNamed) {
   EXPECT_FALSE(f.cameras[0].truth);
 }
 
+/// `n` points along x (all at elevation 0, so any ring order is consistent) as scan
+/// `<dir>/<id>.bin`.
+void writeFlatScan(const std::string& dir, const std::string& id, int n = 128) {
+  std::vector<float> pts(4 * n, 0.f);
+  for (int i = 0; i < n; ++i) pts[4 * i] = 1.f + i;
+  std::ofstream(dir + "/" + id + ".bin", std::ios::binary)
+      .write(reinterpret_cast<const char*>(pts.data()), std::streamsize(pts.size() * 4));
+}
+
+// One time base per sequence: frames with a camera image take its epoch stamp, and frames without
+// one are placed from the nearest frame that has one at the Ouster's 10 Hz. They used to get
+// id x 0.1 s, ~1.6e9 s away from their neighbours, within the same sequence.
+TEST_F(Rellis3dSourceTest, FramesWithoutAnImageAreTimedOnTheImagesEpochBase) {
+  test::TempDir dir;
+  for (const char* id : {"000000", "000001", "000002", "000005", "000006"})
+    writeFlatScan(dir.str(), id);
+  // Only the names matter here (use_images is off): frame<id>-<seconds>_<fraction>.jpg.
+  std::ofstream(dir.str() + "/frame000001-1581624663_149.jpg") << "";
+  std::ofstream(dir.str() + "/frame000005-1581624663_560.jpg") << "";
+  auto src = make("{path: " + dir.str() + ", use_labels: false}");
+  ASSERT_EQ(src->size(), 5u);
+  const double expected[] = {1581624663.049, 1581624663.149, 1581624663.249, 1581624663.560,
+                             1581624663.660};
+  for (std::size_t i = 0; i < 5; ++i)
+    EXPECT_NEAR(src->read(i).timestamp_s, expected[i], 1e-6) << src->frameId(i);
+  // No image at all: id x 0.1 s for every frame, one base again.
+  test::TempDir bare;
+  for (const char* id : {"000003", "000004"}) writeFlatScan(bare.str(), id);
+  auto plain = make("{path: " + bare.str() + ", use_labels: false}");
+  EXPECT_NEAR(plain->read(0).timestamp_s, 0.3, 1e-12);
+  EXPECT_NEAR(plain->read(1).timestamp_s, 0.4, 1e-12);
+}
+
 TEST_F(Rellis3dSourceTest, MissingFilesAreNamed) {
   test::TempDir dir;
   std::vector<float> pts(4 * 128, 0.f);
