@@ -4,8 +4,11 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -98,7 +101,14 @@ RellisLayout resolveRellisLayout(const std::string& path) {
   return L;
 }
 
-void organisedRings(PointCloud& cloud, const ScanReadInfo& info, int rings) {
+void organisedRings(PointCloud& cloud, const ScanReadInfo& info, int rings,
+                    const std::string& scan_path) {
+  const std::string layout =
+      "organised scan of " + std::to_string(rings) + " rings stored column by column";
+  if (rings < 1 || info.raw_points % std::size_t(rings) != 0)
+    throw InputError(scan_path, std::to_string(info.raw_points) +
+                                    " points is not a whole number of columns; expected an " +
+                                    layout + " (RELLIS-3D Ouster: 2048 columns x 64 rings)");
   cloud.ring.resize(cloud.size());
   std::size_t out = 0, d = 0;
   for (std::size_t i = 0; i < info.raw_points && out < cloud.ring.size(); ++i) {
@@ -107,6 +117,40 @@ void organisedRings(PointCloud& cloud, const ScanReadInfo& info, int rings) {
       continue;
     }
     cloud.ring[out++] = static_cast<uint16_t>(i % rings);
+  }
+  // A whole number of columns does not make a scan organised. In one that is, a ring is one beam
+  // and its returns share an elevation (000104: < 1e-5° per ring); any other order — a Velodyne
+  // scan in firing order, an Ouster scan stored ring by ring — mixes beams in every "ring" (tens
+  // of degrees). The spread of z / ρ (tan of the elevation) per ring tells them apart for one
+  // division and square root a point; no-returns at the origin have no elevation.
+  std::vector<double> lo(std::size_t(rings), std::numeric_limits<double>::infinity());
+  std::vector<double> hi(std::size_t(rings), -std::numeric_limits<double>::infinity());
+  for (std::size_t k = 0; k < cloud.size(); ++k) {
+    const double x = cloud.x[k], y = cloud.y[k], z = cloud.z[k];
+    const double rho = std::sqrt(x * x + y * y);
+    if (!(rho > 0)) continue;  // the origin, or straight above or below: no elevation
+    const double t = z / rho;
+    const uint16_t r = cloud.ring[k];
+    lo[r] = std::min(lo[r], t);
+    hi[r] = std::max(hi[r], t);
+  }
+  int worst = -1;
+  double worst_deg = 0;
+  for (int r = 0; r < rings; ++r) {
+    if (!(hi[r] > lo[r])) continue;
+    const double deg = (std::atan(hi[r]) - std::atan(lo[r])) * 180 / M_PI;
+    if (deg > worst_deg) worst_deg = deg, worst = r;
+  }
+  if (worst_deg > kOrganisedRingSpreadDeg) {
+    char spread[32];
+    std::snprintf(spread, sizeof spread, "%.2f", worst_deg);
+    throw InputError(
+        scan_path, "not an " + layout + ": ring " + std::to_string(worst) + " (raw index % " +
+                       std::to_string(rings) + " = " + std::to_string(worst) + ") spans " + spread +
+                       "° of elevation among its returns; expected at most 2° (one beam; "
+                       "RELLIS-3D 000104: < 0.00001°). Rings from the index would mix beams: "
+                       "is this a Velodyne scan (vel*.bin) or another layout, or is `rings` not "
+                       "the sensor's?");
   }
 }
 

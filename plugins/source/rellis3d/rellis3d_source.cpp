@@ -104,11 +104,7 @@ class Rellis3dSource : public Source {
     const ScanReadInfo info = readKittiScan(files.scan, f.points, drop_no_return_);
     f.dropped_nonfinite_points = info.dropped_nonfinite;
     f.dropped_no_return_points = info.dropped_no_return;
-    if (info.raw_points % rings_ != 0)
-      throw InputError(files.scan, std::to_string(info.raw_points) +
-                                       " points is not a whole number of columns of " +
-                                       std::to_string(rings_) + " rings (organised Ouster scan)");
-    organisedRings(f.points, info, rings_);
+    organisedRings(f.points, info, rings_, files.scan);  // checks the scan is organised
     if (use_labels_ && !files.label.empty())
       readKittiLabels(files.label, files.scan, info, map_.get(), f.truth);
     f.timestamp_s = frameTime(files);

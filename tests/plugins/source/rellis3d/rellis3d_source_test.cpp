@@ -1,6 +1,7 @@
 // The "rellis3d" source on the RELLIS-3D example frame, plus bad input.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -201,6 +202,45 @@ TEST_F(Rellis3dSourceTest, FramesWithoutAnImageAreTimedOnTheImagesEpochBase) {
   auto plain = make("{path: " + bare.str() + ", use_labels: false}");
   EXPECT_NEAR(plain->read(0).timestamp_s, 0.3, 1e-12);
   EXPECT_NEAR(plain->read(1).timestamp_s, 0.4, 1e-12);
+}
+
+// ring = index % 64 holds only for an organised scan stored column by column. A scan that merely
+// has a multiple of 64 points used to pass and get rings that mix every elevation: the
+// VLP-32C scan of the example cut to 37 312 points, or an Ouster scan stored ring by ring. Both
+// are refused naming the file, the ring and its spread; the real 000104 (< 1e-5° per ring) reads.
+TEST_F(Rellis3dSourceTest, ScanThatIsNotOrganisedColumnByColumnIsRefused) {
+  std::vector<float> vel(37334 * 4);
+  std::ifstream(test::dataPath("rellis3d_example_000104/vel000104.bin"), std::ios::binary)
+      .read(reinterpret_cast<char*>(vel.data()), std::streamsize(vel.size() * 4));
+  vel.resize(37312 * 4);  // 583 "columns" of 64
+  // An organised 64 × 128 scan (ring r at 15° − 0.5° r, 10 m) stored ring by ring.
+  std::vector<float> rows;
+  for (int r = 0; r < 64; ++r)
+    for (int c = 0; c < 128; ++c) {
+      const double el = (15.0 - 0.5 * r) * M_PI / 180, az = 2 * M_PI * c / 128;
+      rows.insert(rows.end(),
+                  {float(10 * std::cos(el) * std::cos(az)), float(10 * std::cos(el) * std::sin(az)),
+                   float(10 * std::sin(el)), 0.f});
+    }
+  for (const auto& [points, what] : {std::pair{vel, "VLP-32C cut to 64-point columns"},
+                                     std::pair{rows, "Ouster stored ring by ring"}}) {
+    test::TempDir dir;
+    const std::string bin = dir.str() + "/000104.bin";
+    std::ofstream(bin, std::ios::binary)
+        .write(reinterpret_cast<const char*>(points.data()), std::streamsize(points.size() * 4));
+    try {
+      make("{path: " + dir.str() + ", use_labels: false}")->read(0);
+      ADD_FAILURE() << "read the " << what << " with rings index % 64";
+    } catch (const InputError& e) {
+      const std::string w = e.what();
+      EXPECT_EQ(e.file(), bin) << what;
+      EXPECT_NE(w.find("not an organised scan of 64 rings stored column by column: ring "),
+                std::string::npos)
+          << w;
+      EXPECT_NE(w.find("of elevation among its returns; expected at most 2°"), std::string::npos)
+          << w;
+    }
+  }
 }
 
 TEST_F(Rellis3dSourceTest, MissingFilesAreNamed) {
