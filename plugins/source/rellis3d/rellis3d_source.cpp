@@ -55,7 +55,7 @@ class Rellis3dSource : public Source {
     d.add("image_size", image_size_,
           "with use_images: [width, height] of the images the calibration was made for; another "
           "size is an error. Empty: not checked exactly (the files store no size), but the "
-          "principal point must lie in the middle half of the image")
+          "principal point must lie within 10 % of the width and height of the image's centre")
         .unit("px");
     d.add("use_image_labels", use_image_labels_,
           "with use_images: map the pixel label image (when it exists) into the camera's truth");

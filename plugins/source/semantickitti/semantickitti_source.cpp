@@ -50,7 +50,7 @@ class SemanticKittiSource : public Source {
     d.add("image_size", image_size_,
           "with use_images: [width, height] of the images the calibration was made for; another "
           "size is an error. Empty: not checked exactly (the files store no size), but the "
-          "principal point must lie in the middle half of the image")
+          "principal point must lie within 10 % of the width and height of the image's centre")
         .unit("px");
     d.add("use_poses", use_poses_,
           "LiDAR pose from poses.txt (Tr^-1 P Tr with Tr from calib.txt) when the file exists");

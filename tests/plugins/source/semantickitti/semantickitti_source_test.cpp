@@ -359,7 +359,8 @@ std::string resizedKittiObject(const test::TempDir& dir, int w, int h,
 // image used to pass silently with a calibration that no longer fits (halved: 2180 of 20259
 // points still in the image); the principal point check catches it.
 TEST_F(SemanticKittiSourceTest, ResizedImageIsAnErrorNamingImageAndCalibration) {
-  for (const auto& [w, h] : {std::pair{621, 188}, std::pair{2484, 750}}) {
+  // Halved, three quarters, doubled (0.75× passed the middle-half rule; 10 % catches it).
+  for (const auto& [w, h] : {std::pair{621, 188}, std::pair{931, 281}, std::pair{2484, 750}}) {
     test::TempDir dir;
     const std::string root = resizedKittiObject(dir, w, h);
     auto src = make("{path: " + root + ", use_images: true}");
