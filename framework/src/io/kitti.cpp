@@ -269,8 +269,15 @@ KittiCalib readKittiCalib(const std::string& path) {
                                  " numbers; expected " + std::to_string(n));
     return it->second;
   };
+  // Only what is read is required: the LiDAR→camera transform below, and the P of each camera a
+  // source reads, which kittiCamera asks for. Own data often has just P2 and Tr, and KITTI's
+  // P0..P3 all being there is no reason to refuse it; an entry that is there must be whole.
   for (int i = 0; i < 4; ++i) {
-    const auto& v = need("P" + std::to_string(i), 12);
+    const std::string key = "P" + std::to_string(i);
+    c.P[i].setZero();
+    c.has_P[i] = c.entries.count(key) > 0;
+    if (!c.has_P[i]) continue;
+    const auto& v = need(key, 12);
     for (int r = 0; r < 3; ++r)
       for (int col = 0; col < 4; ++col) c.P[i](r, col) = v[r * 4 + col];
   }
@@ -333,6 +340,9 @@ bool decomposeProjection(const Matrix34d& P_in, Eigen::Matrix3d& K, Eigen::Isome
 }  // namespace
 
 CameraModel kittiCamera(const KittiCalib& calib, int index, int width_px, int height_px) {
+  if (index < 0 || index > 3 || !calib.has_P[index])
+    throw InputError(calib.path, "no 'P" + std::to_string(index) + ":' entry; camera image_" +
+                                     std::to_string(index) + " needs it (its 3x4 projection)");
   CameraModel m;
   m.name = "image_" + std::to_string(index);
   m.width = width_px;

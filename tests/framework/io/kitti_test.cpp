@@ -394,6 +394,38 @@ TEST(KittiCalib, RejectsBrokenFiles) {
   EXPECT_NO_THROW(readKittiCalib(p));
 }
 
+// Only what is read is required: the LiDAR→camera transform and the P of each camera asked for.
+// A calib.txt of just P2 and Tr (docs/own_data.md: what your own data needs for image_2) used to
+// be refused for the P0, P1 and P3 nobody reads ("no 'P0:' entry").
+TEST(KittiCalib, OnlyTheProjectionsOfTheCamerasReadAreRequired) {
+  test::TempDir dir;
+  const std::string p = dir.str() + "/calib.txt";
+  std::ofstream(p) << "P2: 718.856 0 607.1928 45.38225 0 718.856 185.2157 -0.1130887 0 0 1 "
+                      "0.003779761\n"
+                      "Tr: 0 -1 0 0 0 0 -1 0 1 0 0 -0.27\n";
+  KittiCalib c;
+  ASSERT_NO_THROW(c = readKittiCalib(p));
+  EXPECT_NEAR(c.T_cam_velo.translation().z(), -0.27, 1e-12);
+  const CameraModel left = kittiCamera(c, 2, 1241, 376);
+  EXPECT_NEAR(left.P(0, 2), 607.1928, 1e-9);
+  EXPECT_EQ(left.calibration, p + " (P2, Tr)");
+  try {
+    kittiCamera(c, 3, 1241, 376);
+    FAIL() << "expected InputError for camera 3 without P3";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), p);
+    EXPECT_NE(std::string(e.what()).find("no 'P3:' entry; camera image_3 needs it (its 3x4 "
+                                         "projection)"),
+              std::string::npos)
+        << e.what();
+  }
+  // An entry that is there must still be whole, and the transform is still required.
+  std::ofstream(p) << "P2: 718.856 0 607.1928\nTr: 0 -1 0 0 0 0 -1 0 1 0 0 -0.27\n";
+  EXPECT_THROW(readKittiCalib(p), InputError);
+  std::ofstream(p) << "P2: 718.856 0 607.1928 45.38225 0 718.856 185.2157 0 0 0 1 0\n";
+  EXPECT_THROW(readKittiCalib(p), InputError);
+}
+
 TEST(KittiPoses, LidarPoseMovesForward) {
   const auto poses = readKittiPoses(seqFile("poses.txt"));
   ASSERT_EQ(poses.size(), 4541u);

@@ -4,7 +4,8 @@
 //
 // Formats: velodyne *.bin = little-endian float32 quadruples x, y, z [m], intensity; *.label =
 // uint32 per point, semantic id = low 16 bits, instance = high 16 bits; calib.txt in the odometry
-// variant (P0..P3, Tr) or the object variant (P0..P3, R0_rect, Tr_velo_to_cam, Tr_imu_to_velo);
+// variant (P0..P3, Tr) or the object variant (P0..P3, R0_rect, Tr_velo_to_cam, Tr_imu_to_velo),
+// of which only the transform and the P of each camera read are required;
 // poses.txt = one row-major 3×4 camera-0 pose per line.
 #include <Eigen/Geometry>
 #include <cstdint>
@@ -70,14 +71,17 @@ struct KittiCalib {
   std::string path;
   bool object_format = false;  ///< has R0_rect / Tr_velo_to_cam (object benchmark)
   std::map<std::string, std::vector<double>> entries;  ///< every "KEY: numbers" line
-  Matrix34d P[4];  ///< rectified projection matrices of cameras 0..3
+  Matrix34d P[4];  ///< rectified projection matrices of cameras 0..3 (zero where has_P is false)
+  bool has_P[4] = {false, false, false, false};  ///< the file has a 'Pi:' entry
   /// LiDAR -> rectified camera-0 frame: object R0_rect · Tr_velo_to_cam; odometry Tr (KITTI
   /// odometry's P_i already project from the rectified camera-0 frame).
   Eigen::Isometry3d T_cam_velo = Eigen::Isometry3d::Identity();
 };
 
-/// Reads calib.txt in either variant. Throws InputError naming the file for a missing file,
-/// missing P0..P3 / Tr entries or a wrong number count.
+/// Reads calib.txt in either variant. Required: the LiDAR→camera transform (Tr, or R0_rect and
+/// Tr_velo_to_cam); P0..P3 are read where present (has_P) and only required by kittiCamera for
+/// the camera asked for. Throws InputError naming the file for a missing file, a missing
+/// transform, an entry with the wrong number count (a P that is there included) or a word.
 KittiCalib readKittiCalib(const std::string& path);
 
 /// Camera model of camera `index` (2 = image_2, the left colour camera; 3 = image_3, the right
@@ -85,7 +89,7 @@ KittiCalib readKittiCalib(const std::string& path);
 /// stores none; see checkCalibrationFitsImage), calibration = "<path> (P2, R0_rect,
 /// Tr_velo_to_cam)" or "(P2, Tr)". A P_index that also rotates (left 3×3 not upper triangular)
 /// is split into K [I | 0] and a camera-0 → camera transform folded into T_camera_lidar; a
-/// singular one is an InputError naming the file.
+/// singular one, or none in the file (has_P false), is an InputError naming the file.
 CameraModel kittiCamera(const KittiCalib& calib, int index, int width_px, int height_px);
 
 /// poses.txt: camera-0 poses (T_world_cam0), one per line. Throws InputError naming the file and

@@ -270,6 +270,28 @@ TEST_F(SemanticKittiSourceTest, MissingImageOrCalibrationWhenRequested) {
             (std::vector<LabelId>{labels::kRoad, labels::kRough, labels::kObstacle}));
 }
 
+// docs/own_data.md: image_2 with a calib.txt of P2 and Tr is all a sequence of your own needs.
+TEST_F(SemanticKittiSourceTest, CalibrationWithOnlyP2AndTrReadsImage2) {
+  test::TempDir dir;
+  const std::string seq = tinySequence(dir, /*calib=*/false);
+  std::ofstream(seq + "/calib.txt")
+      << "P2: 718.856 0 607.1928 45.38225 0 718.856 185.2157 -0.1130887 0 0 1 0.003779761\n"
+         "Tr: 0 -1 0 0 0 0 -1 0 1 0 0 -0.27\n";
+  writeImageAtomic(seq + "/image_2/000000.png", Image(1241, 376, 3));
+  const Frame f = make("{path: " + seq + ", use_images: true}")->read(0);
+  ASSERT_EQ(f.cameras.size(), 1u);
+  EXPECT_EQ(f.cameras[0].model.calibration, seq + "/calib.txt (P2, Tr)");
+  // Asking for image_3 as well: the missing P3 is named.
+  writeImageAtomic(seq + "/image_3/000000.png", Image(1241, 376, 3));
+  try {
+    make("{path: " + seq + ", use_images: true, cameras: [image_2, image_3]}")->read(0);
+    FAIL() << "expected InputError for image_3 without P3";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), seq + "/calib.txt");
+    EXPECT_NE(std::string(e.what()).find("no 'P3:' entry"), std::string::npos) << e.what();
+  }
+}
+
 // KITTI's colour pair: image_2 and image_3, each projected with its own P (P3 holds the
 // 0.54 m baseline), from the real object frame's calibration.
 TEST_F(SemanticKittiSourceTest, StereoPairReadsEachCameraWithItsOwnProjection) {
