@@ -142,12 +142,14 @@ void organisedRings(PointCloud& cloud, const ScanReadInfo& info, int rings,
     if (deg > worst_deg) worst_deg = deg, worst = r;
   }
   if (worst_deg > kOrganisedRingSpreadDeg) {
-    char spread[32];
+    char spread[32], most[32];
     std::snprintf(spread, sizeof spread, "%.2f", worst_deg);
+    std::snprintf(most, sizeof most, "%g", kOrganisedRingSpreadDeg);
     throw InputError(
         scan_path, "not an " + layout + ": ring " + std::to_string(worst) + " (raw index % " +
                        std::to_string(rings) + " = " + std::to_string(worst) + ") spans " + spread +
-                       "° of elevation among its returns; expected at most 2° (one beam; "
+                       "° of elevation among its returns; expected at most " + most +
+                       "° (one beam; "
                        "RELLIS-3D 000104: < 0.00001°). Rings from the index would mix beams: "
                        "is this a Velodyne scan (vel*.bin) or another layout, or is `rings` not "
                        "the sensor's?");
