@@ -2,6 +2,7 @@
 
 #include <Eigen/QR>
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -17,6 +18,7 @@
 
 #include "fs_checks.hpp"
 #include "terramrf/errors.hpp"
+#include "terramrf/io/natural_order.hpp"
 #include "text_numbers.hpp"
 
 namespace terramrf {
@@ -57,14 +59,40 @@ Eigen::Isometry3d isoFrom34(const std::vector<double>& v) {
   return T;
 }
 
+/// Stems of the `ext` files of `dir` in natural order (9 before 10; names need no zero padding).
 std::vector<std::string> sortedStems(const fs::path& dir, const std::string& ext) {
   std::vector<std::string> stems;
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(dir, ec))
     if (e.is_regular_file() && e.path().extension() == ext)
       stems.push_back(e.path().stem().string());
-  std::sort(stems.begin(), stems.end());
+  sortNatural(stems);
   return stems;
+}
+
+/// The last name of `p` as given ("…/sequences/00/" and "." name their folder too).
+std::string folderName(const fs::path& p) {
+  std::error_code ec;
+  fs::path abs = fs::absolute(p, ec).lexically_normal();
+  if (ec) abs = p.lexically_normal();
+  if (abs.filename().empty()) abs = abs.parent_path();
+  return abs.filename().string();
+}
+
+/// Whether `sequence` names the sequence folder `name`: the same text, or the same number ("0"
+/// and "00", as under sequences/).
+bool namesSequence(const std::string& sequence, const std::string& name) {
+  if (sequence == name) return true;
+  auto digits = [](const std::string& s) {
+    return !s.empty() &&
+           std::all_of(s.begin(), s.end(), [](unsigned char c) { return std::isdigit(c); });
+  };
+  if (!digits(sequence) || !digits(name)) return false;
+  auto value = [](const std::string& s) {
+    const std::size_t first = s.find_first_not_of('0');
+    return first == std::string::npos ? std::string("0") : s.substr(first);
+  };
+  return value(sequence) == value(name);
 }
 
 using io_detail::finiteNumber;
@@ -241,8 +269,15 @@ KittiCalib readKittiCalib(const std::string& path) {
                                  " numbers; expected " + std::to_string(n));
     return it->second;
   };
+  // Only what is read is required: the LiDAR→camera transform below, and the P of each camera a
+  // source reads, which kittiCamera asks for. Own data often has just P2 and Tr, and KITTI's
+  // P0..P3 all being there is no reason to refuse it; an entry that is there must be whole.
   for (int i = 0; i < 4; ++i) {
-    const auto& v = need("P" + std::to_string(i), 12);
+    const std::string key = "P" + std::to_string(i);
+    c.P[i].setZero();
+    c.has_P[i] = c.entries.count(key) > 0;
+    if (!c.has_P[i]) continue;
+    const auto& v = need(key, 12);
     for (int r = 0; r < 3; ++r)
       for (int col = 0; col < 4; ++col) c.P[i](r, col) = v[r * 4 + col];
   }
@@ -305,6 +340,9 @@ bool decomposeProjection(const Matrix34d& P_in, Eigen::Matrix3d& K, Eigen::Isome
 }  // namespace
 
 CameraModel kittiCamera(const KittiCalib& calib, int index, int width_px, int height_px) {
+  if (index < 0 || index > 3 || !calib.has_P[index])
+    throw InputError(calib.path, "no 'P" + std::to_string(index) + ":' entry; camera image_" +
+                                     std::to_string(index) + " needs it (its 3x4 projection)");
   CameraModel m;
   m.name = "image_" + std::to_string(index);
   m.width = width_px;
@@ -420,7 +458,7 @@ KittiLayout resolveKittiLayout(const std::string& path, const std::string& seque
     std::vector<std::string> seqs;
     for (const auto& e : fs::directory_iterator(p / "sequences"))
       if (e.is_directory()) seqs.push_back(e.path().filename().string());
-    std::sort(seqs.begin(), seqs.end());
+    sortNatural(seqs);
     std::string list;
     for (const auto& s : seqs) list += (list.empty() ? "" : ", ") + s;
     if (sequence.empty()) {
@@ -457,6 +495,22 @@ KittiLayout resolveKittiLayout(const std::string& path, const std::string& seque
   KittiLayout L;
   L.root = folder.string();
   L.kind = isDir(folder / "calib") ? KittiLayout::Kind::kObject : KittiLayout::Kind::kSequence;
+  // `sequence` picks a folder under sequences/. A path that is a sequence or object folder itself
+  // has nothing to pick, and reading it for another sequence would label the results with the
+  // wrong one. The parameter defaults to "", so a value here was set on purpose.
+  if (!sequence.empty() && dataset_root.empty()) {
+    if (L.kind == KittiLayout::Kind::kObject)
+      throw ParamError("sequence", "is '" + sequence + "', but path '" + path +
+                                       "' is a KITTI object folder, which has no sequences; "
+                                       "leave sequence empty");
+    const std::string name = folderName(p);
+    if (!namesSequence(sequence, name))
+      throw ParamError("sequence", "is '" + sequence + "', but path '" + path +
+                                       "' is itself the sequence folder '" + name +
+                                       "' (it holds velodyne/); give the dataset root (the folder "
+                                       "holding sequences/) as path to choose a sequence, or "
+                                       "leave sequence empty");
+  }
   L.stems = sortedStems(folder / "velodyne", ".bin");
   if (L.kind == KittiLayout::Kind::kSequence) {
     L.calib_file = (folder / "calib.txt").string();

@@ -4,13 +4,21 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
+#include <optional>
+#include <sstream>
+#include <vector>
 
 #include "fs_checks.hpp"
 #include "terramrf/errors.hpp"
+#include "terramrf/io/natural_order.hpp"
 #include "terramrf/yaml_keys.hpp"
+#include "text_numbers.hpp"
 
 namespace terramrf {
 namespace fs = std::filesystem;
@@ -82,8 +90,10 @@ RellisLayout resolveRellisLayout(const std::string& path) {
     if (auto it = pngs.find(frameNumber(id)); it != pngs.end()) f.image_label = it->second;
     L.frames.push_back(std::move(f));
   }
-  std::sort(L.frames.begin(), L.frames.end(),
-            [](const RellisFrameFiles& a, const RellisFrameFiles& b) { return a.id < b.id; });
+  // Natural order: the full release pads ids to six digits, but other copies need not.
+  std::sort(
+      L.frames.begin(), L.frames.end(),
+      [](const RellisFrameFiles& a, const RellisFrameFiles& b) { return naturalLess(a.id, b.id); });
   if (L.frames.empty())
     throw ParamError("path", "no RELLIS-3D scans (NNNNNN.bin) in '" + scans.string() + "'");
   L.camera_info = firstExisting({p / "camera_info.txt", p.parent_path() / "camera_info.txt"});
@@ -91,7 +101,14 @@ RellisLayout resolveRellisLayout(const std::string& path) {
   return L;
 }
 
-void organisedRings(PointCloud& cloud, const ScanReadInfo& info, int rings) {
+void organisedRings(PointCloud& cloud, const ScanReadInfo& info, int rings,
+                    const std::string& scan_path) {
+  const std::string layout =
+      "organised scan of " + std::to_string(rings) + " rings stored column by column";
+  if (rings < 1 || info.raw_points % std::size_t(rings) != 0)
+    throw InputError(scan_path, std::to_string(info.raw_points) +
+                                    " points is not a whole number of columns; expected an " +
+                                    layout + " (RELLIS-3D Ouster: 2048 columns x 64 rings)");
   cloud.ring.resize(cloud.size());
   std::size_t out = 0, d = 0;
   for (std::size_t i = 0; i < info.raw_points && out < cloud.ring.size(); ++i) {
@@ -101,14 +118,72 @@ void organisedRings(PointCloud& cloud, const ScanReadInfo& info, int rings) {
     }
     cloud.ring[out++] = static_cast<uint16_t>(i % rings);
   }
+  // A whole number of columns does not make a scan organised. In one that is, a ring is one beam
+  // and its returns share an elevation (000104: < 1e-5° per ring); any other order — a Velodyne
+  // scan in firing order, an Ouster scan stored ring by ring — mixes beams in every "ring" (tens
+  // of degrees). The spread of z / ρ (tan of the elevation) per ring tells them apart for one
+  // division and square root a point; no-returns at the origin have no elevation.
+  std::vector<double> lo(std::size_t(rings), std::numeric_limits<double>::infinity());
+  std::vector<double> hi(std::size_t(rings), -std::numeric_limits<double>::infinity());
+  for (std::size_t k = 0; k < cloud.size(); ++k) {
+    const double x = cloud.x[k], y = cloud.y[k], z = cloud.z[k];
+    const double rho = std::sqrt(x * x + y * y);
+    if (!(rho > 0)) continue;  // the origin, or straight above or below: no elevation
+    const double t = z / rho;
+    const uint16_t r = cloud.ring[k];
+    lo[r] = std::min(lo[r], t);
+    hi[r] = std::max(hi[r], t);
+  }
+  int worst = -1;
+  double worst_deg = 0;
+  for (int r = 0; r < rings; ++r) {
+    if (!(hi[r] > lo[r])) continue;
+    const double deg = (std::atan(hi[r]) - std::atan(lo[r])) * 180 / M_PI;
+    if (deg > worst_deg) worst_deg = deg, worst = r;
+  }
+  if (worst_deg > kOrganisedRingSpreadDeg) {
+    char spread[32], most[32];
+    std::snprintf(spread, sizeof spread, "%.2f", worst_deg);
+    std::snprintf(most, sizeof most, "%g", kOrganisedRingSpreadDeg);
+    throw InputError(
+        scan_path, "not an " + layout + ": ring " + std::to_string(worst) + " (raw index % " +
+                       std::to_string(rings) + " = " + std::to_string(worst) + ") spans " + spread +
+                       "° of elevation among its returns; expected at most " + most +
+                       "° (one beam; "
+                       "RELLIS-3D 000104: < 0.00001°). Rings from the index would mix beams: "
+                       "is this a Velodyne scan (vel*.bin) or another layout, or is `rings` not "
+                       "the sensor's?");
+  }
 }
 
 Matrix34d readRellisIntrinsics(const std::string& path) {
   std::ifstream in(path);
   if (!isFile(path) || !in) throw InputError(path, "camera intrinsics file does not exist");
-  double fx, fy, cx, cy;
-  if (!(in >> fx >> fy >> cx >> cy) || fx <= 0 || fy <= 0)
-    throw InputError(path, "expected 'fx fy cx cy' [px] with positive focal lengths");
+  // Every number is read: a file with more than the four (distortion coefficients, a full K)
+  // would otherwise lose them silently and project with a model other than the one calibrated.
+  std::vector<double> v;
+  std::string line, tok;
+  for (int lineno = 1; std::getline(in, line); ++lineno) {
+    std::istringstream ss(line);
+    while (ss >> tok) {
+      const std::optional<double> x = io_detail::finiteNumber(tok);
+      if (!x)
+        throw InputError(path, "line " + std::to_string(lineno) + ": '" + tok +
+                                   "' is not a finite number; expected 'fx fy cx cy' [px]");
+      v.push_back(*x);
+    }
+  }
+  if (v.size() != 4)
+    throw InputError(path, "has " + std::to_string(v.size()) +
+                               " numbers; expected exactly 4, 'fx fy cx cy' [px]" +
+                               (v.size() > 4 ? " (no distortion or other entries: they would be "
+                                               "dropped, and the reader has the pinhole model "
+                                               "only)"
+                                             : ""));
+  const double fx = v[0], fy = v[1], cx = v[2], cy = v[3];
+  if (fx <= 0 || fy <= 0)
+    throw InputError(path, "expected 'fx fy cx cy' [px] with positive focal lengths, got fx " +
+                               std::to_string(fx) + ", fy " + std::to_string(fy));
   Matrix34d P = Matrix34d::Zero();
   P(0, 0) = fx;
   P(1, 1) = fy;

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "terramrf/io/label_map.hpp"
+#include "terramrf/io/natural_order.hpp"
 #include "terramrf/io/ring_recovery.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -63,6 +64,46 @@ double fieldValue(const pcl::PCLPointCloud2& c, const pcl::PCLPointField& f, std
   }
 }
 
+/// VIEWPOINT tx ty tz qw qx qy qz of a PCD header: the sensor's pose in the file's frame (PCL: the
+/// acquisition viewpoint, sensor origin + orientation; default 0 0 0 1 0 0 0). Points in the
+/// sensor frame are p_s = Rᵀ (p − t).
+struct PcdViewpoint {
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  std::string text = "0 0 0 1 0 0 0";  ///< as written, for messages
+  bool identity() const { return t.isZero(0) && q.w() == 1 && q.vec().isZero(0); }
+};
+
+/// Reads the VIEWPOINT tokens into `vp`; what is wrong with them, or "". PCL reads it with
+/// stream extraction, so a NaN, a missing number or a zero quaternion went through.
+std::string readViewpoint(const std::vector<std::string>& tok, PcdViewpoint& vp) {
+  std::string text;
+  for (const auto& t : tok) text += (text.empty() ? "" : " ") + t;
+  std::vector<double> v;
+  for (const auto& t : tok) {
+    char* end = nullptr;
+    const double x = std::strtod(t.c_str(), &end);
+    if (t.empty() || *end != 0 || !std::isfinite(x)) break;
+    v.push_back(x);
+  }
+  if (tok.size() != 7 || v.size() != 7)
+    return "VIEWPOINT must be 7 numbers, tx ty tz qw qx qy qz (the sensor's pose in the file's "
+           "frame), got '" +
+           text + "'";
+  const Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
+  // PCL writes 6 significant digits: a unit quaternion comes back within ~1e-6 of norm 1.
+  if (std::abs(q.norm() - 1) > 1e-3) {
+    std::ostringstream o;
+    o << "VIEWPOINT quaternion (qw qx qy qz) " << v[3] << ' ' << v[4] << ' ' << v[5] << ' ' << v[6]
+      << " has norm " << q.norm() << "; expected 1 (a rotation)";
+    return o.str();
+  }
+  vp.t = Eigen::Vector3d(v[0], v[1], v[2]);
+  vp.q = q.normalized();
+  vp.text = text;
+  return "";
+}
+
 /// What is wrong with a PCD header, or "" (then PCL reads the file). PCL 1.13 trusts its header:
 /// COUNT -1 crashed it (SIGSEGV), "DATA" without a type came back as vector::_M_range_check,
 /// and readHeader allocates and zero-fills the declared POINTS before reading any data, so a
@@ -71,7 +112,7 @@ double fieldValue(const pcl::PCLPointCloud2& c, const pcl::PCLPointField& f, std
 /// WIDTH × HEIGHT = POINTS; a DATA kind; and a body big enough for POINTS — SIZE × COUNT bytes a
 /// point in binary, two characters ("0 ") a value in ASCII. Compressed bodies carry their own
 /// sizes, which PCL checks.
-std::string pcdHeaderProblem(const std::string& file) {
+std::string pcdHeaderProblem(const std::string& file, PcdViewpoint& viewpoint) {
   std::ifstream in(file, std::ios::binary);
   std::string line, data;
   std::map<std::string, std::vector<std::string>> keys;
@@ -96,6 +137,8 @@ std::string pcdHeaderProblem(const std::string& file) {
       return std::string(key) + " must be one whole number below 2^32";
     return "";
   };
+  if (const auto vp = keys.find("VIEWPOINT"); vp != keys.end())
+    if (std::string why = readViewpoint(vp->second, viewpoint); !why.empty()) return why;
   const auto data_it = keys.find("DATA");
   if (data_it == keys.end())  // not a PCD header at all (PCL says so), or one cut short
     return keys.count("FIELDS") ? "no DATA line (ascii, binary or binary_compressed) in the "
@@ -160,7 +203,8 @@ const pcl::PCLPointField* findField(const pcl::PCLPointCloud2& c, const std::str
 class PointCloudFileSource : public Source {
  public:
   void declare(ParamDecl& d) override {
-    d.add("path", path_, "a .pcd or .ply file, or a folder of them (frames sorted by name)")
+    d.add("path", path_,
+          "a .pcd or .ply file, or a folder of them (frames in natural name order: 9 before 10)")
         .required()
         .existingPath();
     d.add("label_map", label_map_,
@@ -188,7 +232,7 @@ class PointCloudFileSource : public Source {
     if (fs::is_directory(p)) {
       for (const auto& e : fs::directory_iterator(p))
         if (e.is_regular_file() && usable(e.path())) files_.push_back(e.path().string());
-      std::sort(files_.begin(), files_.end());
+      sortNatural(files_);  // scan9 before scan10, as recorded
       if (files_.empty()) throw ParamError("path", "no .pcd or .ply files in '" + path_ + "'");
     } else {
       if (!usable(p)) throw ParamError("path", "'" + path_ + "' is not a .pcd or .ply file");
@@ -207,6 +251,7 @@ class PointCloudFileSource : public Source {
     ring_options_.use_scan_order = ring_method_ == "auto";
     ring_options_.z_offset_m = ring_z_offset_m_;
     ring_options_.measure_consistency = false;  // the rings are all a reader needs
+    told_viewpoint_ = false;
   }
 
   std::size_t size() const override { return files_.size(); }
@@ -223,8 +268,9 @@ class PointCloudFileSource : public Source {
     int rc = -1;
     std::string why;
     const bool ply = lowerExt(file) == ".ply";
+    PcdViewpoint viewpoint;
     if (!ply)
-      if (const std::string problem = pcdHeaderProblem(file); !problem.empty())
+      if (const std::string problem = pcdHeaderProblem(file, viewpoint); !problem.empty())
         throw InputError(file, "bad PCD header: " + problem);
     try {
       if (ply) {
@@ -322,6 +368,7 @@ class PointCloudFileSource : public Source {
     }
     f.dropped_nonfinite_points = nonfinite;
     f.dropped_no_return_points = origin;
+    if (!viewpoint.identity()) toSensorFrame(f.points, viewpoint, file);
     if (f_label) {
       if (map_) {
         map_->mapAll(f.truth.raw, f.truth.label, file);
@@ -346,6 +393,26 @@ class PointCloudFileSource : public Source {
   }
 
  private:
+  /// Moves the points from the file's frame into the sensor's, p_s = Rᵀ (p − t): the grid, ring
+  /// recovery and every feature take the sensor at the origin, x forward, z up. No-returns were
+  /// dropped before, by the (0, 0, 0) the file stores.
+  void toSensorFrame(PointCloud& c, const PcdViewpoint& vp, const std::string& file) {
+    const Eigen::Matrix3d Rt = vp.q.toRotationMatrix().transpose();
+    for (std::size_t k = 0; k < c.size(); ++k) {
+      const Eigen::Vector3d p = Rt * (Eigen::Vector3d(c.x[k], c.y[k], c.z[k]) - vp.t);
+      c.x[k] = float(p.x());
+      c.y[k] = float(p.y());
+      c.z[k] = float(p.z());
+    }
+    if (!told_viewpoint_) {  // once a source: a folder of one recording shares its viewpoint
+      told_viewpoint_ = true;
+      std::fprintf(stderr,
+                   "pointcloud_file: %s: VIEWPOINT %s applied: points moved from the file's frame "
+                   "into the sensor's (p_s = R^T (p - t))\n",
+                   file.c_str(), vp.text.c_str());
+    }
+  }
+
   std::string path_;
   std::string label_map_;
   bool use_labels_ = true;
@@ -358,6 +425,7 @@ class PointCloudFileSource : public Source {
   LabelSet labels_;
   std::unique_ptr<LabelMap> map_;
   RingRecoveryOptions ring_options_;
+  bool told_viewpoint_ = false;
 };
 
 }  // namespace

@@ -1,5 +1,6 @@
 // Source plugin "rellis3d": RELLIS-3D off-road frames (Ouster OS1-64 scan + labels, camera image
 // + pixel labels, intrinsics, LiDAR-camera extrinsics).
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -7,6 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/io/calibration_check.hpp"
@@ -52,7 +55,7 @@ class Rellis3dSource : public Source {
     d.add("image_size", image_size_,
           "with use_images: [width, height] of the images the calibration was made for; another "
           "size is an error. Empty: not checked exactly (the files store no size), but the "
-          "principal point must lie in the middle half of the image")
+          "principal point must lie within 10 % of the width and height of the image's centre")
         .unit("px");
     d.add("use_image_labels", use_image_labels_,
           "with use_images: map the pixel label image (when it exists) into the camera's truth");
@@ -66,6 +69,11 @@ class Rellis3dSource : public Source {
 
   void configure(const PluginContext& ctx) override {
     layout_ = resolveRellisLayout(path_);
+    stamped_.clear();
+    for (const RellisFrameFiles& fr : layout_.frames) {
+      const double stamp = fr.image.empty() ? -1 : stampFromImageName(fr.image);
+      if (stamp >= 0) stamped_.emplace_back(std::atof(fr.id.c_str()), stamp);
+    }
     expected_image_size_ = imageSizeParam(image_size_);
     const LabelSet defaults = LabelSet::defaults();
     const LabelSet& labels = ctx.labels ? *ctx.labels : defaults;
@@ -96,18 +104,10 @@ class Rellis3dSource : public Source {
     const ScanReadInfo info = readKittiScan(files.scan, f.points, drop_no_return_);
     f.dropped_nonfinite_points = info.dropped_nonfinite;
     f.dropped_no_return_points = info.dropped_no_return;
-    if (info.raw_points % rings_ != 0)
-      throw InputError(files.scan, std::to_string(info.raw_points) +
-                                       " points is not a whole number of columns of " +
-                                       std::to_string(rings_) + " rings (organised Ouster scan)");
-    organisedRings(f.points, info, rings_);
+    organisedRings(f.points, info, rings_, files.scan);  // checks the scan is organised
     if (use_labels_ && !files.label.empty())
       readKittiLabels(files.label, files.scan, info, map_.get(), f.truth);
-    f.timestamp_s = 0.1 * std::atof(files.id.c_str());  // Ouster at 10 Hz, unless the image says
-    if (!files.image.empty()) {
-      const double stamp = stampFromImageName(files.image);
-      if (stamp >= 0) f.timestamp_s = stamp;
-    }
+    f.timestamp_s = frameTime(files);
     if (use_images_) {
       if (files.image.empty())
         throw InputError(
@@ -141,6 +141,21 @@ class Rellis3dSource : public Source {
   }
 
  private:
+  /// One time base per sequence. The image names carry the recording's epoch time; a frame
+  /// without an image is placed from the nearest frame (by number; the earlier on a tie) that has
+  /// one, at the Ouster's 10 Hz. Only when no frame has a stamped image is the base id × 0.1 s.
+  /// (Each frame on its own base put image-less frames ~1.6e9 s from their neighbours.)
+  double frameTime(const RellisFrameFiles& files) const {
+    const double stamp = files.image.empty() ? -1 : stampFromImageName(files.image);
+    if (stamp >= 0) return stamp;
+    const double id = std::atof(files.id.c_str());
+    if (stamped_.empty()) return 0.1 * id;
+    const std::pair<double, double>* nearest = &stamped_.front();
+    for (const auto& s : stamped_)
+      if (std::abs(s.first - id) < std::abs(nearest->first - id)) nearest = &s;
+    return nearest->second + 0.1 * (id - nearest->first);
+  }
+
   std::string path_;
   std::string label_map_;
   bool use_labels_ = true;
@@ -151,6 +166,7 @@ class Rellis3dSource : public Source {
   int rings_ = 64;
 
   RellisLayout layout_;
+  std::vector<std::pair<double, double>> stamped_;  ///< frame number, image stamp [s]
   std::optional<ImageSize> expected_image_size_;
   std::unique_ptr<LabelMap> map_;
 };

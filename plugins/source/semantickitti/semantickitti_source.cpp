@@ -34,7 +34,9 @@ class SemanticKittiSource : public Source {
           "training folder (velodyne/, image_2/, calib/)")
         .required()
         .existingPath();
-    d.add("sequence", sequence_, "sequence NN under <path>/sequences (empty: the only one)");
+    d.add("sequence", sequence_,
+          "sequence NN under <path>/sequences (empty: the only one). With a sequence folder as "
+          "path it must be empty or that folder's name; with an object folder, empty");
     d.add("label_map", label_map_,
           "label-map YAML for labels/*.label (empty: configs/label_maps/semantickitti.yaml)")
         .existingPath();
@@ -48,7 +50,7 @@ class SemanticKittiSource : public Source {
     d.add("image_size", image_size_,
           "with use_images: [width, height] of the images the calibration was made for; another "
           "size is an error. Empty: not checked exactly (the files store no size), but the "
-          "principal point must lie in the middle half of the image")
+          "principal point must lie within 10 % of the width and height of the image's centre")
         .unit("px");
     d.add("use_poses", use_poses_,
           "LiDAR pose from poses.txt (Tr^-1 P Tr with Tr from calib.txt) when the file exists");
@@ -148,10 +150,20 @@ class SemanticKittiSource : public Source {
       readKittiLabels(label_path, f.source_path, info, map_.get(), f.truth);
 
     const long frame_no = frameNumber(f.id);
-    if (!times_.empty() && frame_no >= 0 && std::size_t(frame_no) < times_.size())
+    if (!layout_.times_file.empty()) {
+      // Line i is frame i. A frame past the end must not fall back to i × 0.1 s: that is another
+      // time base than the file's (often seconds since the recording started, or epoch).
+      if (frame_no < 0 || std::size_t(frame_no) >= times_.size())
+        throw InputError(layout_.times_file,
+                         "has " + std::to_string(times_.size()) +
+                             " time(s), one per line, but frame " + f.id +
+                             (frame_no < 0 ? " is not a frame number (no line of its own)"
+                                           : " needs line " + std::to_string(frame_no + 1)) +
+                             "; expected a time for every frame of the sequence");
       f.timestamp_s = times_[frame_no];
-    else if (layout_.kind == KittiLayout::Kind::kSequence && frame_no >= 0)
+    } else if (layout_.kind == KittiLayout::Kind::kSequence && frame_no >= 0) {
       f.timestamp_s = 0.1 * frame_no;  // KITTI sweeps at 10 Hz
+    }
 
     if (!poses_.empty()) {
       if (frame_no < 0 || std::size_t(frame_no) >= poses_.size())
@@ -211,7 +223,17 @@ class SemanticKittiSource : public Source {
 
   void recentreFrame(Frame& f) {
     const SensorOriginEstimate est = estimateSensorOrigin(f.points);
-    if (!est.ok || est.origin_m.norm() < recentre_min_m_) return;
+    if (!est.ok) {
+      // Asked for and not done: the scan may be off-centre, and the grid, ring recovery and
+      // features would all see it there. Said on stderr, like the shift when it is applied.
+      std::fprintf(stderr,
+                   "semantickitti: %s: recentre: auto could not estimate the sensor origin (%s); "
+                   "the cloud is left as stored\n",
+                   f.source_path.c_str(), est.note.c_str());
+      return;
+    }
+    // Within the estimate's accuracy of (0, 0): deliberately left alone, silently.
+    if (est.origin_m.norm() < recentre_min_m_) return;
     const Eigen::Vector2d shift = -est.origin_m;
     translateXY(f.points, shift.x(), shift.y());
     // Keep camera projections and the pose valid for the moved points.

@@ -81,6 +81,44 @@ TEST(CalibrationCheck, ResizedImagesAreErrorsNamingImageAndCalibration) {
   EXPECT_NE(exact.find(calib), std::string::npos) << exact;
 }
 
+// Without image_size the principal point must lie within 10 % of the width and height of the
+// image's centre. The real calibrations are within 4 % (KITTI object 000001's cy: 172.9 of 375,
+// 3.9 %), so 0.75× and 1.3× resizes are caught; the middle half of the image (the rule before)
+// let 0.67–2× pass.
+TEST(CalibrationCheck, ResizesOfAQuarterAreCaughtWithoutImageSize) {
+  const std::string calib = test::dataPath("kitti_object_fusion/training/calib/000001.txt");
+  const KittiCalib c1 = readKittiCalib(calib);
+  const std::string rellis = test::dataPath("rellis3d_example_000104/");
+  const CameraModel r =
+      rellisCamera(rellis + "camera_info.txt", rellis + "transforms.yaml", 1920, 1200);
+  struct Case {
+    CameraModel model;
+    int w, h;
+  };
+  for (const Case& c : {Case{kittiCamera(c1, 2, 932, 281), 932, 281},    // KITTI 0.75×
+                        Case{kittiCamera(c1, 2, 1615, 488), 1615, 488},  // KITTI 1.3×
+                        Case{r, 1440, 900},                              // RELLIS 0.75×
+                        Case{r, 2496, 1560}}) {                          // RELLIS 1.3×
+    const std::string what = failure(withImage(c.model, c.w, c.h, "/d/img.png"));
+    EXPECT_NE(what.find(std::to_string(c.w) + "x" + std::to_string(c.h) + " px"), std::string::npos)
+        << what;
+    EXPECT_NE(what.find("expected within 10 % of its width and height of the centre"),
+              std::string::npos)
+        << what;
+  }
+  // A camera whose principal point really is off-centre (a cropped sensor: cx at 35 % of the
+  // width) fails the 10 % rule at its own size; giving its image_size checks the size exactly
+  // instead, and then only the middle-half rule remains.
+  CameraModel crop;
+  crop.P << 500, 0, 224, 0, 0, 500, 240, 0, 0, 0, 1, 0;
+  crop.calibration = "/d/crop_calib.txt";
+  EXPECT_NE(failure(withImage(crop, 640, 480, "c.png")).find("principal point (224.0, 240.0) px"),
+            std::string::npos);
+  EXPECT_EQ(failure(withImage(crop, 640, 480, "c.png"), ImageSize{640, 480}), "");
+  const std::string halved = failure(withImage(crop, 320, 240, "c.png"), ImageSize{320, 240});
+  EXPECT_NE(halved.find("expected in the middle half of the image"), std::string::npos) << halved;
+}
+
 TEST(CalibrationCheck, DegenerateProjectionAndNoImage) {
   CameraModel zero;
   zero.calibration = "/d/calib.txt (P2, Tr)";

@@ -394,6 +394,38 @@ TEST(KittiCalib, RejectsBrokenFiles) {
   EXPECT_NO_THROW(readKittiCalib(p));
 }
 
+// Only what is read is required: the LiDAR→camera transform and the P of each camera asked for.
+// A calib.txt of just P2 and Tr (docs/own_data.md: what your own data needs for image_2) used to
+// be refused for the P0, P1 and P3 nobody reads ("no 'P0:' entry").
+TEST(KittiCalib, OnlyTheProjectionsOfTheCamerasReadAreRequired) {
+  test::TempDir dir;
+  const std::string p = dir.str() + "/calib.txt";
+  std::ofstream(p) << "P2: 718.856 0 607.1928 45.38225 0 718.856 185.2157 -0.1130887 0 0 1 "
+                      "0.003779761\n"
+                      "Tr: 0 -1 0 0 0 0 -1 0 1 0 0 -0.27\n";
+  KittiCalib c;
+  ASSERT_NO_THROW(c = readKittiCalib(p));
+  EXPECT_NEAR(c.T_cam_velo.translation().z(), -0.27, 1e-12);
+  const CameraModel left = kittiCamera(c, 2, 1241, 376);
+  EXPECT_NEAR(left.P(0, 2), 607.1928, 1e-9);
+  EXPECT_EQ(left.calibration, p + " (P2, Tr)");
+  try {
+    kittiCamera(c, 3, 1241, 376);
+    FAIL() << "expected InputError for camera 3 without P3";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), p);
+    EXPECT_NE(std::string(e.what()).find("no 'P3:' entry; camera image_3 needs it (its 3x4 "
+                                         "projection)"),
+              std::string::npos)
+        << e.what();
+  }
+  // An entry that is there must still be whole, and the transform is still required.
+  std::ofstream(p) << "P2: 718.856 0 607.1928\nTr: 0 -1 0 0 0 0 -1 0 1 0 0 -0.27\n";
+  EXPECT_THROW(readKittiCalib(p), InputError);
+  std::ofstream(p) << "P2: 718.856 0 607.1928 45.38225 0 718.856 185.2157 0 0 0 1 0\n";
+  EXPECT_THROW(readKittiCalib(p), InputError);
+}
+
 TEST(KittiPoses, LidarPoseMovesForward) {
   const auto poses = readKittiPoses(seqFile("poses.txt"));
   ASSERT_EQ(poses.size(), 4541u);
@@ -549,6 +581,51 @@ TEST(KittiLayout, DatasetRootErrorsNameTheFolderAndWhatIsExpected) {
     EXPECT_NE(std::string(e.what()).find("'" + root + "/sequences/01' has no velodyne/ folder"),
               std::string::npos)
         << e.what();
+  }
+}
+
+// Frames come in the order they were recorded, also when their names are not zero-padded: text
+// order put 10.bin before 9.bin (and 100.bin before 11.bin).
+TEST(KittiLayout, UnpaddedFrameNamesComeInNumericOrder) {
+  test::TempDir dir;
+  std::filesystem::create_directories(dir.str() + "/velodyne");
+  for (const char* n : {"10", "9", "100", "1", "11", "0"})
+    test::writeScan(dir.str() + "/velodyne/" + n + ".bin", {});
+  EXPECT_EQ(resolveKittiLayout(dir.str(), "").stems,
+            (std::vector<std::string>{"0", "1", "9", "10", "11", "100"}));
+}
+
+// `sequence` picks a folder under sequences/. A path that is already a sequence folder (or a KITTI
+// object folder) has nothing to pick: `path: …/sequences/00, sequence: "08"` used to read 00
+// without a word. A sequence naming the folder itself ("00", or "0" for "00") is fine.
+TEST(KittiLayout, SequenceThatDisagreesWithASequenceFolderPathIsAnError) {
+  const std::string seq = test::dataPath(kSeq);
+  for (const char* same : {"", "00", "0"})
+    EXPECT_EQ(resolveKittiLayout(seq, same).stems.size(), 6u) << same;
+  EXPECT_EQ(resolveKittiLayout(seq + "/", "00").stems.size(), 6u);  // a trailing slash
+  try {
+    resolveKittiLayout(seq, "08");
+    ADD_FAILURE() << "read sequence 00 for sequence: 08";
+  } catch (const ParamError& e) {
+    EXPECT_EQ(e.param(), "sequence");
+    EXPECT_NE(std::string(e.what()).find("is '08', but path '" + seq +
+                                         "' is itself the sequence folder '00'"),
+              std::string::npos)
+        << e.what();
+  }
+  // The object benchmark has no sequences; its folder and its parent both refuse one.
+  for (const std::string& object :
+       {test::dataPath("kitti_object_fusion/training"), test::dataPath("kitti_object_fusion")}) {
+    try {
+      resolveKittiLayout(object, "00");
+      ADD_FAILURE() << "accepted sequence: 00 for " << object;
+    } catch (const ParamError& e) {
+      EXPECT_EQ(e.param(), "sequence");
+      EXPECT_NE(
+          std::string(e.what()).find("is '00', but path '" + object + "' is a KITTI object folder"),
+          std::string::npos)
+          << e.what();
+    }
   }
 }
 

@@ -56,6 +56,17 @@ TEST(Rellis, ImagesAreMatchedByFrameNumberWhateverTheirPadding) {
   EXPECT_NE(by_id.at("000000")->image.find("frame0-4.jpg"), std::string::npos);
 }
 
+// Frames come in the order they were recorded, also when scan names are not zero-padded: text
+// order put 10.bin before 9.bin.
+TEST(Rellis, UnpaddedScanNamesComeInNumericOrder) {
+  test::TempDir dir;
+  for (const char* n : {"10", "9", "100", "1", "11"})
+    std::ofstream(dir.str() + "/" + n + ".bin") << "";
+  std::vector<std::string> ids;
+  for (const auto& f : resolveRellisLayout(dir.str()).frames) ids.push_back(f.id);
+  EXPECT_EQ(ids, (std::vector<std::string>{"1", "9", "10", "11", "100"}));
+}
+
 TEST(Rellis, ScanLabelsAndOrganisedRings) {
   const RellisLayout L = resolveRellisLayout(test::dataPath(kDir));
   const auto& files = L.frames[0];
@@ -65,7 +76,7 @@ TEST(Rellis, ScanLabelsAndOrganisedRings) {
   EXPECT_EQ(info.dropped_no_return, 53364u);
   EXPECT_EQ(info.dropped_nonfinite, 0u);
   EXPECT_EQ(c.size(), 131072u - 53364u);
-  organisedRings(c, info, 64);
+  organisedRings(c, info, 64, files.scan);
   ASSERT_TRUE(c.hasRing());
   // ring = index % 64: elevation is constant within a ring (organised Ouster layout) and falls
   // from ring 0 (top, ~+17°) to ring 63.
@@ -99,6 +110,67 @@ TEST(Rellis, ScanLabelsAndOrganisedRings) {
   EXPECT_EQ(mapped.at(labels::kRoad), 20242u);
   EXPECT_EQ(mapped.at(labels::kRough), 18040u + 1269u + 100u);
   EXPECT_EQ(mapped.at(labels::kObstacle), 17872u + 1310u + 595u + 3360u);
+}
+
+/// A synthetic organised scan of `rings` × `cols` at 10 m, ring r at 15° − 0.5° r, written column
+/// by column (or ring by ring) to `path`; every 5th point is a no-return at the origin.
+void writeSyntheticOuster(const std::string& path, int rings, int cols, bool column_by_column) {
+  std::vector<float> v;
+  for (int a = 0; a < (column_by_column ? cols : rings); ++a)
+    for (int b = 0; b < (column_by_column ? rings : cols); ++b) {
+      const int r = column_by_column ? b : a, c = column_by_column ? a : b;
+      const double el = (15.0 - 0.5 * r) * M_PI / 180, az = 2 * M_PI * c / cols;
+      if ((r + c) % 5 == 0)
+        v.insert(v.end(), {0.f, 0.f, 0.f, 0.f});
+      else
+        v.insert(v.end(), {float(10 * std::cos(el) * std::cos(az)),
+                           float(10 * std::cos(el) * std::sin(az)), float(10 * std::sin(el)), 1.f});
+    }
+  test::writeScan(path, v);
+}
+
+TEST(Rellis, OrganisedRingsChecksTheScanIsOrganised) {
+  test::TempDir dir;
+  const std::string good = dir.str() + "/good.bin", rows = dir.str() + "/rows.bin";
+  writeSyntheticOuster(good, 64, 32, true);
+  writeSyntheticOuster(rows, 64, 32, false);
+  for (const bool drop : {true, false}) {  // no-returns kept at the origin have no elevation
+    PointCloud c;
+    const ScanReadInfo info = readKittiScan(good, c, drop);
+    ASSERT_NO_THROW(organisedRings(c, info, 64, good)) << drop;
+    for (std::size_t k = 0; k < c.size(); ++k) {
+      if (c.x[k] == 0 && c.y[k] == 0 && c.z[k] == 0) continue;
+      const double el = std::atan2(c.z[k], std::hypot(c.x[k], c.y[k])) * 180 / M_PI;
+      ASSERT_NEAR(el, 15.0 - 0.5 * c.ring[k], 1e-4) << k;
+    }
+  }
+  PointCloud c;
+  ScanReadInfo info = readKittiScan(rows, c);
+  try {
+    organisedRings(c, info, 64, rows);
+    ADD_FAILURE() << "accepted a scan stored ring by ring";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), rows);
+    // Every "ring" holds every beam: 31° of the 31.5° field of view (some ends are no-returns).
+    EXPECT_NE(std::string(e.what()).find("spans 31.00° of elevation among its returns; expected "
+                                         "at most 2°"),
+              std::string::npos)
+        << e.what();
+  }
+  // Read as 32 rings the good scan is not organised either (two beams per "ring"), and a point
+  // count that is not whole columns is named with the layout expected.
+  info = readKittiScan(good, c);
+  EXPECT_THROW(organisedRings(c, info, 32, good), InputError);
+  try {
+    organisedRings(c, info, 48, good);
+    ADD_FAILURE() << "accepted 2048 points as columns of 48";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), good);
+    EXPECT_NE(std::string(e.what()).find("2048 points is not a whole number of columns; expected "
+                                         "an organised scan of 48 rings stored column by column"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Rellis, ExtrinsicDirectionPutsLabelledPointsOnMatchingPixels) {
@@ -151,6 +223,42 @@ TEST(Rellis, VelodyneScanBinsIntoTheVlp32cLaserAngles) {
                            -4.67, -5.33, -6.15, -7.25, -8.84, -11.31, -15.64, -25};
   for (int k = 0; k < 32; ++k)
     EXPECT_NEAR(st.ring_median_elevation_deg[k], vlp32c[k], 0.1) << "ring " << k;
+}
+
+// camera_info.txt holds "fx fy cx cy" (the release's file: four numbers on one line). A file with
+// more — distortion coefficients, a full K — used to be read for its first four numbers and the
+// rest dropped, giving a camera model other than the one calibrated.
+TEST(Rellis, IntrinsicsWithMoreThanFourNumbersAreRefusedNamingTheCount) {
+  const Matrix34d real =
+      readRellisIntrinsics(test::dataPath("rellis3d_example_000104/camera_info.txt"));
+  EXPECT_NEAR(real(0, 2), 969.285772, 1e-9);
+  test::TempDir dir;
+  const std::string ci = dir.str() + "/camera_info.txt";
+  struct Case {
+    std::string text, expect;
+  };
+  for (const Case& c :
+       {Case{"2813.64 2808.33 969.29 624.05 -0.134313 -0.025905 0.002181 0.00084 0\n",
+             "has 9 numbers; expected exactly 4, 'fx fy cx cy' [px] (no distortion or other "
+             "entries: they would be dropped"},
+        Case{"2813.64 2808.33\n969.29 624.05\n0\n", "has 5 numbers; expected exactly 4"},
+        Case{"2813.64 2808.33 969.29\n", "has 3 numbers; expected exactly 4"},
+        Case{"2813.64 2808.33 969.29 624.05 k1\n",
+             "line 1: 'k1' is not a finite number; expected 'fx fy cx cy' [px]"},
+        Case{"2813.64 2808.33 nan 624.05\n", "line 1: 'nan' is not a finite number"},
+        Case{"-2813.64 2808.33 969.29 624.05\n", "positive focal lengths"}}) {
+    std::ofstream(ci) << c.text;
+    try {
+      readRellisIntrinsics(ci);
+      ADD_FAILURE() << "accepted " << c.text;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), ci);
+      EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos) << e.what();
+    }
+  }
+  // Four numbers over several lines, with surrounding blanks, are still the four.
+  std::ofstream(ci) << "  2813.64\t2808.33\n969.29 624.05  \n\n";
+  EXPECT_NEAR(readRellisIntrinsics(ci)(1, 2), 624.05, 1e-9);
 }
 
 TEST(Rellis, CalibrationErrorsNameTheFile) {

@@ -4,7 +4,8 @@
 //
 // Formats: velodyne *.bin = little-endian float32 quadruples x, y, z [m], intensity; *.label =
 // uint32 per point, semantic id = low 16 bits, instance = high 16 bits; calib.txt in the odometry
-// variant (P0..P3, Tr) or the object variant (P0..P3, R0_rect, Tr_velo_to_cam, Tr_imu_to_velo);
+// variant (P0..P3, Tr) or the object variant (P0..P3, R0_rect, Tr_velo_to_cam, Tr_imu_to_velo),
+// of which only the transform and the P of each camera read are required;
 // poses.txt = one row-major 3×4 camera-0 pose per line.
 #include <Eigen/Geometry>
 #include <cstdint>
@@ -70,14 +71,17 @@ struct KittiCalib {
   std::string path;
   bool object_format = false;  ///< has R0_rect / Tr_velo_to_cam (object benchmark)
   std::map<std::string, std::vector<double>> entries;  ///< every "KEY: numbers" line
-  Matrix34d P[4];  ///< rectified projection matrices of cameras 0..3
+  Matrix34d P[4];  ///< rectified projection matrices of cameras 0..3 (zero where has_P is false)
+  bool has_P[4] = {false, false, false, false};  ///< the file has a 'Pi:' entry
   /// LiDAR -> rectified camera-0 frame: object R0_rect · Tr_velo_to_cam; odometry Tr (KITTI
   /// odometry's P_i already project from the rectified camera-0 frame).
   Eigen::Isometry3d T_cam_velo = Eigen::Isometry3d::Identity();
 };
 
-/// Reads calib.txt in either variant. Throws InputError naming the file for a missing file,
-/// missing P0..P3 / Tr entries or a wrong number count.
+/// Reads calib.txt in either variant. Required: the LiDAR→camera transform (Tr, or R0_rect and
+/// Tr_velo_to_cam); P0..P3 are read where present (has_P) and only required by kittiCamera for
+/// the camera asked for. Throws InputError naming the file for a missing file, a missing
+/// transform, an entry with the wrong number count (a P that is there included) or a word.
 KittiCalib readKittiCalib(const std::string& path);
 
 /// Camera model of camera `index` (2 = image_2, the left colour camera; 3 = image_3, the right
@@ -85,7 +89,7 @@ KittiCalib readKittiCalib(const std::string& path);
 /// stores none; see checkCalibrationFitsImage), calibration = "<path> (P2, R0_rect,
 /// Tr_velo_to_cam)" or "(P2, Tr)". A P_index that also rotates (left 3×3 not upper triangular)
 /// is split into K [I | 0] and a camera-0 → camera transform folded into T_camera_lidar; a
-/// singular one is an InputError naming the file.
+/// singular one, or none in the file (has_P false), is an InputError naming the file.
 CameraModel kittiCamera(const KittiCalib& calib, int index, int width_px, int height_px);
 
 /// poses.txt: camera-0 poses (T_world_cam0), one per line. Throws InputError naming the file and
@@ -98,7 +102,8 @@ Eigen::Isometry3d kittiLidarPose(const Eigen::Isometry3d& cam0_pose, const Eigen
 /// times.txt: one timestamp [s] per line.
 std::vector<double> readKittiTimes(const std::string& path);
 
-/// Where the files of a KITTI-style dataset are. Frames are velodyne/*.bin sorted by name.
+/// Where the files of a KITTI-style dataset are. Frames are velodyne/*.bin in natural name order
+/// (naturalLess: 9.bin before 10.bin).
 struct KittiLayout {
   enum class Kind { kSequence, kObject };
   Kind kind = Kind::kSequence;
@@ -106,7 +111,7 @@ struct KittiLayout {
   std::string calib_file;          ///< sequence: calib.txt (may not exist)
   std::string poses_file;          ///< sequence: poses.txt or <dataset>/poses/NN.txt; "" if none
   std::string times_file;          ///< sequence: times.txt; "" if none
-  std::vector<std::string> stems;  ///< frame ids (file stems), sorted
+  std::vector<std::string> stems;  ///< frame ids (file stems), in natural order
 
   std::string scanPath(std::size_t i) const;
   std::string labelPath(std::size_t i) const;  ///< labels/<stem>.label (may not exist)
@@ -118,7 +123,9 @@ struct KittiLayout {
 
 /// Accepts a sequence folder (holding velodyne/), a dataset root with sequences/NN/ (`sequence`
 /// picks NN; may be empty when there is just one), a KITTI object `training` folder (velodyne/,
-/// image_2/, calib/) or its parent. Throws ParamError("path" or "sequence", ...) otherwise.
+/// image_2/, calib/) or its parent. Throws ParamError("path" or "sequence", ...) otherwise, and
+/// ParamError("sequence") for a non-empty `sequence` with a sequence folder of another name (a
+/// sequence folder "00" takes "", "00" or "0") or with an object folder.
 KittiLayout resolveKittiLayout(const std::string& path, const std::string& sequence);
 
 }  // namespace terramrf

@@ -23,7 +23,7 @@ struct RellisLayout {
   std::string root;
   std::string camera_info;               ///< camera_info.txt ("" if absent)
   std::string transforms;                ///< transforms.yaml ("" if absent)
-  std::vector<RellisFrameFiles> frames;  ///< sorted by id
+  std::vector<RellisFrameFiles> frames;  ///< by id in natural order (9 before 10)
 };
 
 /// Accepts the flat example layout (NNNNNN.bin, NNNNNN.label, frameNNNNNN-*.jpg/.png,
@@ -33,12 +33,23 @@ struct RellisLayout {
 /// is not all digits (vel000104.bin, the Velodyne scan) are not frames. Throws ParamError("path").
 RellisLayout resolveRellisLayout(const std::string& path);
 
+/// Largest elevation spread [°] of the returns of one ring that organisedRings accepts: far above
+/// an organised scan's (000104: < 1e-5°; beam-origin offsets add < 0.3° beyond 1 m) and far
+/// below a scan in another order's (VLP-32C vel000104.bin cut to 64-point columns: 35–40°).
+constexpr double kOrganisedRingSpreadDeg = 2.0;
+
 /// Ring of each kept point of an organised scan stored column by column (`rings` values per
 /// azimuth column, top beam first): ring = raw index % rings. RELLIS Ouster scans are 2048
 /// columns × 64 rings in this order (checked on 000104: elevation spread within a ring ~1e-6°).
-void organisedRings(PointCloud& cloud, const ScanReadInfo& info, int rings);
+/// Checked, InputError naming `scan_path`: the raw point count is a whole number of columns, and
+/// the scan is organised — per ring, the elevation spread of its returns (no-returns at the
+/// origin ignored) is at most kOrganisedRingSpreadDeg; the error names the worst ring.
+void organisedRings(PointCloud& cloud, const ScanReadInfo& info, int rings,
+                    const std::string& scan_path);
 
-/// camera_info.txt: "fx fy cx cy" [px] -> P = K [I | 0]. Throws InputError naming the file.
+/// camera_info.txt: "fx fy cx cy" [px] -> P = K [I | 0]. Exactly four finite numbers (the
+/// release's file has just these, no distortion); more (distortion coefficients that would be
+/// dropped), fewer, a word or non-positive focal lengths: InputError naming the file (and line).
 Matrix34d readRellisIntrinsics(const std::string& path);
 
 /// transforms.yaml: `os1_cloud_node-pylon_camera_node: {q: {w, x, y, z}, t: {x, y, z}}`. The file

@@ -125,6 +125,103 @@ TEST_F(PointCloudFileTest, BinaryAndAsciiPcd) {
   }
 }
 
+// A folder of clouds is read in recording order, also when the names are not zero-padded: text
+// order read 10.pcd before 9.pcd.
+TEST_F(PointCloudFileTest, UnpaddedFileNamesComeInNumericOrder) {
+  test::TempDir dir;
+  const auto cloud = makeCloud(kPoints, true, true);
+  for (const char* n : {"scan10.pcd", "scan9.pcd", "scan100.pcd", "scan1.pcd"})
+    ASSERT_EQ(savePcd(dir.str() + "/" + n, cloud), 0);
+  auto src = make("{path: " + dir.str() + ", label_map: " + skMap() + "}");
+  ASSERT_EQ(src->size(), 4u);
+  std::vector<std::string> ids;
+  for (std::size_t i = 0; i < src->size(); ++i) ids.push_back(src->frameId(i));
+  EXPECT_EQ(ids, (std::vector<std::string>{"scan1", "scan9", "scan10", "scan100"}));
+  EXPECT_EQ(src->read(1).source_path, dir.str() + "/scan9.pcd");
+}
+
+// VIEWPOINT tx ty tz qw qx qy qz is the sensor's pose in the file's frame (PCL: the acquisition
+// viewpoint, sensor origin and orientation). It used to be read and dropped, so a cloud stored in
+// another frame was taken as sensor-frame; now the points are moved to the sensor frame,
+// p_s = Rᵀ (p − t).
+TEST_F(PointCloudFileTest, PcdViewpointMovesThePointsIntoTheSensorFrame) {
+  test::TempDir dir;
+  const std::vector<Pt> pts{
+      {1, 2, 3, 0.5f, 7, 40}, {-4, 5, -1, 0.25f, 9, 70}, {12, 0, 0.5f, 0, 3, 40}};
+  const auto cloud = makeCloud(pts, true, true);
+  ASSERT_EQ(savePcd(dir.str() + "/identity.pcd", cloud), 0);
+  const Eigen::Vector4f t(10, -5, 2, 0);
+  ASSERT_EQ(pcl::io::savePCDFile(dir.str() + "/shifted.pcd", cloud, t,
+                                 Eigen::Quaternionf::Identity(), true),
+            0);
+  const Eigen::Quaternionf q(Eigen::AngleAxisf(float(M_PI / 2), Eigen::Vector3f::UnitZ()));
+  ASSERT_EQ(pcl::io::savePCDFile(dir.str() + "/turned.pcd", cloud, t, q, /*binary=*/false), 0);
+  const std::string map = ", label_map: " + skMap() + "}";
+  const Frame a = make("{path: " + dir.str() + "/identity.pcd" + map)->read(0);
+  testing::internal::CaptureStderr();
+  const Frame b = make("{path: " + dir.str() + "/shifted.pcd" + map)->read(0);
+  const std::string err = testing::internal::GetCapturedStderr();
+  const Frame c = make("{path: " + dir.str() + "/turned.pcd" + map)->read(0);
+  ASSERT_EQ(a.points.size(), 3u);
+  ASSERT_EQ(b.points.size(), 3u);
+  ASSERT_EQ(c.points.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {
+    // Shifted: the identity file's points less the sensor's position.
+    EXPECT_NEAR(b.points.x[k], a.points.x[k] - 10, 1e-5) << k;
+    EXPECT_NEAR(b.points.y[k], a.points.y[k] + 5, 1e-5) << k;
+    EXPECT_NEAR(b.points.z[k], a.points.z[k] - 2, 1e-5) << k;
+    // Turned 90° about z as well: Rᵀ (p − t) = (py − ty, −(px − tx), pz − tz).
+    EXPECT_NEAR(c.points.x[k], a.points.y[k] + 5, 1e-5) << k;
+    EXPECT_NEAR(c.points.y[k], -(a.points.x[k] - 10), 1e-5) << k;
+    EXPECT_NEAR(c.points.z[k], a.points.z[k] - 2, 1e-5) << k;
+  }
+  // Everything else per point is unchanged.
+  EXPECT_EQ(b.points.ring, a.points.ring);
+  EXPECT_EQ(b.points.intensity, a.points.intensity);
+  EXPECT_EQ(c.truth.label, a.truth.label);
+  EXPECT_NE(err.find("pointcloud_file: " + dir.str() +
+                     "/shifted.pcd: VIEWPOINT 10 -5 2 1 0 0 0 applied: points moved from the "
+                     "file's frame into the sensor's"),
+            std::string::npos)
+      << err;
+
+  // A VIEWPOINT that is no pose is refused naming the file.
+  const std::string bad = dir.str() + "/bad.pcd";
+  for (const auto& [viewpoint, expect] :
+       {std::pair<std::string, std::string>{"VIEWPOINT 0 0 0 0 0 0 0",
+                                            "VIEWPOINT quaternion (qw qx qy qz) 0 0 0 0 has norm "
+                                            "0; expected 1"},
+        {"VIEWPOINT 0 0 0 1 0 0", "VIEWPOINT must be 7 numbers, tx ty tz qw qx qy qz"},
+        {"VIEWPOINT 0 nan 0 1 0 0 0", "VIEWPOINT must be 7 numbers, tx ty tz qw qx qy qz"}}) {
+    std::ofstream(bad) << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                          "WIDTH 1\nHEIGHT 1\n"
+                       << viewpoint << "\nPOINTS 1\nDATA ascii\n1 2 3\n";
+    expectRefused(bad, "bad PCD header: " + expect);
+  }
+}
+
+// A PLY camera element (view_px … z_axisz, as PCL's PLYWriter writes by default) is not applied:
+// PCL 1.13's PLYReader hands back origin 0 and the identity for it even from its own writer's
+// file, so the reader has no pose to apply (docs/plugins/readers.md). Pinned here so that a PCL
+// that starts handing it out is noticed.
+TEST_F(PointCloudFileTest, PlyCameraElementIsNotHandedOutByPcl) {
+  test::TempDir dir;
+  const std::string file = dir.str() + "/cam.ply";
+  const Eigen::Vector4f t(10, -5, 2, 0);
+  ASSERT_EQ(pcl::PLYWriter().write(file, makeCloud(kPoints, true, true), t,
+                                   Eigen::Quaternionf::Identity(), /*binary=*/false,
+                                   /*use_camera=*/true),
+            0);
+  pcl::PCLPointCloud2 c2;
+  Eigen::Vector4f origin(1, 1, 1, 1);
+  Eigen::Quaternionf orientation;
+  int version = 0;
+  ASSERT_EQ(pcl::PLYReader().read(file, c2, origin, orientation, version), 0);
+  EXPECT_TRUE(origin.isZero()) << origin.transpose();
+  const Frame f = make("{path: " + file + ", label_map: " + skMap() + "}")->read(0);
+  expectKPoints(f);  // as stored
+}
+
 TEST_F(PointCloudFileTest, Ply) {
   test::TempDir dir;
   const std::string file = dir.str() + "/scan.ply";

@@ -1,6 +1,7 @@
 // The "rellis3d" source on the RELLIS-3D example frame, plus bad input.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -168,6 +169,78 @@ TEST_F(Rellis3dSourceTest, PixelLabelImageOfTheWrongSizeOrChannelsIsNamed) {
       make("{path: " + dir.str() + ", use_images: true, use_image_labels: false}")->read(0);
   ASSERT_EQ(f.cameras.size(), 1u);
   EXPECT_FALSE(f.cameras[0].truth);
+}
+
+/// `n` points along x (all at elevation 0, so any ring order is consistent) as scan
+/// `<dir>/<id>.bin`.
+void writeFlatScan(const std::string& dir, const std::string& id, int n = 128) {
+  std::vector<float> pts(4 * n, 0.f);
+  for (int i = 0; i < n; ++i) pts[4 * i] = 1.f + i;
+  std::ofstream(dir + "/" + id + ".bin", std::ios::binary)
+      .write(reinterpret_cast<const char*>(pts.data()), std::streamsize(pts.size() * 4));
+}
+
+// One time base per sequence: frames with a camera image take its epoch stamp, and frames without
+// one are placed from the nearest frame that has one at the Ouster's 10 Hz. They used to get
+// id x 0.1 s, ~1.6e9 s away from their neighbours, within the same sequence.
+TEST_F(Rellis3dSourceTest, FramesWithoutAnImageAreTimedOnTheImagesEpochBase) {
+  test::TempDir dir;
+  for (const char* id : {"000000", "000001", "000002", "000005", "000006"})
+    writeFlatScan(dir.str(), id);
+  // Only the names matter here (use_images is off): frame<id>-<seconds>_<fraction>.jpg.
+  std::ofstream(dir.str() + "/frame000001-1581624663_149.jpg") << "";
+  std::ofstream(dir.str() + "/frame000005-1581624663_560.jpg") << "";
+  auto src = make("{path: " + dir.str() + ", use_labels: false}");
+  ASSERT_EQ(src->size(), 5u);
+  const double expected[] = {1581624663.049, 1581624663.149, 1581624663.249, 1581624663.560,
+                             1581624663.660};
+  for (std::size_t i = 0; i < 5; ++i)
+    EXPECT_NEAR(src->read(i).timestamp_s, expected[i], 1e-6) << src->frameId(i);
+  // No image at all: id x 0.1 s for every frame, one base again.
+  test::TempDir bare;
+  for (const char* id : {"000003", "000004"}) writeFlatScan(bare.str(), id);
+  auto plain = make("{path: " + bare.str() + ", use_labels: false}");
+  EXPECT_NEAR(plain->read(0).timestamp_s, 0.3, 1e-12);
+  EXPECT_NEAR(plain->read(1).timestamp_s, 0.4, 1e-12);
+}
+
+// ring = index % 64 holds only for an organised scan stored column by column. A scan that merely
+// has a multiple of 64 points used to pass and get rings that mix every elevation: the
+// VLP-32C scan of the example cut to 37 312 points, or an Ouster scan stored ring by ring. Both
+// are refused naming the file, the ring and its spread; the real 000104 (< 1e-5° per ring) reads.
+TEST_F(Rellis3dSourceTest, ScanThatIsNotOrganisedColumnByColumnIsRefused) {
+  std::vector<float> vel(37334 * 4);
+  std::ifstream(test::dataPath("rellis3d_example_000104/vel000104.bin"), std::ios::binary)
+      .read(reinterpret_cast<char*>(vel.data()), std::streamsize(vel.size() * 4));
+  vel.resize(37312 * 4);  // 583 "columns" of 64
+  // An organised 64 × 128 scan (ring r at 15° − 0.5° r, 10 m) stored ring by ring.
+  std::vector<float> rows;
+  for (int r = 0; r < 64; ++r)
+    for (int c = 0; c < 128; ++c) {
+      const double el = (15.0 - 0.5 * r) * M_PI / 180, az = 2 * M_PI * c / 128;
+      rows.insert(rows.end(),
+                  {float(10 * std::cos(el) * std::cos(az)), float(10 * std::cos(el) * std::sin(az)),
+                   float(10 * std::sin(el)), 0.f});
+    }
+  for (const auto& [points, what] : {std::pair{vel, "VLP-32C cut to 64-point columns"},
+                                     std::pair{rows, "Ouster stored ring by ring"}}) {
+    test::TempDir dir;
+    const std::string bin = dir.str() + "/000104.bin";
+    std::ofstream(bin, std::ios::binary)
+        .write(reinterpret_cast<const char*>(points.data()), std::streamsize(points.size() * 4));
+    try {
+      make("{path: " + dir.str() + ", use_labels: false}")->read(0);
+      ADD_FAILURE() << "read the " << what << " with rings index % 64";
+    } catch (const InputError& e) {
+      const std::string w = e.what();
+      EXPECT_EQ(e.file(), bin) << what;
+      EXPECT_NE(w.find("not an organised scan of 64 rings stored column by column: ring "),
+                std::string::npos)
+          << w;
+      EXPECT_NE(w.find("of elevation among its returns; expected at most 2°"), std::string::npos)
+          << w;
+    }
+  }
 }
 
 TEST_F(Rellis3dSourceTest, MissingFilesAreNamed) {

@@ -135,6 +135,23 @@ TEST_F(SemanticKittiSourceTest, DatasetRootWithSequence) {
   EXPECT_FALSE(f.points.hasRing());  // 50 points carry no ring structure
 }
 
+// A sequence folder as path with another sequence asked for: a parameter error naming both,
+// before any frame is read (it used to read the folder's own sequence).
+TEST_F(SemanticKittiSourceTest, SequenceParameterThatDisagreesWithTheFolderIsAnError) {
+  const std::string seq = test::dataPath("semantickitti_seq00_000000-000005/sequences/00");
+  EXPECT_EQ(make("{path: " + seq + ", sequence: '00'}")->size(), 6u);
+  try {
+    make("{path: " + seq + ", sequence: '08'}");
+    FAIL() << "expected an error for sequence 08 with the folder of sequence 00";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    // (The path as the parameter resolved it: the data folder's "/../" is gone.)
+    EXPECT_NE(what.find("parameter 'sequence': is '08', but path '"), std::string::npos) << what;
+    EXPECT_NE(what.find("sequences/00' is itself the sequence folder '00'"), std::string::npos)
+        << what;
+  }
+}
+
 TEST_F(SemanticKittiSourceTest, MissingDataPathIsAParameterError) {
   try {
     make("{path: /nonexistent/kitti}");
@@ -197,6 +214,31 @@ TEST_F(SemanticKittiSourceTest, RecentresTheShiftedOpen3dMlScan) {
   EXPECT_EQ(b0.points.y, b1.points.y);
 }
 
+// recentre: auto on a cloud whose sensor origin cannot be estimated: the cloud stays as stored,
+// and stderr says so naming the scan (it used to stay off-centre without a word). An estimate
+// shorter than recentre_min_m is a deliberate, silent skip.
+TEST_F(SemanticKittiSourceTest, RecentreThatCannotEstimateTheOriginSaysSoNamingTheScan) {
+  test::TempDir dir;
+  const std::string seq = tinySequence(dir);  // 3 points: no ring to fit
+  auto src = make("{path: " + seq + ", recentre: auto, ring_method: none}");
+  testing::internal::CaptureStderr();
+  const Frame f = src->read(0);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(f.points.x, (std::vector<float>{5, 6, 7}));  // left as stored
+  EXPECT_NE(err.find("semantickitti: " + seq +
+                     "/velodyne/000000.bin: recentre: auto could not estimate the sensor origin "
+                     "(too few points (3)); the cloud is left as stored"),
+            std::string::npos)
+      << err;
+  // Seq 00 frame 0: the estimate lies within recentre_min_m of (0, 0), nothing is said.
+  auto real = make("{path: " + test::dataPath("semantickitti_seq00_000000-000005/sequences/00") +
+                   ", recentre: auto}");
+  testing::internal::CaptureStderr();
+  const Frame g = real->read(0);
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  EXPECT_EQ(g.points.size(), 124668u);
+}
+
 TEST_F(SemanticKittiSourceTest, MissingImageOrCalibrationWhenRequested) {
   test::TempDir dir;
   const std::string seq = tinySequence(dir);
@@ -226,6 +268,28 @@ TEST_F(SemanticKittiSourceTest, MissingImageOrCalibrationWhenRequested) {
   EXPECT_EQ(f.cameras[0].model.calibration, seq2 + "/calib.txt (P2, Tr)");
   EXPECT_EQ(f.truth.label,
             (std::vector<LabelId>{labels::kRoad, labels::kRough, labels::kObstacle}));
+}
+
+// docs/own_data.md: image_2 with a calib.txt of P2 and Tr is all a sequence of your own needs.
+TEST_F(SemanticKittiSourceTest, CalibrationWithOnlyP2AndTrReadsImage2) {
+  test::TempDir dir;
+  const std::string seq = tinySequence(dir, /*calib=*/false);
+  std::ofstream(seq + "/calib.txt")
+      << "P2: 718.856 0 607.1928 45.38225 0 718.856 185.2157 -0.1130887 0 0 1 0.003779761\n"
+         "Tr: 0 -1 0 0 0 0 -1 0 1 0 0 -0.27\n";
+  writeImageAtomic(seq + "/image_2/000000.png", Image(1241, 376, 3));
+  const Frame f = make("{path: " + seq + ", use_images: true}")->read(0);
+  ASSERT_EQ(f.cameras.size(), 1u);
+  EXPECT_EQ(f.cameras[0].model.calibration, seq + "/calib.txt (P2, Tr)");
+  // Asking for image_3 as well: the missing P3 is named.
+  writeImageAtomic(seq + "/image_3/000000.png", Image(1241, 376, 3));
+  try {
+    make("{path: " + seq + ", use_images: true, cameras: [image_2, image_3]}")->read(0);
+    FAIL() << "expected InputError for image_3 without P3";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), seq + "/calib.txt");
+    EXPECT_NE(std::string(e.what()).find("no 'P3:' entry"), std::string::npos) << e.what();
+  }
 }
 
 // KITTI's colour pair: image_2 and image_3, each projected with its own P (P3 holds the
@@ -317,7 +381,8 @@ std::string resizedKittiObject(const test::TempDir& dir, int w, int h,
 // image used to pass silently with a calibration that no longer fits (halved: 2180 of 20259
 // points still in the image); the principal point check catches it.
 TEST_F(SemanticKittiSourceTest, ResizedImageIsAnErrorNamingImageAndCalibration) {
-  for (const auto& [w, h] : {std::pair{621, 188}, std::pair{2484, 750}}) {
+  // Halved, three quarters, doubled (0.75× passed the middle-half rule; 10 % catches it).
+  for (const auto& [w, h] : {std::pair{621, 188}, std::pair{931, 281}, std::pair{2484, 750}}) {
     test::TempDir dir;
     const std::string root = resizedKittiObject(dir, w, h);
     auto src = make("{path: " + root + ", use_images: true}");
@@ -481,6 +546,31 @@ TEST_F(SemanticKittiSourceTest, PosesFileShorterThanTheSequenceNamesFileAndFrame
   } catch (const InputError& e) {
     EXPECT_EQ(e.file(), seq + "/poses.txt");
     EXPECT_NE(std::string(e.what()).find("has 1 poses; frame 000001 has none"), std::string::npos)
+        << e.what();
+  }
+}
+
+// A times.txt shorter than the sequence: the frame past its end is an InputError naming the
+// file, its count and the frame (it used to get frame number x 0.1 s, silently on another time
+// base than the frames before it). Without times.txt the 10 Hz rule stays.
+TEST_F(SemanticKittiSourceTest, TimesFileShorterThanTheSequenceNamesFileCountAndFrame) {
+  test::TempDir dir;
+  const std::string seq = tinySequence(dir);
+  std::filesystem::copy_file(seq + "/velodyne/000000.bin", seq + "/velodyne/000001.bin");
+  auto plain = make("{path: " + seq + "}");
+  EXPECT_NEAR(plain->read(1).timestamp_s, 0.1, 1e-12);  // no times.txt: 10 Hz
+  std::ofstream(seq + "/times.txt") << "1.000000e+03\n";
+  auto src = make("{path: " + seq + "}");
+  ASSERT_EQ(src->size(), 2u);
+  EXPECT_EQ(src->read(0).timestamp_s, 1000.0);
+  try {
+    const Frame f = src->read(1);
+    FAIL() << "expected InputError for frame 000001 past times.txt, got time " << f.timestamp_s;
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), seq + "/times.txt");
+    EXPECT_NE(std::string(e.what()).find("has 1 time(s), one per line, but frame 000001 needs "
+                                         "line 2; expected a time for every frame"),
+              std::string::npos)
         << e.what();
   }
 }
