@@ -365,10 +365,24 @@ std::string kindList(const std::vector<PluginKind>& kinds) {
 namespace {
 // A copied entry (a sweep's dataset in a split item) has no position of its own; its keys keep
 // theirs, so the first key stands for the entry.
-YAML::Mark entryMark(const YAML::Node& e) {
-  if (e.Mark().line < 0 && e.IsMap() && e.begin() != e.end()) return e.begin()->first.Mark();
-  return e.Mark();
+/// The first position held anywhere in `n` (depth first), or the null mark.
+YAML::Mark firstMark(const YAML::Node& n) {
+  if (n.Mark().line >= 0) return n.Mark();
+  if (n.IsMap()) {
+    for (auto it = n.begin(); it != n.end(); ++it) {
+      if (it->first.Mark().line >= 0) return it->first.Mark();
+      if (const YAML::Mark m = firstMark(it->second); m.line >= 0) return m;
+    }
+  } else if (n.IsSequence()) {
+    for (const auto& v : n)
+      if (const YAML::Mark m = firstMark(v); m.line >= 0) return m;
+  }
+  return YAML::Mark::null_mark();
 }
+
+/// Where an entry stands. Copies made to keep positions (copyEntryKeepingPositions) are new maps,
+/// and their `params` key is new too: an entry holding only params has its position inside them.
+YAML::Mark entryMark(const YAML::Node& e) { return firstMark(e); }
 }  // namespace
 
 EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const std::string& section,

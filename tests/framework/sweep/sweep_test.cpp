@@ -1817,6 +1817,27 @@ TEST(Train, ASourceParameterErrorIsReportedAtItsLine) {
   }
 }
 
+// A source entry of params alone (its type lost): the copy that keeps positions re-creates the
+// `params` key, so the first key had none and the error stood without a line (found by fuzzing).
+TEST(Train, ASourceWithoutATypeIsReportedAtItsLine) {
+  test::TempDir dir;
+  const std::string map = test::sourceDir() + "/configs/label_maps/semantickitti.yaml";
+  std::string text = readFile(seq00TrainConfig(dir, map, "[0, 1]"));
+  text = test::edited(text, "  type: semantickitti\n", "");
+  const std::string config = put(dir, "no_type.yaml", text);
+  std::ostringstream log;
+  try {
+    trainModel(quietTraining(config, dir, log));
+    FAIL() << "trained without a source type";
+  } catch (const ConfigError& e) {
+    const std::string line = test::positionOf(text, "params: {path");
+    EXPECT_NE(std::string(e.what()).find(config + ":" + line.substr(0, line.find(':')) + ":"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("missing key 'type'"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Train, UnlabelledDataIsAnErrorNamingTheSourceItsFolderAndLabelMap) {
   // Frames 3–5 of the seq 00 folder have no .label files. `terramrf train` reads one unnamed
   // source, and the message said "no labelled frame in the training data ()" (found by fuzzing).
