@@ -62,7 +62,10 @@ std::string gridToCsv(const TerrainGrid& grid, const LabelSet& labels,
   for (int r = 0; r < grid.rows(); ++r) {
     for (int c = 0; c < grid.cols(); ++c) {
       const int cell = grid.index(r, c);
-      const Eigen::Vector2d centre = grid.geometry().cellCentre(r, c);
+      // To the nanometre: origin + (i + ½)·cell carries float noise with cells such as 0.3 m
+      // (−0.15000000000000036), which a table read by eye or joined on coordinates should not.
+      const Eigen::Vector2d centre =
+          (grid.geometry().cellCentre(r, c) * 1e9).array().round().matrix() / 1e9;
       appendNumber(out, r);
       out += ',';
       appendNumber(out, c);

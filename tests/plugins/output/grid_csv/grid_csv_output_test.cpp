@@ -79,6 +79,45 @@ TEST_F(GridCsvTest, KnownRowsWithSelectedLayer) {
   EXPECT_EQ(l[16], "3,3,1.5,1.5,0,unknown,0,");
 }
 
+// Cell centres of a non-binary cell size read as written: −0.45, −0.15, 0.15, 0.45 for 0.3 m
+// cells, not −0.15000000000000036.
+TEST(GridCsvFormat, CellCentresCarryNoFloatNoise) {
+  GridGeometry g;
+  g.size_m = 1.2;
+  g.cell_m = 0.3;
+  test::TempDir dir;
+  LabelSet labels = LabelSet::defaults();
+  PluginContext pc;
+  pc.output_dir = dir.str();
+  pc.grid = g;
+  pc.labels = &labels;
+  auto out = test::makeOutput("grid_csv", "{}", pc);
+  ASSERT_TRUE(out);
+  RunInfo info;
+  info.output_dir = dir.str();
+  info.labels = &labels;
+  info.grid = g;
+  out->begin(info);
+  Frame frame;
+  frame.id = "000001";
+  TerrainGrid grid(g);
+  grid.binPoints(frame.points);
+  FrameContext c;
+  c.frame = &frame;
+  c.grid = &grid;
+  c.labels = &labels;
+  out->write(c);
+  const auto l = lines(readFile(dir.str() + "/grid_csv/000001.csv"));
+  ASSERT_EQ(l.size(), 17u);
+  std::vector<std::string> xs;
+  for (int r = 0; r < 4; ++r) {
+    const std::string& row = l[1 + r * 4];
+    const std::size_t a = row.find(',', row.find(',') + 1) + 1;
+    xs.push_back(row.substr(a, row.find(',', a) - a));
+  }
+  EXPECT_EQ(xs, (std::vector<std::string>{"-0.45", "-0.15", "0.15", "0.45"}));
+}
+
 TEST_F(GridCsvTest, AllLayersByDefaultInNameOrder) {
   make("{subdir: tables}")->write(ctx());
   const auto l = lines(readFile(dir.str() + "/tables/000007.csv"));
