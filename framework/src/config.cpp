@@ -396,8 +396,7 @@ EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const st
   // Scalar() of a list or a null is "": such a name or type would pass for an empty one.
   const YAML::Node type_node = e["type"], name_node = e["name"];
   if (type_node && (type_node.IsSequence() || type_node.IsMap())) {  // a null is "empty" below
-    d.add(type_node.Mark(), "'type' must be a plugin type name, got " +
-                                std::string(type_node.IsSequence() ? "a list" : "a map"));
+    d.add(type_node.Mark(), "'type' must be a plugin type name, got " + describeNode(type_node));
     return ep;
   }
   ep.type = type_node ? type_node.Scalar() : "";
@@ -411,10 +410,7 @@ EntryPlugin createEntryPlugin(PluginRegistry& reg, const YAML::Node& e, const st
       d.add(valueMark(e, "name"),
             "'name' must be a non-empty name of letters, digits, '_', '-' and '.' (it heads the "
             "timing table's rows and the metric keys), got " +
-                (name_node.IsSequence() ? std::string("a list")
-                 : name_node.IsMap()    ? std::string("a map")
-                 : name_node.IsNull()   ? std::string("nothing")
-                                        : "'" + n + "'"),
+                describeNode(name_node),
             "", ep.type);
       return ep;
     }
@@ -539,12 +535,9 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
   // A list, a null or "" would read as "" and put every output next to the config.
   const bool od_ok = !od || (od.IsScalar() && !od.Scalar().empty());
   if (!od_ok)
-    c.add(detail::valueMark(root, "output_dir"),
-          "'output_dir' must be a folder name (a non-empty string), got " +
-              std::string(od.IsSequence() ? "a list"
-                          : od.IsMap()    ? "a map"
-                          : od.IsNull()   ? "nothing"
-                                          : "an empty string"));
+    c.add(
+        detail::valueMark(root, "output_dir"),
+        "'output_dir' must be a folder name (a non-empty string), got " + detail::describeNode(od));
   if (p.output_dir.empty()) {
     p.output_dir = od && od_ok ? (fs::path(config_dir) / od.Scalar()).string()
                                : (fs::current_path() / "out").string();

@@ -7,6 +7,13 @@
 
 namespace terramrf::detail {
 
+std::string describeNode(const YAML::Node& n) {
+  if (n.IsScalar()) return "'" + n.Scalar() + "'";
+  if (n.IsSequence()) return "a list";
+  if (n.IsMap()) return "a map";
+  return "nothing";
+}
+
 namespace {
 
 std::size_t editDistance(const std::string& a, const std::string& b) {
@@ -20,13 +27,6 @@ std::size_t editDistance(const std::string& a, const std::string& b) {
     std::swap(prev, cur);
   }
   return prev[b.size()];
-}
-
-std::string describeNode(const YAML::Node& n) {
-  if (n.IsScalar()) return "'" + n.Scalar() + "'";
-  if (n.IsSequence()) return "a list";
-  if (n.IsMap()) return "a map";
-  return "nothing";
 }
 
 bool parseBool(const YAML::Node& n, bool& out) {
@@ -214,9 +214,8 @@ std::vector<ParamIssue> applyParams(Plugin& plugin, const YAML::Node& params,
         const YAML::Mark mark = it->first.Mark();
         if (!it->first.IsScalar()) {
           // `? [a, b] : 3` and merge keys' maps: no parameter is named by a list or a map.
-          issues.push_back({"", mark,
-                            "parameter names must be plain words, got a " +
-                                std::string(it->first.IsSequence() ? "list" : "map")});
+          issues.push_back(
+              {"", mark, "parameter names must be plain words, got " + describeNode(it->first)});
           continue;
         }
         const std::string key = it->first.Scalar();

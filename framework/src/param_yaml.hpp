@@ -15,6 +15,9 @@ struct ParamIssue {
   std::string message;
 };
 
+/// What a node is, for messages: 'text' for a scalar, "a list", "a map", or "nothing".
+std::string describeNode(const YAML::Node& n);
+
 /// Nearest candidate by edit distance, or "" if none is close.
 std::string didYouMean(const std::string& word, const std::vector<std::string>& candidates);
 

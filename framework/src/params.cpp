@@ -23,7 +23,8 @@ std::string numberText(double d) {
   if (std::isnan(d)) return "nan";
   if (std::isinf(d)) return d > 0 ? "inf" : "-inf";
   // Whole numbers as such: general notation writes 4194304 as 4.194304e+06.
-  if (d == std::trunc(d) && std::abs(d) < 1e15) return std::to_string(static_cast<int64_t>(d));
+  if (d == std::trunc(d) && std::abs(d) < 1e15 && !(d == 0 && std::signbit(d)))
+    return std::to_string(static_cast<int64_t>(d));
   char buf[32];
   const auto r = std::to_chars(buf, buf + sizeof buf, d, std::chars_format::general);
   return std::string(buf, r.ptr);
@@ -34,10 +35,9 @@ std::string num(double d) {
   if (std::isnan(d)) return ".nan";
   if (std::isinf(d)) return d > 0 ? ".inf" : "-.inf";
   // The shortest text that reads back as the same double: a resolved config must reproduce the
-  // run (ten digits turned 0.12000000000123 into 0.12, and simulated another cloud).
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, d, std::chars_format::general);
-  std::string s(buf, r.ptr);
+  // run (ten digits turned 0.12000000000123 into 0.12, and simulated another cloud). ".0" keeps
+  // a whole number a float in YAML.
+  std::string s = numberText(d);
   if (s.find_first_of(".eE") == std::string::npos) s += ".0";
   return s;
 }
