@@ -474,11 +474,14 @@ KittiLayout resolveKittiLayout(const std::string& path, const std::string& seque
     } else {
       seq_name = sequence;
       if (!isDir(p / "sequences" / seq_name)) {
-        // Accept "0" for "00".
-        if (seq_name.size() < 2) seq_name = std::string(2 - seq_name.size(), '0') + seq_name;
-        if (!isDir(p / "sequences" / seq_name))
+        // The same number names the same sequence ("0" for "00"), as for a sequence folder below.
+        const auto it = std::find_if(seqs.begin(), seqs.end(), [&](const std::string& s) {
+          return namesSequence(sequence, s);
+        });
+        if (it == seqs.end())
           throw ParamError("sequence", "no sequences/" + sequence + " under '" + path +
                                            "' (available: " + list + ")");
+        seq_name = *it;
       }
     }
     folder = p / "sequences" / seq_name;
