@@ -53,6 +53,10 @@ int RunResult::exitCode() const {
 
 namespace {
 
+// The run's own reports (writeRunReports), removed at the start of a run (runPipeline).
+constexpr const char* kTimingFile = "timing.md";
+constexpr const char* kMetricsFile = "metrics.csv";
+
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -132,7 +136,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
     return path.is_absolute() ? path : std::filesystem::path(p.output_dir) / path;
   };
   {
-    std::vector<std::string> summaries = {"timing.md", "metrics.csv"};
+    std::vector<std::string> summaries = {kTimingFile, kMetricsFile};
     for (auto& o : p.outputs)
       for (const auto& f : o->summaryFiles()) summaries.push_back(f);
     for (const auto& f : summaries) {
@@ -305,9 +309,9 @@ std::string metricsCsv(const RunResult& r) {
 }
 
 void writeRunReports(const std::string& dir, const RunResult& r) {
-  writeFileAtomic(dir + "/timing.md", timingTable(r));
+  writeFileAtomic(dir + "/" + kTimingFile, timingTable(r));
   // Always written, if only its header: an earlier run's file would pass for this one's.
-  writeFileAtomic(dir + "/metrics.csv", metricsCsv(r));
+  writeFileAtomic(dir + "/" + kMetricsFile, metricsCsv(r));
 }
 
 }  // namespace terramrf
