@@ -14,6 +14,9 @@
 // another laser and is passed over. Rings recovered by elevation binning from voxel-thinned
 // clouds (the Open3D-ML scans) interleave two lasers near the sensor, whose ground ranges differ
 // by decimetres there: without the check their asphalt read as grass (road recall 0.79 → 0.92).
+// The ring is not closed at its seam: its first and last points are one revolution (0.1 s)
+// apart, and on a moving car their ranges differ by decimetres (seq 00: median 0.6 m, ahead of
+// the car), which would read as roughness (docs/plugins/features.md).
 // Cell value: RMS of its points' residuals [m].
 #include <algorithm>
 #include <cmath>

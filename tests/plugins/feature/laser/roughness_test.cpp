@@ -122,6 +122,22 @@ TEST(Roughness, EdgesAreNotRoughness) {
     if (!std::isnan(v)) EXPECT_LT(v, 1e-4);
 }
 
+// A full ring's first and last points are one revolution apart in time: on a moving car their
+// ranges differ (here 0.3 m, the car's motion, within max_jump_m). The ring is not closed there,
+// so the seam reads as smooth as the rest; closed, its two cells would read about 0.03 m.
+TEST(Roughness, RingIsNotClosedAtItsSeam) {
+  test::StageHarness h;
+  const int n = 2000;
+  std::vector<double> dr(n);
+  for (int i = 0; i < n; ++i) dr[i] = -0.3 * i / n;  // a steady drift: no residual inside
+  addRing(h.frame.points, 5, 8.0, n, dr);
+  h.bin();
+  h.make("roughness", "{window: 2, max_jump_m: 0.5}")->process(h.ctx);
+  EXPECT_LT(h.at("roughness", 7.95, 0.01), 1e-3);   // the ring's first points
+  EXPECT_LT(h.at("roughness", 7.75, -0.01), 1e-3);  // its last points (0.3 m shorter)
+  EXPECT_LT(h.at("roughness", 0.0, 7.85), 1e-4);    // a quarter of the way round
+}
+
 TEST(Roughness, WithoutRingsIsAnInputError) {
   test::StageHarness h;
   h.frame.source_path = "scan.bin";
