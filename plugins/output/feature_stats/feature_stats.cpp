@@ -139,7 +139,8 @@ class FeatureStats final : public Output {
     std::string unsettled;  // classes whose mixture EM did not settle
     const std::size_t K = info_.labels->size(), F = features_.size();
     checkEveryFeatureMeasured(K, F);
-    o.precision(6);
+    // Numbers as the shortest text that reads back exactly: six digits lost 0.12345679 to
+    // 0.123457, so a model loaded from its file was not the one learnt.
     for (std::size_t k = 1; k < K; ++k) {
       std::ostringstream cls;
       bool any = false;
@@ -152,8 +153,8 @@ class FeatureStats final : public Output {
         double mean = mean_[i], sigma = std::sqrt(m2_[i] / (n_[i] - 1));
         if (robust_) robustEstimate(samples_[i], mean, sigma);
         single[f] = {mean, std::max(sigmaFloor(f), sigma)};
-        cls << "    " << features_[f] << ": {mean: " << single[f].mean
-            << ", sigma: " << single[f].sigma << "}  # " << n_[i] << " cells\n";
+        cls << "    " << features_[f] << ": {mean: " << numberText(single[f].mean)
+            << ", sigma: " << numberText(single[f].sigma) << "}  # " << n_[i] << " cells\n";
       }
       if (!any) continue;
       o << "  " << info_.labels->name(static_cast<LabelId>(k)) << ":\n";
@@ -171,12 +172,12 @@ class FeatureStats final : public Output {
         << (converged ? "" : " (unsettled after 100 rounds: the assignment of lowest energy)")
         << "\n";
       for (const Component& m : mix) {
-        o << "      - weight: " << m.weight << "  # " << m.cells << " cells\n"
+        o << "      - weight: " << numberText(m.weight) << "  # " << m.cells << " cells\n"
           << "        features:\n";
         for (std::size_t f = 0; f < F; ++f)
           if (learnt[f])
-            o << "          " << features_[f] << ": {mean: " << m.g[f].mean
-              << ", sigma: " << m.g[f].sigma << "}\n";
+            o << "          " << features_[f] << ": {mean: " << numberText(m.g[f].mean)
+              << ", sigma: " << numberText(m.g[f].sigma) << "}\n";
       }
     }
     std::ostringstream head;
@@ -243,7 +244,7 @@ class FeatureStats final : public Output {
   std::string floorsText() const {
     std::ostringstream t;
     for (std::size_t f = 0; f < features_.size(); ++f)
-      t << (f ? ", " : "") << features_[f] << " " << sigmaFloor(f);
+      t << (f ? ", " : "") << features_[f] << " " << numberText(sigmaFloor(f));
     return t.str();
   }
 

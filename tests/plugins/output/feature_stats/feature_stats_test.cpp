@@ -82,6 +82,22 @@ TEST(FeatureStats, MomentsAndRobustEstimates) {
   EXPECT_NE(r["provenance"].as<std::string>().find("robust"), std::string::npos);
 }
 
+// The model file holds the numbers learnt, not six digits of them: a model loaded from its file
+// is the one learnt (0.123456789f was written 0.123457).
+TEST(FeatureStats, NumbersReadBackExactly) {
+  const float v = 0.123456789f, w = 2.718281828f;
+  Scene s({kRoad, kRoad, kRough, kRough}, {v, v, w, v}, kRough);
+  const YAML::Node m =
+      s.learn("{features: [f], min_labelled_points: 1, min_sigma: [1.0000001e-6]}");
+  EXPECT_EQ(m["classes"]["road"]["f"]["mean"].as<double>(), double(v));
+  const double mean = (double(w) + double(v)) / 2, d = double(w) - mean;
+  EXPECT_EQ(m["classes"]["rough"]["f"]["mean"].as<double>(), mean);
+  // Welford's sum of squares for two values: 2·d²; σ = √(2d² / 1).
+  EXPECT_NEAR(m["classes"]["rough"]["f"]["sigma"].as<double>(), std::sqrt(2 * d * d), 1e-15);
+  EXPECT_NE(m["provenance"].as<std::string>().find("f 1.0000001e-06"), std::string::npos)
+      << m["provenance"];
+}
+
 TEST(FeatureStats, ObstacleRuleMakesMixedCellsObstacleSamples) {
   // Cell 9 holds a road point and an obstacle point: purity 0.5, so by purity it is no sample;
   // by the evaluation's rule it is an obstacle cell (the class it will be scored as).
