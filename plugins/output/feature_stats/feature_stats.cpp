@@ -9,6 +9,7 @@
 // fits none of them — with robust estimates it fits the majority and treats the rest as outliers.
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <sstream>
 
 #include "terramrf/atomic_file.hpp"
@@ -50,6 +51,17 @@ class FeatureStats final : public Output {
           "classifier is scored against)");
   }
   void configure(const PluginContext& ctx) override {
+    if (features_.empty()) throw ParamError("features", "is empty; name at least one grid layer");
+    for (std::size_t i = 0; i < features_.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        if (features_[i] == features_[j])
+          throw ParamError("features", "'" + features_[i] +
+                                           "' is listed twice; the model holds one entry per "
+                                           "feature (the energy refuses duplicates)");
+    if (out_path_.empty() || out_path_.back() == '/')
+      throw ParamError("model", "'" + out_path_ +
+                                    "' is not a file name; expected the model file to write, "
+                                    "e.g. model.yaml (relative to the output folder)");
     if (min_sigma_.size() > 1 && min_sigma_.size() != features_.size())
       throw ParamError("min_sigma", "give one value, or one per feature (" +
                                         std::to_string(features_.size()) + ")");
@@ -71,6 +83,10 @@ class FeatureStats final : public Output {
 
   void begin(const RunInfo& info) override {
     info_ = info;
+    // Said before the first frame: at the end every frame's statistics would be lost.
+    if (std::filesystem::is_directory(modelPath()))
+      throw std::runtime_error("output '" + name() + "': parameter 'model': '" + modelPath() +
+                               "' is a folder; expected a model file name");
     const std::size_t K = info.labels->size(), F = features_.size();
     n_.assign(K * F, 0);
     mean_.assign(K * F, 0);
@@ -134,11 +150,26 @@ class FeatureStats final : public Output {
     }
   }
 
-  void end(const RunSummary&) override {
+  void end(const RunSummary& summary) override {
     std::ostringstream o;   // the classes; the header, which reports on them, goes before
     std::string unsettled;  // classes whose mixture EM did not settle
     const std::size_t K = info_.labels->size(), F = features_.size();
+    // A model without classes would replace a good one and fail only when an energy loads it.
+    if (frames_ == 0)
+      throw std::runtime_error(
+          "no labelled frame reached it (" + std::to_string(summary.frames_ok) +
+          " frame(s) ok, none with ground-truth labels: a source without labels, or every frame "
+          "failed); nothing learnt, " +
+          modelPath() + " left as it was");
     checkEveryFeatureMeasured(K, F);
+    bool any_class = false;
+    for (std::size_t i = F; i < K * F; ++i) any_class = any_class || n_[i] >= 2;
+    if (!any_class)
+      throw std::runtime_error("no class has 2 or more training cells in " +
+                               std::to_string(frames_) +
+                               " labelled frame(s) (cells need >= " + std::to_string(min_points_) +
+                               " labelled points and purity >= " + numberText(min_purity_) +
+                               "); nothing learnt, " + modelPath() + " left as it was");
     // Numbers as the shortest text that reads back exactly: six digits lost 0.12345679 to
     // 0.123457, so a model loaded from its file was not the one learnt.
     for (std::size_t k = 1; k < K; ++k) {
@@ -199,9 +230,16 @@ class FeatureStats final : public Output {
       for (const auto& [f, text] : origins_) head << "  " << f << ": " << text << "\n";
     }
     head << "classes:\n";
-    const std::string path =
-        out_path_.front() == '/' ? out_path_ : info_.output_dir + "/" + out_path_;
-    writeFileAtomic(path, head.str() + o.str());
+    writeFileAtomic(modelPath(), head.str() + o.str());
+  }
+
+  /// The model when it lies in the run's output folder: an earlier run's must not pass for this
+  /// run's should it stop early. One given elsewhere (configs/models/x.yaml) is the user's file,
+  /// kept until this run replaces it.
+  std::vector<std::string> summaryFiles() const override {
+    const std::filesystem::path p = std::filesystem::path(out_path_).lexically_normal();
+    if (p.is_absolute() || p.empty() || *p.begin() == "..") return {};
+    return {out_path_};
   }
 
  private:
@@ -246,6 +284,10 @@ class FeatureStats final : public Output {
     for (std::size_t f = 0; f < features_.size(); ++f)
       t << (f ? ", " : "") << features_[f] << " " << numberText(sigmaFloor(f));
     return t.str();
+  }
+
+  std::string modelPath() const {
+    return out_path_.front() == '/' ? out_path_ : info_.output_dir + "/" + out_path_;
   }
 
   double sigmaFloor(std::size_t f) const {

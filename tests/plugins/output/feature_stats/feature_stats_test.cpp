@@ -5,8 +5,11 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -41,6 +44,11 @@ struct Scene {
   YAML::Node learn(const std::string& params,
                    const std::map<std::string, std::string>* origins = nullptr) {
     test::TempDir dir;
+    run(params, dir.str(), origins);
+    return YAML::LoadFile(dir.str() + "/model.yaml");
+  }
+  void run(const std::string& params, const std::string& dir,
+           const std::map<std::string, std::string>* origins = nullptr) {
     PluginContext pc;
     pc.grid = geom;
     pc.labels = &labels;
@@ -48,7 +56,7 @@ struct Scene {
     auto out = test::makeOutput("feature_stats", params, pc);
     RunInfo info;
     info.config_path = "test.yaml";
-    info.output_dir = dir.str();
+    info.output_dir = dir;
     info.labels = &labels;
     info.grid = geom;
     out->begin(info);
@@ -57,12 +65,20 @@ struct Scene {
     ctx.grid = &grid;
     ctx.labels = &labels;
     out->write(ctx);
-    out->end(RunSummary{});
-    return YAML::LoadFile(dir.str() + "/model.yaml");
+    RunSummary summary;
+    summary.frames_ok = 1;
+    out->end(summary);
   }
 };
 
 constexpr LabelId kRoad = 1, kRough = 2, kObstacle = 3;
+
+std::string readAll(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
 
 }  // namespace
 
@@ -96,6 +112,95 @@ TEST(FeatureStats, NumbersReadBackExactly) {
   EXPECT_NEAR(m["classes"]["rough"]["f"]["sigma"].as<double>(), std::sqrt(2 * d * d), 1e-15);
   EXPECT_NE(m["provenance"].as<std::string>().find("f 1.0000001e-06"), std::string::npos)
       << m["provenance"];
+}
+
+// Nothing to learn (no labelled frame, or no class with two training cells): an error that says
+// why, and the model file already there stays as it was instead of becoming one without classes.
+TEST(FeatureStats, NothingLearntKeepsTheModelFileAndSaysWhy) {
+  test::TempDir dir;
+  const std::string model = dir.str() + "/model.yaml";
+  std::ofstream(model) << "a good model\n";
+  Scene unlabelled({kRoad, kRoad, kRoad}, {0.1f, 0.2f, 0.3f}, kRoad);
+  unlabelled.frame.truth.label.clear();
+  try {
+    unlabelled.run("{features: [f], min_labelled_points: 1}", dir.str());
+    ADD_FAILURE() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("no labelled frame reached it (1 frame(s) ok"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find(model + " left as it was"), std::string::npos);
+  }
+  EXPECT_EQ(readAll(model), "a good model\n");
+  Scene labelled({kRoad, kRoad, kRoad}, {0.1f, 0.2f, 0.3f}, kRoad);
+  try {
+    labelled.run("{features: [f], min_labelled_points: 50}", dir.str());
+    ADD_FAILURE() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("no class has 2 or more training cells in 1 labelled "
+                                         "frame(s) (cells need >= 50 labelled points"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(readAll(model), "a good model\n");
+}
+
+// Said at the configuration, before any frame is computed (a run used to learn every frame and
+// then fail to write, or write a model the energy refuses).
+TEST(FeatureStats, FeatureListAndModelNameAreChecked) {
+  auto paramError = [](const std::string& params) -> std::string {
+    try {
+      test::makeOutput("feature_stats", params, PluginContext{});
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_NE(paramError("{features: []}").find("parameter 'features': is empty; name at least one"),
+            std::string::npos)
+      << paramError("{features: []}");
+  EXPECT_NE(paramError("{features: [a, b, a]}").find("parameter 'features': 'a' is listed twice"),
+            std::string::npos);
+  EXPECT_NE(paramError("{features: [a], model: ''}").find("parameter 'model': '' is not a file"),
+            std::string::npos);
+  EXPECT_NE(paramError("{features: [a], model: models/}").find("'models/' is not a file name"),
+            std::string::npos);
+  EXPECT_EQ(paramError("{features: [a, b], model: m.yaml}"), "no error");
+  // A folder where the model goes: refused at the run's start.
+  test::TempDir dir;
+  std::filesystem::create_directories(dir.str() + "/model.yaml");
+  Scene s({kRoad, kRoad}, {0.1f, 0.2f}, kRoad);
+  try {
+    s.run("{features: [f], min_labelled_points: 1}", dir.str());
+    ADD_FAILURE() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("parameter 'model': '" + dir.str() + "/model.yaml' is a folder"),
+        std::string::npos)
+        << e.what();
+  }
+}
+
+// A model written into the run's folder is one of the run's summaries (removed at its start, so
+// an earlier run's cannot pass for this one's); one written elsewhere is the user's file.
+TEST(FeatureStats, OnlyAModelInTheRunFolderIsASummaryFile) {
+  using V = std::vector<std::string>;
+  EXPECT_EQ(test::makeOutput("feature_stats", "{features: [a]}", PluginContext{})->summaryFiles(),
+            V{"model.yaml"});
+  EXPECT_EQ(test::makeOutput("feature_stats", "{features: [a], model: m/x.yaml}", PluginContext{})
+                ->summaryFiles(),
+            V{"m/x.yaml"});
+  EXPECT_EQ(
+      test::makeOutput("feature_stats", "{features: [a], model: /tmp/x.yaml}", PluginContext{})
+          ->summaryFiles(),
+      V{});
+  EXPECT_EQ(test::makeOutput("feature_stats", "{features: [a], model: ../x.yaml}", PluginContext{})
+                ->summaryFiles(),
+            V{});
+  EXPECT_EQ(
+      test::makeOutput("feature_stats", "{features: [a], model: m/../../x.yaml}", PluginContext{})
+          ->summaryFiles(),
+      V{});
 }
 
 TEST(FeatureStats, ObstacleRuleMakesMixedCellsObstacleSamples) {
