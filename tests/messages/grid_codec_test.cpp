@@ -92,6 +92,25 @@ TEST(GridCodec, UnbinnedGridSendsNoPointCounts) {
   EXPECT_TRUE(d.grid.layerNames().empty());
 }
 
+// A label id the label set does not name is refused by the sender, naming the cell, rather than
+// sent to receivers that refuse it (decodeGrid) or read it as another class.
+TEST(GridCodec, LabelWithoutANameIsRefusedWhenSent) {
+  GridGeometry g;
+  g.size_m = 1.0;
+  g.cell_m = 0.5;
+  TerrainGrid grid(g);
+  grid.labels()[2] = 4;  // the default set names ids 0-3
+  try {
+    encodeGrid(grid, LabelSet::defaults(), {});
+    ADD_FAILURE() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(),
+                 "encodeGrid: cell 2 has label id 4 but the label set names only 4 classes");
+  }
+  grid.labels()[2] = 3;
+  EXPECT_EQ(decodeGrid(encodeGrid(grid, LabelSet::defaults(), {})).grid.labels()[2], 3);
+}
+
 TEST(GridCodec, RejectsForeignTruncatedAndInconsistentMessages) {
   const MessageBytes good = encodeGrid(test::smallGrid(), LabelSet::defaults(), {});
   // Another type (fingerprint mismatch).

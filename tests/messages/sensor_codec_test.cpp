@@ -51,8 +51,16 @@ TEST(PointCloudCodec, CloudWithoutRingsOrTimes) {
   c.intensity = {0.f, 0.f};
   const MessageBytes b = encodePointCloud(c, {});
   const DecodedPointCloud d = decodePointCloud(b.data(), b.size());
-  EXPECT_EQ(d.cloud.ring, (std::vector<uint16_t>{kUnknownRing, kUnknownRing}));
+  // Sent as -1 each, received as no rings (not as rings all unknown, which made roughness skip
+  // every point instead of saying the scan has none).
+  EXPECT_FALSE(d.cloud.hasRing());
   EXPECT_FALSE(d.cloud.hasTime());
+  // Some rings known: the unknown ones stay unknown.
+  c.ring = {kUnknownRing, 3};
+  EXPECT_EQ(
+      decodePointCloud(encodePointCloud(c, {}).data(), encodePointCloud(c, {}).size()).cloud.ring,
+      (std::vector<uint16_t>{kUnknownRing, 3}));
+  c.ring.clear();
   c.z.pop_back();
   EXPECT_THROW(encodePointCloud(c, {}), std::invalid_argument);
   // Empty cloud is a valid message.

@@ -55,6 +55,12 @@ MessageBytes encodeGrid(const TerrainGrid& grid, const LabelSet& labels,
 
   const auto& lab = grid.labels();
   if (lab.size() == cells) {
+    // A receiver (decodeGrid included) refuses an id without a name: say it here, at the sender.
+    for (std::size_t c = 0; c < cells; ++c)
+      if (lab[c] >= m.label_names.size())
+        throw std::invalid_argument("encodeGrid: cell " + std::to_string(c) + " has label id " +
+                                    std::to_string(lab[c]) + " but the label set names only " +
+                                    std::to_string(m.label_names.size()) + " classes");
     m.labels.assign(lab.begin(), lab.end());
   } else if (!lab.empty()) {
     throw std::invalid_argument("encodeGrid: label layer has " + std::to_string(lab.size()) +

@@ -64,9 +64,14 @@ DecodedPointCloud decodePointCloud(const void* data, std::size_t size, const std
   c.y = std::move(m.y);
   c.z = std::move(m.z);
   c.intensity = std::move(m.intensity);
-  c.ring.resize(m.ring.size());
-  std::transform(m.ring.begin(), m.ring.end(), c.ring.begin(),
-                 [](int16_t r) { return static_cast<uint16_t>(r); });
+  // Every ring -1 is how a cloud without rings is sent (the message has no "absent" form): it
+  // comes back without rings, so a stage that needs them says so instead of finding every point
+  // "unknown" and computing nothing.
+  if (std::any_of(m.ring.begin(), m.ring.end(), [](int16_t r) { return r != -1; })) {
+    c.ring.resize(m.ring.size());
+    std::transform(m.ring.begin(), m.ring.end(), c.ring.begin(),
+                   [](int16_t r) { return static_cast<uint16_t>(r); });
+  }
   c.time_s = std::move(m.time);
   return out;
 }

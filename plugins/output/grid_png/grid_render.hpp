@@ -23,7 +23,7 @@ struct GridRenderStats {
 
 /// Renders each cell as a `pixels_per_cell`² block in its label's colour (unknown when the grid
 /// has no labels) and marks the grid frame's origin (0, 0), the sensor of a sensor-centred grid,
-/// with a cross whose arms are `pixels_per_cell` pixels long.
+/// with a cross whose arms are max(2, `pixels_per_cell`) pixels long (visible at 1 px per cell).
 Image renderGrid(const TerrainGrid& grid, const LabelSet& labels, int pixels_per_cell,
                  GridRenderStats* stats = nullptr);
 

@@ -17,7 +17,7 @@ class LcmPublishOutput : public Output {
   void declare(ParamDecl& d) override {
     d.add("url", url_,
           "LCM provider URL (udpm://group:port?ttl=N for the network, memq:// in-process, "
-          "file://path.lcmlog to log; empty = $LCM_DEFAULT_URL)");
+          "file:///path.lcmlog?mode=w to log (mode=a appends); empty = $LCM_DEFAULT_URL)");
     d.add("channel", channel_, "channel of the terrain_grid_t messages");
     d.add("layers", layers_, "float layers to send; empty = every layer of the grid");
     d.add("publish_points", publish_points_,
@@ -35,6 +35,14 @@ class LcmPublishOutput : public Output {
                                     "' is not an LCM URL; expected provider://address "
                                     "with provider udpm, tcpq, file or memq");
       }
+      // LCM opens a log file for reading unless told otherwise: without mode=w every publish
+      // failed ("could not publish"), or the run failed at its start for a new file.
+      if (provider == "file" && url_.find("mode=w") == std::string::npos &&
+          url_.find("mode=a") == std::string::npos)
+        throw ParamError("url", "'" + url_ +
+                                    "' opens the log for reading; to write one give "
+                                    "?mode=w (or ?mode=a to append), e.g. "
+                                    "file:///tmp/run.lcmlog?mode=w");
     }
     std::set<std::string> seen;
     for (const auto& l : layers_) {

@@ -119,6 +119,17 @@ TEST_F(LcmPublishTest, BadParamsAndMissingLayer) {
     EXPECT_NE(std::string(e.what()).find("http://example"), std::string::npos) << e.what();
   }
   EXPECT_THROW(test::makeOutput("lcm_publish", "{channel: ''}", pctx()), std::exception);
+  // A log URL without a write mode is opened for reading by LCM: every publish used to fail.
+  try {
+    test::makeOutput("lcm_publish", "{url: 'file:///tmp/x.lcmlog'}", pctx());
+    FAIL() << "a log URL that LCM opens for reading accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("parameter 'url': 'file:///tmp/x.lcmlog' opens the log "
+                                         "for reading; to write one give ?mode=w"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_NO_THROW(test::makeOutput("lcm_publish", "{url: 'file:///tmp/x.lcmlog?mode=a'}", pctx()));
 
   auto out = test::makeOutput("lcm_publish", "{url: 'memq://', layers: [roughness]}", pctx());
   ASSERT_TRUE(out);
