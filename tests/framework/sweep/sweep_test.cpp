@@ -1474,11 +1474,13 @@ optimisers: {icm: {type: icm}}
   const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
   EXPECT_EQ(r.exitCode(), 3);
   ASSERT_EQ(r.models.size(), 1u);
-  EXPECT_NE(r.models[0].reason.find("no class got statistics"), std::string::npos)
+  EXPECT_NE(r.models[0].reason.find("no class has 2 or more training cells in 1 labelled frame(s) "
+                                    "(cells need >= 3 labelled points and purity >= 0.9)"),
+            std::string::npos)
       << r.models[0].reason;
   ASSERT_EQ(r.runs.size(), 1u);
   EXPECT_EQ(r.runs[0].status, RunRecord::Status::kFailed);
-  EXPECT_NE(r.runs[0].reason.find("no class got statistics"), std::string::npos)
+  EXPECT_NE(r.runs[0].reason.find("no class has 2 or more training cells"), std::string::npos)
       << r.runs[0].reason;
 }
 
