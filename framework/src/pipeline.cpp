@@ -130,7 +130,6 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   for (auto& o : p.outputs) o->begin(info);
   // An earlier run's summaries would pass for this run's should it stop before the end, where
   // they are written again; its per-frame files are removed only for frames that fail (below).
-  const auto run_start = std::filesystem::file_time_type::clock::now();
   auto inOutputDir = [&](const std::string& f) {
     const std::filesystem::path path(f);
     return path.is_absolute() ? path : std::filesystem::path(p.output_dir) / path;
@@ -144,15 +143,17 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       std::filesystem::remove(inOutputDir(f), ec);
     }
   }
-  auto removeStaleFrameFiles = [&](const std::string& frame_id) {
-    for (auto& o : p.outputs) {
-      for (const auto& f : o->frameFiles(frame_id)) {
+  // A failed frame's files from the outputs that did not write it this run are an earlier run's
+  // (outputs before the failure wrote theirs: those are kept). Decided by who wrote, not by
+  // modification times, which a coarse or skewed clock could misorder.
+  auto removeStaleFrameFiles = [&](const std::string& frame_id, std::size_t outputs_done) {
+    for (std::size_t k = outputs_done; k < p.outputs.size(); ++k) {
+      for (const auto& f : p.outputs[k]->frameFiles(frame_id)) {
         std::error_code ec;
         const auto path = inOutputDir(f);
-        const auto t = std::filesystem::last_write_time(path, ec);
-        if (ec || t >= run_start) continue;  // absent, or this run's own
         if (std::filesystem::remove(path, ec))
-          log << "  removed " << path.string() << ", left by an earlier run\n";
+          log << "  removed " << path.string() << ": not this run's (frame " << frame_id
+              << " failed before its output wrote it)\n";
       }
     }
   };
@@ -208,6 +209,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
     std::size_t slot = 0;
     const auto t_frame = Clock::now();
     std::string stage_name = "read";
+    std::size_t outputs_done = 0;  // outputs that wrote this frame
     try {
       auto t = Clock::now();
       if (reader) {
@@ -243,6 +245,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
         stage_name = "output " + o->name();
         t = Clock::now();
         o->write(ctx);
+        ++outputs_done;
         slot_ms[slot++] = msSince(t);
       }
       slot_ms[slot++] = msSince(t_frame);
@@ -259,7 +262,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       res.summary.failed.push_back({id, why});
       if (opt.progress) std::fprintf(stderr, "%s", ::isatty(2) ? "\n" : "");
       log << "frame " << id << " failed and was skipped: " << why << "\n";
-      removeStaleFrameFiles(id);
+      removeStaleFrameFiles(id, outputs_done);
     }
     progress.update(k + 1, id, msSince(t_frame), res.summary.failed.size());
   }

@@ -219,6 +219,13 @@ TEST(Pipeline, TheResolvedConfigReproducesTheRun) {
 
 namespace {
 /// An output that notes, when its first frame comes, whether a file exists.
+/// Fails the frames it is told to, after the outputs before it have written them.
+struct FailingOutput : Output {
+  std::string fail_id;
+  void write(const FrameContext& ctx) override {
+    if (ctx.frame->id == fail_id) throw std::runtime_error("cannot write " + fail_id);
+  }
+};
 struct ExistsProbe : Output {
   std::string file;
   int seen = -1;
@@ -260,12 +267,55 @@ TEST(Pipeline, EarlierRunsFilesCannotPassForThisRuns) {
   EXPECT_EQ(seen->seen, 0) << "the earlier summary was still there during the run";
   EXPECT_FALSE(fs::exists(out + "/grid_csv/000001.csv")) << log.str();
   EXPECT_FALSE(fs::exists(out + "/evaluation/000001.json")) << log.str();
-  EXPECT_NE(log.str().find("removed " + out + "/grid_csv/000001.csv, left by an earlier run"),
+  EXPECT_NE(log.str().find("removed " + out +
+                           "/grid_csv/000001.csv: not this run's (frame 000001 failed before its "
+                           "output wrote it)"),
             std::string::npos)
       << log.str();
   EXPECT_NE(readFile(out + "/grid_csv/000000.csv"), "earlier run\n");  // this run's
   EXPECT_NE(readFile(out + "/evaluation/summary.md"), "earlier run\n");
   EXPECT_FALSE(fs::exists(out + "/timing.md"));  // written by the command after the run
+}
+
+// Which of a failed frame's files go is decided by which outputs wrote the frame, not by file
+// times: an earlier run's file dated after this run's start (a clock skew, a coarse filesystem,
+// files copied from another machine) used to be kept as this run's; an output before the one
+// that failed has written this run's result, which stays.
+TEST(Pipeline, AFailedFramesFilesGoByWhoWroteThemNotByTheirTimes) {
+  namespace fs = std::filesystem;
+  test::ConfigFixture f;
+  std::string text = test::ConfigFixture::validPipeline("{frames: 3}");
+  text.replace(text.find("outputs: []"), 11, "outputs: [{type: grid_csv}]");
+  const std::string out = f.dir.str() + "/out";
+  const auto future = fs::file_time_type::clock::now() + std::chrono::hours(1);
+  fs::create_directories(out + "/grid_csv");
+  fs::create_directories(out + "/evaluation");
+  for (const char* file : {"grid_csv/000001.csv", "evaluation/000001.json"}) {
+    std::ofstream(out + "/" + file) << "earlier run\n";
+    fs::last_write_time(out + "/" + file, future);
+  }
+  LoadOptions lo;
+  lo.output_dir = out;
+  Pipeline p = loadPipeline(f.write("c.yaml", text), lo, f.registry);
+  auto failing = std::make_unique<FailingOutput>();
+  failing->fail_id = "000001";
+  p.outputs.push_back(std::move(failing));
+  // An evaluation output after the failing one: it never wrote frame 1.
+  Pipeline with_eval = loadPipeline(
+      f.write("e.yaml",
+              test::edited(text, "outputs: [{type: grid_csv}]", "outputs: [{type: evaluation}]")),
+      lo, f.registry);
+  p.outputs.push_back(std::move(with_eval.outputs.front()));
+  std::ostringstream log;
+  RunOptions ro;
+  ro.progress = false;
+  ro.log = &log;
+  const RunResult r = runPipeline(p, ro);
+  ASSERT_EQ(r.summary.failed.size(), 1u);
+  EXPECT_NE(readFile(out + "/grid_csv/000001.csv"), "earlier run\n");  // this run's, kept
+  EXPECT_TRUE(fs::exists(out + "/grid_csv/000001.csv"));
+  EXPECT_FALSE(fs::exists(out + "/evaluation/000001.json")) << log.str();
+  EXPECT_TRUE(fs::exists(out + "/evaluation/000002.json"));
 }
 
 // Two stages sharing their params through a YAML alias: each keeps its own in the resolved
