@@ -37,6 +37,7 @@ int cmdCompare(const Args& args) {
       for (const auto& r : plan.selection_runs) std::cout << "  select " << r << "\n";
       for (const auto& r : plan.runs) std::cout << "  run   " << r << "\n";
       for (const auto& [r, why] : plan.skipped) std::cout << "  skip  " << r << ": " << why << "\n";
+      for (const auto& n : plan.notes) std::cout << "note: " << n << "\n";
       return kOk;
     }
     const SweepResult r = runSweep(o);

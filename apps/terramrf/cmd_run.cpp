@@ -49,6 +49,7 @@ int cmdValidate(const Args& args) {
                 << " validation run(s) of select:)\n";
       for (const auto& [run, why] : plan.skipped)
         std::cout << "  skip " << run << ": " << why << "\n";
+      for (const auto& n : plan.notes) std::cout << "note: " << n << "\n";
       return kOk;
     }
     Pipeline p = loadPipeline(config, lo, reg);

@@ -176,8 +176,11 @@ bool parseItem(const YAML::Node& n, const std::map<std::string, YAML::Node>* dat
 /// Train and test items must not share data: same folder (or one inside the other) or same
 /// parameters without a path, with intersecting frame ranges. Diagnostics at the test item; the
 /// roles name the two sets in them (validation items are checked against both others).
+/// With `notes`, pairs that read the same recording or world in other frames are noted there:
+/// allowed, but frames of one drive share ground and objects, so such a test is not unseen data.
 void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& test, Diags& d,
-                   const std::string& test_role = "test", const std::string& train_role = "train");
+                   const std::string& test_role = "test", const std::string& train_role = "train",
+                   std::vector<std::string>* notes = nullptr);
 /// Instantiates and configures the item's source (unless its type is not installed); checks
 /// the frame range against the source's size and applies `limit`. With `cache`, the source keeps
 /// the frames it reads within that budget (CachedSource), for items read by many runs.

@@ -772,7 +772,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
     for (auto& it : g) tr.push_back(it.get());
   for (auto& it : s->test) te.push_back(it.get());
   for (auto& it : s->validation) va.push_back(it.get());
-  checkDisjoint(tr, te, d);
+  checkDisjoint(tr, te, d, "test", "train", &s->notes);
   // Validation data must be unseen in training, and choosing on it must not peek at the test.
   checkDisjoint(tr, va, d, "validation", "train");
   checkDisjoint(va, te, d, "test", "validation");

@@ -189,6 +189,7 @@ SweepPlan planSweep(const std::string& sweep_path, const std::vector<std::string
   auto s = loadSweep(sweep_path, reg, "", 0);
   SweepPlan plan;
   plan.name = s->name;
+  plan.notes = s->notes;
   for (const auto& t : s->test)
     for (const auto& f : s->feature_sets)
       for (const auto& o : s->optimisers) {

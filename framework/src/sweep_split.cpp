@@ -220,27 +220,39 @@ bool parseItem(const YAML::Node& n, const std::map<std::string, YAML::Node>* dat
 }
 
 void checkDisjoint(const std::vector<Item*>& train, const std::vector<Item*>& test, Diags& d,
-                   const std::string& test_role, const std::string& train_role) {
+                   const std::string& test_role, const std::string& train_role,
+                   std::vector<std::string>* notes) {
   for (const Item* t : test) {
     for (const Item* r : train) {
-      std::string why;
+      std::string why, same;  // `same`: one recording or world, other frames
       if (!t->path.empty() && !r->path.empty()) {
         if (t->path == r->path) {
           if (t->frames.overlaps(r->frames)) {
             const std::size_t a = std::max(t->frames.first, r->frames.first);
             const std::size_t b = std::min(t->frames.last, r->frames.last);
             why = "both read " + t->path + ", " + FrameRange{a, b}.str() + " in both";
+          } else {
+            same = t->path;
           }
         } else if (pathWithin(t->path, r->path) || pathWithin(r->path, t->path)) {
           why = "one data folder contains the other (" + r->path + " / " + t->path + ")";
         }
-      } else if (t->path.empty() && r->path.empty() && t->identity == r->identity &&
-                 t->frames.overlaps(r->frames)) {
-        const std::size_t a = std::max(t->frames.first, r->frames.first);
-        const std::size_t b = std::min(t->frames.last, r->frames.last);
-        why = "same source and parameters (" + t->identity_text + "), " + FrameRange{a, b}.str() +
-              " in both";
+      } else if (t->path.empty() && r->path.empty() && t->identity == r->identity) {
+        if (t->frames.overlaps(r->frames)) {
+          const std::size_t a = std::max(t->frames.first, r->frames.first);
+          const std::size_t b = std::min(t->frames.last, r->frames.last);
+          why = "same source and parameters (" + t->identity_text + "), " + FrameRange{a, b}.str() +
+                " in both";
+        } else {
+          same = t->identity_text;
+        }
       }
+      if (!same.empty() && notes)
+        notes->push_back(test_role + " item " + itemText(*t) + " and " + train_role + " item " +
+                         itemText(*r) + " read the same recording (" + same +
+                         ") in other frames: allowed, but frames of one drive share its ground "
+                         "and objects, so the " +
+                         test_role + " figures are not those of unseen data");
       if (why.empty()) continue;
       std::string where;
       if (r->mark.line >= 0) where = " at line " + std::to_string(r->mark.line + 1);

@@ -304,7 +304,8 @@ namespace {
 /// Names each item by what it reads and checks that no test item overlaps a train item.
 void identifyAndCheckDisjoint(std::vector<std::unique_ptr<Item>>& train,
                               std::vector<std::unique_ptr<Item>>& test, const std::string& base_dir,
-                              PluginRegistry& reg, Diags& d, const std::string& train_note = "") {
+                              PluginRegistry& reg, Diags& d, const std::string& train_note = "",
+                              std::vector<std::string>* notes = nullptr) {
   // Train configs have no dataset names: an item is named by what it reads (the canonical data
   // folder, or the source type and its distinguishing parameters), which is what a model's
   // provenance and held_out must say, not a path relative to the config or a bare type.
@@ -317,13 +318,13 @@ void identifyAndCheckDisjoint(std::vector<std::unique_ptr<Item>>& train,
   for (auto& it : train) tr.push_back(it.get());
   for (auto& it : test) te.push_back(it.get());
   if (train_note.empty()) {
-    checkDisjoint(tr, te, d);
+    checkDisjoint(tr, te, d, "test", "train", notes);
     return;
   }
   // --data items have no position in the file; name them in the message instead.
   Diags od;
   od.file = d.file;
-  checkDisjoint(tr, te, od);
+  checkDisjoint(tr, te, od, "test", "train", notes);
   for (auto& x : od.list) x.message += train_note;
   od.throwIfAny();
 }
@@ -486,10 +487,12 @@ TrainResult trainModel(const TrainOptions& o) {
     train.push_back(std::move(it));
   }
   d.throwIfAny();
+  std::vector<std::string> split_notes;
   identifyAndCheckDisjoint(train, test, f0.base_dir, reg, d,
-                           o.data.empty() ? "" : " (train item from --data)");
+                           o.data.empty() ? "" : " (train item from --data)", &split_notes);
   for (auto& it : test) job.held_out.push_back(it->described());
   d.throwIfAny();
+  for (const auto& n : split_notes) log << "note: " << n << "\n";
 
   const std::string model_dir = fs::absolute(o.model_out).parent_path().string();
   for (auto& it : train) {

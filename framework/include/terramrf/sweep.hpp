@@ -199,6 +199,9 @@ struct SweepPlan {
   /// With `select:`: "L: sim_val × icm [components=2]", one per feature set, candidate and
   /// validation item, run before the test runs.
   std::vector<std::string> selection_runs;
+  /// What the sweep allows but a reader of its figures should know (e.g. a test item of the
+  /// same recording as a train item, other frames), as `compare` logs them.
+  std::vector<std::string> notes;
 };
 SweepPlan planSweep(const std::string& sweep_path,
                     const std::vector<std::string>& plugin_dirs = {});

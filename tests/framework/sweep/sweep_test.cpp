@@ -177,6 +177,14 @@ optimisers: {icm: {type: icm}, later: {type: not_built_yet}}
   EXPECT_EQ(plan.runs[0], "sim × L × icm");
   ASSERT_EQ(plan.skipped.size(), 1u);
   EXPECT_NE(plan.skipped[0].second.find("'not_built_yet' is not installed"), std::string::npos);
+  // Accepted, but said: the test frames are of the world the model was learnt on.
+  ASSERT_EQ(plan.notes.size(), 1u);
+  EXPECT_NE(plan.notes[0].find("test item 'sim' (frames 2-3 of simulator seed 7) and train item "
+                               "'sim' (frames 0-1 of simulator seed 7) read the same recording "
+                               "(simulator seed 7) in other frames: allowed, but frames of one "
+                               "drive share its ground and objects"),
+            std::string::npos)
+      << plan.notes[0];
 }
 
 TEST(SweepSplit, ARangePastTheEndOfItsSourceIsAnError) {
@@ -1497,6 +1505,36 @@ TEST(SweepFrameCache, BadBudgetIsReportedAtItsLine) {
 
 // ---- train ----------------------------------------------------------------------------------
 
+// Held-out frames of the world trained on: allowed (disjoint), and said.
+TEST(Train, TestFramesOfTheTrainingWorldAreNoted) {
+  test::TempDir dir;
+  const std::string config = put(dir, "train.yaml",
+                                 std::string(R"(version: 1
+grid: {size_m: 30, cell_m: 0.5}
+source: {type: simulator, params: {seed: 7, frames: 3, )") +
+                                     kSim + R"(}}
+stages:
+  - {name: hdiff, type: height_difference}
+split:
+  train: [{frames: [0, 1]}]
+  test: [{frames: [2, 2]}]
+outputs:
+  - {type: feature_stats, params: {features: [height_diff], min_sigma: [0.02]}}
+)");
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/sim.yaml";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  std::ostringstream log;
+  o.log = &log;
+  trainModel(o);
+  EXPECT_NE(log.str().find("note: test item"), std::string::npos) << log.str();
+  EXPECT_NE(log.str().find("read the same recording (simulator seed 7) in other frames"),
+            std::string::npos)
+      << log.str();
+}
+
 TEST(Train, SimulatorModelLoadsInPottsGaussianAndNamesItsData) {
   test::TempDir dir;
   const std::string config = put(dir, "train.yaml",
@@ -1521,6 +1559,7 @@ split:
   std::ostringstream log;
   o.log = &log;
   const TrainResult r = trainModel(o);
+  EXPECT_EQ(log.str().find("read the same recording"), std::string::npos) << log.str();
   EXPECT_EQ(r.features, (std::vector<std::string>{"height_diff", "normal_eigenvalue"}));
   EXPECT_EQ(r.frames, 2u);
   EXPECT_EQ(r.labelled_frames, 2u);
