@@ -3,6 +3,7 @@
 #include <exception>
 #include <iostream>
 #include <map>
+#include <string>
 
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -12,30 +13,57 @@
 
 namespace {
 
-const char* kUsageText =
-    "usage: terramrf <command> [options]\n"
-    "\n"
-    "commands:\n"
-    "  run CONFIG [--data DIR] [--out DIR] [--first N] [--limit N] [--read-ahead N]\n"
-    "             [--no-progress]\n"
-    "                         classify every frame of the config's source; --read-ahead: frames\n"
-    "                         read on other threads while one is classified (0: none)\n"
-    "  validate CONFIG|SWEEP [--data DIR]\n"
-    "                         check a config or a sweep (all errors at once) without running it\n"
-    "  plugins                list the plugins found (and libraries that failed to load)\n"
-    "  describe TYPE          parameters of one plugin (name, type, default, range, unit, doc)\n"
-    "  simulate --out DIR [--frames N] [--seed S] [--config CONFIG]\n"
-    "                         write simulated scans in SemanticKITTI/KITTI layout\n"
-    "  train CONFIG --out MODEL [--data DIR]... [--features a,b] [--limit N]\n"
-    "                         learn per-class feature mean/sigma from annotated cells\n"
-    "  compare SWEEP [--out DIR] [--limit N] [--dry-run] [--no-progress]\n"
-    "                         feature sets x optimisers x datasets: paper-shaped tables, ROC\n"
-    "  mesh CONFIG [--out DIR] (and the options of run)\n"
-    "                         textured terrain mesh (paper 004): OBJ/MTL/PNG, PLY, glTF\n"
-    "\n"
+/// One entry per command: its synopsis and what it does, as `--help` and the overview print it.
+struct CommandHelp {
+  const char* name;
+  const char* text;
+};
+const CommandHelp kCommands[] = {
+    {"run",
+     "run CONFIG [--data DIR] [--out DIR] [--first N] [--limit N] [--read-ahead N]\n"
+     "             [--no-progress]\n"
+     "                         classify every frame of the config's source; --read-ahead: frames\n"
+     "                         read on other threads while one is classified (0: none)\n"},
+    {"validate",
+     "validate CONFIG|SWEEP [--data DIR]\n"
+     "                         check a config or a sweep (all errors at once) without running "
+     "it\n"},
+    {"plugins",
+     "plugins                list the plugins found (and libraries that failed to load)\n"},
+    {"describe",
+     "describe TYPE          parameters of one plugin (name, type, default, range, unit, doc)\n"},
+    {"simulate",
+     "simulate --out DIR [--frames N] [--seed S] [--config CONFIG]\n"
+     "                         write simulated scans in SemanticKITTI/KITTI layout\n"},
+    {"train",
+     "train CONFIG --out MODEL [--data DIR]... [--features a,b] [--limit N] [--no-progress]\n"
+     "                         learn per-class feature mean/sigma from annotated cells\n"},
+    {"compare",
+     "compare SWEEP [--out DIR] [--limit N] [--dry-run] [--no-progress]\n"
+     "                         feature sets x optimisers x datasets: paper-shaped tables, ROC\n"},
+    {"mesh",
+     "mesh CONFIG [--out DIR] (and the options of run)\n"
+     "                         textured terrain mesh (paper 004): OBJ/MTL/PNG, PLY, glTF\n"},
+};
+const char* kFooter =
     "Plugins are searched in the install's plugin folder, $TERRAMRF_PLUGIN_PATH and the\n"
     "config's plugin_path. Exit status: 0 ok, 1 error, 2 usage/config error,\n"
-    "3 some frames failed (reported and skipped), 4 all failed.\n";
+    "3 some frames failed (reported and skipped), 4 every frame failed or an output failed at\n"
+    "the end.\n";
+
+std::string usageText() {
+  std::string t = "usage: terramrf <command> [options]\n\ncommands:\n";
+  for (const auto& c : kCommands) t += std::string("  ") + c.text;
+  return t + "\n" + kFooter;
+}
+
+bool asksForHelp(int argc, char** argv) {
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") return true;
+  }
+  return false;
+}
 
 }  // namespace
 
@@ -50,7 +78,7 @@ int main(int argc, char** argv) {
 #endif
   if (argc < 2 || std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help" ||
       std::string(argv[1]) == "help") {
-    std::fputs(kUsageText, argc < 2 ? stderr : stdout);
+    std::fputs(usageText().c_str(), argc < 2 ? stderr : stdout);
     return argc < 2 ? kUsage : kOk;
   }
   const std::map<std::string, int (*)(const Args&)> commands = {
@@ -60,8 +88,14 @@ int main(int argc, char** argv) {
   const std::string cmd = argv[1];
   auto it = commands.find(cmd);
   if (it == commands.end()) {
-    std::cerr << "terramrf: unknown command '" << cmd << "'\n\n" << kUsageText;
+    std::cerr << "terramrf: unknown command '" << cmd << "'\n\n" << usageText();
     return kUsage;
+  }
+  // `terramrf run --help`: that command's synopsis, not a run of a config named --help.
+  if (asksForHelp(argc, argv)) {
+    for (const auto& c : kCommands)
+      if (cmd == c.name) std::cout << "usage: terramrf " << c.text << "\n" << kFooter;
+    return kOk;
   }
   try {
     return it->second(Args(argv + 2, argv + argc));

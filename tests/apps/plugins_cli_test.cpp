@@ -365,4 +365,25 @@ TEST(MainCli, UnknownCommandIsAUsageErrorListingTheCommands) {
   EXPECT_NE(text.find("commands:"), std::string::npos) << text;
 }
 
+// `terramrf <command> --help` prints that command's synopsis and exits 0 (it used to be read as
+// a config or plugin named --help: a usage error, or "unknown plugin type '--help'").
+TEST(MainCli, EveryCommandsHelpPrintsItsSynopsis) {
+  test::TempDir dir;
+  const std::string out = dir.str() + "/out.txt";
+  for (const std::string cmd :
+       {"run", "validate", "plugins", "describe", "simulate", "train", "compare", "mesh"}) {
+    for (const char* flag : {"--help", "-h"}) {
+      const int status = std::system((test::cli() + " " + cmd + " " + flag + " > " + out).c_str());
+      ASSERT_TRUE(WIFEXITED(status));
+      EXPECT_EQ(WEXITSTATUS(status), cli::kOk) << cmd << " " << flag;
+      std::ifstream in(out);
+      const std::string text((std::istreambuf_iterator<char>(in)),
+                             std::istreambuf_iterator<char>());
+      EXPECT_EQ(text.rfind("usage: terramrf " + cmd + " ", 0), 0u) << cmd << ": " << text;
+      EXPECT_NE(text.find("Exit status:"), std::string::npos) << text;
+      EXPECT_EQ(text.find("commands:"), std::string::npos) << text;  // that command's only
+    }
+  }
+}
+
 }  // namespace terramrf
