@@ -54,9 +54,11 @@ int cmdValidate(const Args& args) {
     }
     Pipeline p = loadPipeline(config, lo, reg);
     printProblems(reg);
-    checkTrainSplit(config);  // what `train` will check of its split: section
+    // What `train` will check of its split: section.
+    const std::vector<std::string> notes = checkTrainSplit(config);
     std::cout << config << ": ok (" << p.stages.size() << " stages, " << p.outputs.size()
               << " outputs, " << p.source->size() << " frames)\n";
+    for (const auto& n : notes) std::cout << "note: " << n << "\n";
     return kOk;
   } catch (const ConfigError& e) {
     printProblems(reg);

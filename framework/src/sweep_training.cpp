@@ -330,12 +330,13 @@ void identifyAndCheckDisjoint(std::vector<std::unique_ptr<Item>>& train,
 }
 }  // namespace
 
-void checkTrainSplit(const std::string& config_path, const std::vector<std::string>& plugin_dirs) {
+std::vector<std::string> checkTrainSplit(const std::string& config_path,
+                                         const std::vector<std::string>& plugin_dirs) {
   Diags d;
   d.file = config_path;
   const YAML::Node root = detail::loadYamlFile(config_path, d, "file");
   const YAML::Node split = root.IsMap() ? root["split"] : YAML::Node();
-  if (!split) return;
+  if (!split) return {};
   PluginRegistry reg(pluginDirs(plugin_dirs));
   Frame0 f0;
   f0.file = config_path;
@@ -344,8 +345,14 @@ void checkTrainSplit(const std::string& config_path, const std::vector<std::stri
   std::vector<std::unique_ptr<Item>> train, test;
   parseSplit(split, nullptr, root["source"], f0.base_dir, d, train, test, false);
   d.throwIfAny();
-  identifyAndCheckDisjoint(train, test, f0.base_dir, reg, d);
+  std::vector<std::string> notes;
+  identifyAndCheckDisjoint(train, test, f0.base_dir, reg, d, "", &notes);
   d.throwIfAny();
+  // Each item's source as `train` makes it: its parameters, and its frames within the source.
+  for (auto* items : {&train, &test})
+    for (auto& it : *items) prepareItem(*it, reg, f0, f0.base_dir, 0, d, false);
+  d.throwIfAny();
+  return notes;
 }
 
 TrainResult trainModel(const TrainOptions& o) {

@@ -128,6 +128,16 @@ TEST(ValidateCli, ChecksASweepAsASweep) {
   EXPECT_NE(out.find("skip b × L × not_built"), std::string::npos) << out;
 
   // The sweep's own checks, not the pipeline's: a typo is reported where compare reports it.
+  // Frames past the source's end: refused by validate as by train (validate used to say ok).
+  const std::string past = put(dir, "past.yaml",
+                               std::string(kTrainConfig) +
+                                   "split:\n  train: [{frames: [0, 0]}]\n"
+                                   "  test: [{frames: [1, 1]}]\n");
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(cli::cmdValidate({past}), cli::kUsage);
+  const std::string past_err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(past_err.find("asks for frame 1 but the source has 1 frame(s)"), std::string::npos)
+      << past_err;
   const std::string typo = put(dir, "typo.yaml", sweepWithOptimisers("[icm, icmm]"));
   testing::internal::CaptureStderr();
   EXPECT_EQ(cli::cmdValidate({typo}), cli::kUsage);
@@ -149,7 +159,17 @@ TEST(ValidateCli, ChecksATrainConfigsSplitAndRefusesAFolder) {
                                  "  test: [{params: {seed: 1}}]\n");
   testing::internal::CaptureStdout();
   EXPECT_EQ(cli::cmdValidate({ok}), cli::kOk);
-  testing::internal::GetCapturedStdout();
+  EXPECT_EQ(testing::internal::GetCapturedStdout().find("note:"), std::string::npos);
+  // Other frames of the world trained on: valid, with the note `train` prints.
+  const std::string same = put(dir, "same.yaml",
+                               test::edited(kTrainConfig, "frames: 1,", "frames: 2,") +
+                                   "split:\n  train: [{frames: [0, 0]}]\n"
+                                   "  test: [{frames: [1, 1]}]\n");
+  testing::internal::CaptureStdout();
+  EXPECT_EQ(cli::cmdValidate({same}), cli::kOk);
+  const std::string out = testing::internal::GetCapturedStdout();
+  EXPECT_NE(out.find("note: test item"), std::string::npos) << out;
+  EXPECT_NE(out.find("in other frames"), std::string::npos) << out;
   const std::string typo =
       put(dir, "typo.yaml", std::string(kTrainConfig) + "split:\n  trian: [{frames: [0, 0]}]\n");
   testing::internal::CaptureStderr();

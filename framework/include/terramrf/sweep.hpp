@@ -77,9 +77,10 @@ TrainResult trainModel(const TrainOptions& options);
 
 /// The checks `train` makes of a pipeline config's `split:` section (keys, items, disjoint train
 /// and test sets), without training: for `terramrf validate`. Throws ConfigError; a config
-/// without `split:` passes.
-void checkTrainSplit(const std::string& config_path,
-                     const std::vector<std::string>& plugin_dirs = {});
+/// without `split:` passes. Returns the notes `train` would print (test frames of a recording
+/// trained on).
+std::vector<std::string> checkTrainSplit(const std::string& config_path,
+                                         const std::vector<std::string>& plugin_dirs = {});
 
 // ---- compare ------------------------------------------------------------------------------------
 
