@@ -29,11 +29,12 @@ void voteVertices(TerrainMesh& mesh, const CameraView& view, const GroundSegment
     const double dx = std::max({x0 - C.x(), 0.0, C.x() - (x0 + L)});
     const double dy = std::max({y0 - C.y(), 0.0, C.y() - (y0 + L)});
     if (dx * dx + dy * dy > max_range_m * max_range_m) continue;
-    // Owned vertices only (the far border belongs to the neighbour or is voted there).
-    for (int i = 0; i < span; ++i)
-      for (int j = 0; j < span; ++j) {
+    // Each global vertex votes once, from the tile that owns it (a far-border vertex belongs to
+    // the neighbour when that exists, else to this tile).
+    for (int i = 0; i < t.n; ++i)
+      for (int j = 0; j < t.n; ++j) {
         const int k = i * t.n + j;
-        if (!t.count[k]) continue;
+        if (!t.count[k] || !mesh.owns(t, i, j)) continue;
         const Eigen::Vector3d pw(x0 + i * cell, y0 + j * cell, t.z_sum[k] / t.count[k]);
         if ((pw.head<2>() - C.head<2>()).squaredNorm() > max_range_m * max_range_m) continue;
         double depth = 0;
@@ -102,7 +103,7 @@ FrameReport MeshBuilder::addFrame(const Frame& frame) {
     t0 = std::chrono::steady_clock::now();
     const CameraView view(cam, T, frame.points);
     if (have_seg) voteVertices(mesh_, view, seg, p_.max_range_m);
-    mesh_.bakeTexture(cam, img, T, p_.max_range_m);
+    mesh_.bakeTexture(view, img, p_.max_range_m);
     rep.texture_ms += msSince(t0);
     if (have_seg && p_.recover) {
       t0 = std::chrono::steady_clock::now();

@@ -167,6 +167,66 @@ TEST(MeshBuilder, MissingImagesAndCamerasLookingAwayAreReported) {
   EXPECT_NE(report.find("cameras that see none of the points"), std::string::npos) << report;
 }
 
+TEST(SceneRecovery, BorderVerticesAreTriedAndCountedOnce) {
+  // Object vertices on the border x = 5 m of tiles (0,0) and (1,0) (5 m tiles): each is in both
+  // tiles and must be tried once. A camera at (0, 2.5, 1) m looks along +x at a wall x = 5 m,
+  // y ∈ [0.5, 4.5] m, 2 m tall (brown) under the sky (blue); the LiDAR saw it up to 0.5 m.
+  TerrainMeshParams tp;
+  tp.tile_vertices = 11;
+  tp.cell_m = 0.5;
+  TerrainMesh mesh(tp);
+  for (int j = 2; j <= 8; ++j) mesh.addPoint({5.0, 0.5 * j, 0.5});  // 7 vertices, tile (1,0)
+  mesh.addPoint({4.0, 2.0, 0.0});  // creates tile (0,0): the 7 now have two copies
+  ASSERT_EQ(mesh.tileCount(), 2u);
+  for (int j = 2; j <= 8; ++j)
+    mesh.forEachCopy({10, j}, [](Tile& t, int k) {
+      t.object_votes[k] = 1;
+      t.cls[k] = VertexClass::kObject;
+    });
+  const int W = 200, H = 150;
+  const double f = 100;
+  CameraModel cam;
+  cam.name = "front";
+  cam.width = W;
+  cam.height = H;
+  cam.P << f, 0, W / 2.0, 0, 0, f, H / 2.0, 0, 0, 0, 1, 0;
+  Eigen::Matrix3d R;
+  R << 0, -1, 0, 0, 0, -1, 1, 0, 0;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = R;
+  const Eigen::Vector3d C(0, 2.5, 1.0);
+  T.translation() = -R * C;
+  cam.T_camera_lidar = T;
+  Image img(W, H, 3);
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      const double y = C.y() - (u - W / 2.0) * 5.0 / f, z = C.z() - (v - H / 2.0) * 5.0 / f;
+      const bool wall = y >= 0.5 && y <= 4.5 && z <= 2.0;
+      uint8_t* px = img.at(u, v);
+      px[0] = wall ? 140 : 60;
+      px[1] = wall ? 90 : 120;
+      px[2] = wall ? 40 : 230;
+    }
+  GroundSegmentation none;  // no ground pixel
+  none.width = W;
+  none.height = H;
+  none.ground.assign(std::size_t(W) * H, 0);
+  const CameraView view(cam, Eigen::Isometry3d::Identity(), PointCloud{});
+  const SceneRecoveryStats st = recoverHeights(mesh, view, img, none, PointCloud{}, {});
+  std::printf("tried %zu, estimates %zu, lower bounds %zu, raised %zu\n", st.vertices_tried,
+              st.estimates, st.lower_bounds, st.raised);
+  EXPECT_EQ(st.vertices_tried, 7u);
+  EXPECT_EQ(st.estimates + st.lower_bounds, 7u);
+  EXPECT_EQ(st.raised, 7u);  // every top found at the wall's 2 m, above the LiDAR's 0.5 m
+  // Both copies of a vertex carry the same single estimate.
+  const Tile& a = *mesh.tile(0, 0);
+  const Tile& b = *mesh.tile(1, 0);
+  for (int j = 2; j <= 8; ++j) {
+    EXPECT_FLOAT_EQ(a.rec_weight[10 * 11 + j], b.rec_weight[0 * 11 + j]) << j;
+    EXPECT_NEAR(mesh.displayHeight(b, j), 2.0, 0.15) << j;
+  }
+}
+
 TEST(MeshBuilder, GroundSegmentationOverTheDrive) {
   const Drive& d = drive();
   const GroundConfusion& c = d.builder.summary().confusion;
