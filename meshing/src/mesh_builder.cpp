@@ -80,10 +80,26 @@ FrameReport MeshBuilder::addFrame(const Frame& frame) {
       cam.width = img.width;
       cam.height = img.height;
     }
+    const std::string cam_id = cam.name.empty() ? "camera" + std::to_string(ci) : cam.name;
     const std::string cam_name =
-        (cam.name.empty() ? "camera" + std::to_string(ci) : cam.name) +
-        (ci_img.source_path.empty() ? "" : " (" + ci_img.source_path + ")");
-    ++rep.images_used;
+        cam_id + (ci_img.source_path.empty() ? "" : " (" + ci_img.source_path + ")");
+    // Checked before anything is taken from the image: with another size every projection would
+    // be clamped to the image edge (texture from wrong pixels), and the segmentation needs RGB.
+    // These are not "cameras looking away": listed apart, with the reason.
+    std::string rejected;
+    if (img.width != cam.width || img.height != cam.height)
+      rejected = "image is " + std::to_string(img.width) + "x" + std::to_string(img.height) +
+                 " px but its camera model says " + std::to_string(cam.width) + "x" +
+                 std::to_string(cam.height) + "; expected the model's size (image not used)";
+    else if (p_.segment && img.channels != 3)
+      rejected = "image has " + std::to_string(img.channels) +
+                 " channel(s); expected RGB (3) for ground segmentation (image not used)";
+    if (!rejected.empty()) {
+      const InputError e(cam_name, rejected);
+      sum_.images_rejected.push_back(frame.id + "/" + e.what());
+      rep.notes.push_back(e.what());
+      continue;
+    }
     auto t0 = std::chrono::steady_clock::now();
     GroundSegmentation seg;
     bool have_seg = false;
@@ -94,29 +110,42 @@ FrameReport MeshBuilder::addFrame(const Frame& frame) {
       } catch (const InputError& e) {
         sum_.cameras_looking_away.push_back(frame.id + "/" + cam_name + ": " + e.what());
         rep.notes.push_back(e.what());
-        --rep.images_used;
         continue;
       }
       rep.segmentation_ms += msSince(t0);
       sum_.segmentation_ms.push_back(msSince(t0));
     }
+    ++rep.images_used;
     t0 = std::chrono::steady_clock::now();
     const CameraView view(cam, T, frame.points);
     if (have_seg) voteVertices(mesh_, view, seg, p_.max_range_m);
     mesh_.bakeTexture(view, img, p_.max_range_m);
     rep.texture_ms += msSince(t0);
+    CameraSegmentation cs;
+    cs.camera_index = ci;
+    cs.camera = cam_id;
     if (have_seg && p_.recover) {
       t0 = std::chrono::steady_clock::now();
       SceneRecoveryStats rs = recoverHeights(mesh_, view, img, seg, frame.points, p_.recovery);
       sum_.raised_estimates += rs.raised;
-      rep.last_object_mask = std::move(rs.object_mask);
+      cs.object_mask = std::move(rs.object_mask);
       rep.recovery_ms += msSince(t0);
     }
     if (have_seg && ci_img.truth && !ci_img.truth->empty()) {
-      rep.confusion.add(compareGround(seg, *ci_img.truth));
-      rep.has_truth = true;
+      // A truth image that does not fit is no evaluation: counted as one it would add an
+      // all-zero confusion and still count the frame.
+      try {
+        rep.confusion.add(compareGround(seg, *ci_img.truth, cam_name + " pixel truth"));
+        rep.has_truth = true;
+      } catch (const InputError& e) {
+        sum_.truth_rejected.push_back(frame.id + "/" + e.what());
+        rep.notes.push_back(std::string(e.what()) + " (not evaluated)");
+      }
     }
-    if (have_seg) rep.last_segmentation = std::move(seg);
+    if (have_seg) {
+      cs.ground = std::move(seg);
+      rep.segmentations.push_back(std::move(cs));
+    }
   }
   if (rep.images_used == 0) {
     sum_.frames_without_image.push_back(frame.id);
@@ -167,6 +196,8 @@ std::string MeshBuilder::report(const MaskStats* mask, const ExportStats* ex) co
   list("frames without a camera image (mesh untextured there)", sum_.frames_without_image);
   list("frames without a pose (LiDAR frame used as world)", sum_.frames_without_pose);
   list("cameras that see none of the points (skipped)", sum_.cameras_looking_away);
+  list("camera images rejected", sum_.images_rejected);
+  list("pixel truth images rejected (not evaluated)", sum_.truth_rejected);
   if (sum_.truth_frames) {
     const GroundConfusion& c = sum_.confusion;
     o << "\n## Image ground segmentation vs pixel truth (" << sum_.truth_frames << " image(s))\n\n";

@@ -58,8 +58,8 @@ class TexturedMeshOutput : public Output {
     d.add("recovery_background_odds", p_.recovery.background_odds, "§3.3: a colour is background only where it is this many times more frequent far from LiDAR returns than at object returns").unit("1").range(0.01, 1e4);
     d.add("recovery_stop_at_occluders", p_.recovery.stop_at_occluders, "§3.3: a column walk under a clearly nearer LiDAR surface gives only a lower bound");
     d.add("write_overlays", write_overlays_,
-          "write overlays/<frame>_<camera>.png in the mesh folder: each camera image with its "
-          "ground segmentation and object mask drawn over it");
+          "write overlays/<frame>_<camera>.png in the mesh folder: each camera image with its own "
+          "ground segmentation and object mask drawn over it (none for a camera not segmented)");
     d.add("decimate", decimate_, "collapse flat regions of the exported mesh (CGAL edge collapse; "
           "tile borders, holes and class boundaries stay; texture coordinates stay exact)");
     d.add("flat_tolerance_m", flat_tolerance_m_,
@@ -100,13 +100,15 @@ class TexturedMeshOutput : public Output {
     if (!builder_) builder_ = std::make_unique<MeshBuilder>(p_);
     const FrameReport r = builder_->addFrame(*ctx.frame);
     for (const auto& n : r.notes) std::cerr << "textured_mesh: frame " << r.id << ": " << n << "\n";
-    if (write_overlays_ && !r.last_segmentation.ground.empty()) {
-      for (const auto& cam : ctx.frame->cameras) {
-        if (!cam.image || cam.image->width != r.last_segmentation.width) continue;
-        const Image o = overlaySegmentation(*cam.image, r.last_segmentation.ground, r.last_object_mask);
+    if (write_overlays_) {
+      // Each camera with its own segmentation and object mask; a camera without one (image
+      // rejected, no point in view) gets no overlay. Names go through safeFileName: frame ids
+      // and camera names come from the data.
+      for (const CameraSegmentation& cs : r.segmentations) {
+        const CameraImage& cam = ctx.frame->cameras.at(cs.camera_index);
+        const Image o = overlaySegmentation(*cam.image, cs.ground.ground, cs.object_mask);
         writeImageAtomic(
-            (stagedOverlays() /
-             (r.id + "_" + (cam.model.name.empty() ? "camera" : cam.model.name) + ".png"))
+            (stagedOverlays() / (safeFileName(r.id) + "_" + safeFileName(cs.camera) + ".png"))
                 .string(),
             o);
       }
@@ -147,6 +149,12 @@ class TexturedMeshOutput : public Output {
     if (!s.frames_without_image.empty())
       std::cerr << "textured_mesh: " << s.frames_without_image.size()
                 << " frame(s) without a usable camera image: mesh untextured there (see report.md)\n";
+    if (!s.images_rejected.empty())
+      std::cerr << "textured_mesh: " << s.images_rejected.size()
+                << " camera image(s) rejected, not used (see report.md)\n";
+    if (!s.truth_rejected.empty())
+      std::cerr << "textured_mesh: " << s.truth_rejected.size()
+                << " pixel truth image(s) rejected, not evaluated (see report.md)\n";
     if (s.truth_frames)
       std::fprintf(stderr, "textured_mesh: image ground segmentation: %.2f %% of ground pixels found, %.2f %% errors\n",
                    100 * s.confusion.groundFound(), 100 * s.confusion.errorRate());
