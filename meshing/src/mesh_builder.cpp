@@ -70,6 +70,8 @@ FrameReport MeshBuilder::addFrame(const Frame& frame) {
   }
   rep.skipped_far = mesh_.addCloud(frame.points, T, p_.max_range_m);
   rep.registered = frame.points.size() - rep.skipped_far;
+  sum_.points_registered += rep.registered;
+  sum_.points_skipped_far += rep.skipped_far;
 
   for (std::size_t ci = 0; ci < frame.cameras.size(); ++ci) {
     const CameraImage& ci_img = frame.cameras[ci];
@@ -176,7 +178,11 @@ std::string MeshBuilder::report(const MaskStats* mask, const ExportStats* ex) co
   const std::size_t with_data = mesh_.verticesWithData(), textured = mesh_.texturedVertices();
   o << "- vertices with data: " << with_data << ", textured: " << textured << ", untextured: "
     << (with_data - textured) << "\n";
-  if (ex) o << "- exported: " << ex->tiles << " tiles, " << ex->vertices << " vertices, " << ex->triangles << " triangles\n";
+  if (ex && ex->tiles == 0)
+    o << "- exported: nothing (no mesh files written): " << emptyMeshReason() << "\n";
+  else if (ex)
+    o << "- exported: " << ex->tiles << " tiles, " << ex->vertices << " vertices, " << ex->triangles
+      << " triangles\n";
   if (mask)
     o << "- object vertices: " << mask->object_vertices << " (building " << mask->buildings
       << ", tree/other " << mask->trees << ")\n";
@@ -208,6 +214,19 @@ std::string MeshBuilder::report(const MaskStats* mask, const ExportStats* ex) co
                   "%.2f %% (paper: 3.19 %%)\n",
                   100 * c.groundFound(), 100 * c.errorRate());
     o << buf;
+  }
+  return o.str();
+}
+
+std::string MeshBuilder::emptyMeshReason() const {
+  std::ostringstream o;
+  if (sum_.points_registered == 0) {
+    o << "no LiDAR point within max_range_m = " << p_.max_range_m << " m of the sensor ("
+      << sum_.points_skipped_far << " farther, over " << sum_.frames << " frame(s))";
+  } else {
+    o << "the " << mesh_.verticesWithData() << " vertices with data (from "
+      << sum_.points_registered
+      << " points) form no triangle: a cell needs three corners with data";
   }
   return o.str();
 }

@@ -356,6 +356,29 @@ TEST(MeshTexture, ANewTileCopiesTheBorderTexels) {
   EXPECT_GT(coloured, std::size_t(T / 2));
 }
 
+TEST(MeshExport, EmptyMeshWritesNoMeshFiles) {
+  // No triangle (two lone points): no .glb with an empty buffer (invalid glTF), no empty OBJ/PLY.
+  TerrainMesh m;
+  m.addPoint({1, 1, 0});
+  m.addPoint({5, 5, 0});
+  test::TempDir dir;
+  const std::string out = (dir.path() / "mesh").string();
+  ExportOptions o;
+  bool called = false;
+  o.add_files = [&](const std::string& folder, const ExportStats& st) {
+    called = true;
+    EXPECT_EQ(st.tiles, 0u);
+    writeFileAtomic(folder + "/report.md", "why");
+  };
+  const ExportStats st = exportMesh(m, out, o);
+  EXPECT_TRUE(called);
+  EXPECT_EQ(st.tiles, 0u);
+  EXPECT_TRUE(st.files.empty());
+  for (const char* f : {"terrain.obj", "terrain.mtl", "terrain.ply", "terrain.glb"})
+    EXPECT_FALSE(fs::exists(out + "/" + f)) << f;
+  EXPECT_EQ(readFile(out + "/report.md"), "why");  // swapped in with the export
+}
+
 TEST(MeshExport, UnwritableFolderIsAClearError) {
   Scene s;
   test::TempDir dir;

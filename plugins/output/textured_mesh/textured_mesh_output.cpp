@@ -121,15 +121,19 @@ class TexturedMeshOutput : public Output {
     const std::string dir = (fs::path(output_dir_) / subdir_).string();
     ExportStats es;
     const fs::path staged = stagedOverlays();
+    ExportOptions ex = ex_;
+    // report.md goes into the export's temporary folder, so it is swapped in with the mesh it
+    // describes (a failing export keeps the previous mesh and its own report).
+    ex.add_files = [&](const std::string& folder, const ExportStats& st) {
+      writeFileAtomic((fs::path(folder) / "report.md").string(), builder_->report(&ms, &st));
+    };
     try {
-      es = exportMesh(builder_->mesh(), dir, ex_);
+      es = exportMesh(builder_->mesh(), dir, ex);
     } catch (const std::exception& e) {
       if (!fs::exists(staged)) throw;
       throw std::runtime_error(std::string(e.what()) + "; this run's overlays are in " +
                                staged.string());
     }
-    const std::string report = builder_->report(&ms, &es);
-    writeFileAtomic((fs::path(dir) / "report.md").string(), report);
     if (fs::exists(staged)) {
       std::error_code ec;
       fs::rename(staged, fs::path(dir) / "overlays", ec);
@@ -138,8 +142,12 @@ class TexturedMeshOutput : public Output {
                                  ", but its overlays could not be moved there from " +
                                  staged.string() + ": " + ec.message());
     }
-    std::cerr << "textured_mesh: " << es.tiles << " tile(s), " << es.vertices << " vertices, "
-              << es.triangles << " triangles -> " << dir << "\n";
+    if (es.tiles == 0)
+      std::cerr << "textured_mesh: no mesh written to " << dir << ": "
+                << builder_->emptyMeshReason() << " (see report.md)\n";
+    else
+      std::cerr << "textured_mesh: " << es.tiles << " tile(s), " << es.vertices << " vertices, "
+                << es.triangles << " triangles -> " << dir << "\n";
     if (ex_.decimate)
       std::fprintf(stderr, "textured_mesh: decimated %zu -> %zu triangles (%.1f %%), deviation <= %.3f m\n",
                    es.triangles_before_decimation, es.triangles,

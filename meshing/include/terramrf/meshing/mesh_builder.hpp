@@ -58,6 +58,7 @@ struct BuilderSummary {
   std::vector<std::string> cameras_looking_away;  ///< "frame/camera: message"
   std::vector<std::string> images_rejected;       ///< "frame/camera: why" (size, channels)
   std::vector<std::string> truth_rejected;        ///< "frame/camera truth: why" (not evaluated)
+  std::size_t points_registered = 0, points_skipped_far = 0;  ///< over all frames
   GroundConfusion confusion;
   std::size_t truth_frames = 0;
   std::vector<double> segmentation_ms;
@@ -80,6 +81,9 @@ class MeshBuilder {
 
   /// Human-readable report (Markdown): counts, problems, Table-1-style confusion.
   std::string report(const MaskStats* mask = nullptr, const ExportStats* exported = nullptr) const;
+  /// Why the mesh has no triangle to export (for report.md and the log): no point in range, or
+  /// too few vertices with data.
+  std::string emptyMeshReason() const;
 
  private:
   MeshBuilderParams p_;

@@ -149,6 +149,43 @@ TEST(TexturedMeshOutput, EachCameraOverlayShowsItsOwnSegmentation) {
   EXPECT_NE(report.find("camera images rejected: 1"), std::string::npos) << report;
 }
 
+// No point within max_range_m (1 m around the sensor): no mesh files (an empty .glb is invalid
+// glTF), and report.md says why.
+TEST(TexturedMeshOutput, NoPointInRangeWritesNoMeshAndSaysWhy) {
+  test::TempDir dir;
+  PluginContext ctx;
+  ctx.output_dir = dir.str();
+  PluginRegistry reg({test::pluginDir()});
+  auto src = reg.create("simulator");
+  setParams(*src,
+            "{seed: 2, frames: 2, camera_width: 256, camera_height: 128, camera_fx: 148, "
+            "azimuth_step_deg: 0.36}",
+            ctx);
+  auto* source = dynamic_cast<Source*>(src.get());
+  ASSERT_NE(source, nullptr);
+  auto out = test::makeOutput("textured_mesh", "{tile_vertices: 81, max_range_m: 1}", ctx);
+  ASSERT_NE(out, nullptr);
+  RunInfo info;
+  info.output_dir = dir.str();
+  out->begin(info);
+  for (std::size_t i = 0; i < source->size(); ++i) {
+    Frame f = source->read(i);
+    FrameContext fc;
+    fc.frame = &f;
+    fc.index = i;
+    out->write(fc);
+  }
+  out->end({});
+  const fs::path mesh = dir.path() / "mesh";
+  for (const char* f : {"terrain.obj", "terrain.mtl", "terrain.ply", "terrain.glb"})
+    EXPECT_FALSE(fs::exists(mesh / f)) << f;
+  const std::string report = readFile((mesh / "report.md").string());
+  EXPECT_NE(report.find("exported: nothing (no mesh files written): no LiDAR point within "
+                        "max_range_m = 1 m"),
+            std::string::npos)
+      << report;
+}
+
 TEST(TexturedMeshOutput, BadParametersAreRejected) {
   PluginContext ctx;
   PluginRegistry reg({test::pluginDir()});
