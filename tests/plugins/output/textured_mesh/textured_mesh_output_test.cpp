@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -184,6 +185,30 @@ TEST(TexturedMeshOutput, NoPointInRangeWritesNoMeshAndSaysWhy) {
                         "max_range_m = 1 m"),
             std::string::npos)
       << report;
+}
+
+// `terramrf mesh` names the folder the textured_mesh output really writes (its `subdir`).
+TEST(TexturedMeshOutput, MeshCommandReportsTheConfiguredSubdir) {
+  test::TempDir dir;
+  const std::string cfg = (dir.path() / "mesh.yaml").string();
+  writeFileAtomic(cfg,
+                  "version: 1\ngrid: {size_m: 40, cell_m: 0.5}\nsource:\n  type: simulator\n"
+                  "  params: {seed: 2, frames: 1, camera_width: 256, camera_height: 128, "
+                  "camera_fx: 148, azimuth_step_deg: 0.36}\nstages: []\noutputs:\n"
+                  "  - type: textured_mesh\n    params: {subdir: terrain3d, tile_vertices: 81, "
+                  "max_range_m: 20, formats: [obj]}\n");
+  const std::string out = (dir.path() / "out").string();
+  const std::string cmd = test::cli() + " mesh " + cfg + " --no-progress --out " + out + " 2>&1";
+  std::FILE* pipe = popen(cmd.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string text;
+  char buf[4096];
+  while (std::size_t n = std::fread(buf, 1, sizeof buf, pipe)) text.append(buf, n);
+  ASSERT_EQ(pclose(pipe), 0) << text;
+  EXPECT_TRUE(fs::exists(out + "/terrain3d/report.md")) << text;
+  EXPECT_NE(text.find("mesh in " + out + "/terrain3d"), std::string::npos) << text;
+  EXPECT_NE(text.find("mesh: " + out + "/terrain3d (report.md)"), std::string::npos) << text;
+  EXPECT_EQ(text.find(out + "/mesh"), std::string::npos) << text;
 }
 
 TEST(TexturedMeshOutput, BadParametersAreRejected) {
