@@ -16,9 +16,11 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include "output_test_support.hpp"
+#include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/meshing/decimation.hpp"
 #include "terramrf/meshing/terrain_mesh.hpp"
@@ -354,6 +356,108 @@ TEST(MeshTexture, ANewTileCopiesTheBorderTexels) {
     coloured += y[2] == 7;
   }
   EXPECT_GT(coloured, std::size_t(T / 2));
+}
+
+// Samples an exported texture at a vertex's exported (u, v): must be the colour the camera saw
+// at that vertex (the Scene's image is a ramp: red = image column, green = image row), so a
+// flipped or shifted v picks another row and fails. OBJ: v up; glTF: v down.
+TEST(MeshExport, TextureCoordinatesSampleTheVertexColour) {
+  Scene s;
+  test::TempDir dir;
+  const std::string out = (dir.path() / "mesh").string();
+  ExportOptions o;
+  o.ply = false;
+  exportMesh(s.mesh, out, o);
+  const Eigen::Isometry3d T_lw = s.pose.inverse();
+  // Expected colour of world point p: the ramp pixel it projects to; nullopt outside the image.
+  auto expected = [&](const Eigen::Vector3d& p) -> std::optional<std::array<int, 2>> {
+    const auto uv = s.cam.project(T_lw * p);
+    if (!uv) return std::nullopt;
+    return std::array<int, 2>{int(uv->x() + 0.5), int(uv->y() + 0.5)};
+  };
+  auto sample = [](const Image& img, double u, double v_down) {
+    const int col = std::clamp(int(std::floor(u * img.width)), 0, img.width - 1);
+    const int row = std::clamp(int(std::floor(v_down * img.height)), 0, img.height - 1);
+    return img.at(col, row);
+  };
+
+  // OBJ: objects in order, vertex k of the file ↔ vt k; textures from the MTL's map_Kd.
+  std::map<std::string, Image> textures;
+  std::vector<std::array<double, 3>> v;
+  std::vector<std::array<double, 2>> vt;
+  std::vector<std::string> tex_of;  // texture of each vertex
+  std::string current;
+  std::istringstream in(readFile(out + "/terrain.obj"));
+  std::string line;
+  while (std::getline(in, line)) {
+    double a, b, c;
+    if (line.rfind("usemtl ", 0) == 0) {
+      current = line.substr(7);
+      textures.emplace(current, readImage(out + "/textures/" + current + ".png"));
+    } else if (std::sscanf(line.c_str(), "v %lf %lf %lf", &a, &b, &c) == 3) {
+      v.push_back({a, b, c});
+    } else if (std::sscanf(line.c_str(), "vt %lf %lf", &a, &b) == 2) {
+      vt.push_back({a, b});
+      tex_of.push_back(current);
+    }
+  }
+  ASSERT_EQ(v.size(), vt.size());
+  std::size_t checked = 0;
+  for (std::size_t k = 0; k < v.size(); k += 7) {
+    const auto e = expected({v[k][0], v[k][1], v[k][2]});
+    if (!e) continue;
+    const uint8_t* px = sample(textures.at(tex_of[k]), vt[k][0], 1.0 - vt[k][1]);
+    if (px[2] != 100) continue;  // untextured texel (grey) next to the image edge
+    EXPECT_NEAR(px[0], (*e)[0], 1) << "OBJ vertex " << k;
+    EXPECT_NEAR(px[1], (*e)[1], 1) << "OBJ vertex " << k;
+    ++checked;
+  }
+  EXPECT_GT(checked, 100u);
+
+  // glTF: positions relative to the root node, y-up (x, z, −y); TEXCOORD_0 with v down.
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model model;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadBinaryFromFile(&model, &err, &warn, out + "/terrain.glb")) << err;
+  const tinygltf::Node& root = model.nodes.at(model.scenes.at(0).nodes.at(0));
+  ASSERT_EQ(root.translation.size(), 3u);
+  auto floats = [&](int accessor, std::size_t k, int n) {
+    const auto& acc = model.accessors.at(accessor);
+    const auto& bv = model.bufferViews.at(acc.bufferView);
+    const unsigned char* base =
+        model.buffers.at(bv.buffer).data.data() + bv.byteOffset + acc.byteOffset;
+    std::array<float, 3> r{};
+    std::memcpy(r.data(), base + (k * n) * 4, n * 4);
+    return r;
+  };
+  checked = 0;
+  for (const int child : root.children) {
+    const auto& prim = model.meshes.at(model.nodes.at(child).mesh).primitives.at(0);
+    const auto& img = model.images.at(
+        model.textures
+            .at(model.materials.at(prim.material).pbrMetallicRoughness.baseColorTexture.index)
+            .source);
+    ASSERT_GE(img.component, 3);
+    Image tex(img.width, img.height, 3);
+    for (int q = 0; q < img.width * img.height; ++q)
+      for (int c = 0; c < 3; ++c)
+        tex.data[std::size_t(q) * 3 + c] = img.image[std::size_t(q) * img.component + c];
+    const int a_pos = prim.attributes.at("POSITION"), a_uv = prim.attributes.at("TEXCOORD_0");
+    for (std::size_t k = 0; k < model.accessors.at(a_pos).count; k += 7) {
+      const auto g = floats(a_pos, k, 3);
+      const Eigen::Vector3d p(g[0] + root.translation[0], -(g[2] + root.translation[2]),
+                              g[1] + root.translation[1]);
+      const auto e = expected(p);
+      if (!e) continue;
+      const auto uv = floats(a_uv, k, 2);
+      const uint8_t* px = sample(tex, uv[0], uv[1]);
+      if (px[2] != 100) continue;
+      EXPECT_NEAR(px[0], (*e)[0], 1) << "glTF vertex " << k << " at " << p.transpose();
+      EXPECT_NEAR(px[1], (*e)[1], 1) << "glTF vertex " << k << " at " << p.transpose();
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 100u);
 }
 
 TEST(MeshExport, EmptyMeshWritesNoMeshFiles) {
