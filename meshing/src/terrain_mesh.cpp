@@ -236,7 +236,7 @@ std::size_t TerrainMesh::bakeTexture(const CameraView& view, const Image& image,
         const int u = int(uv->x() + 0.5), v = int(uv->y() + 0.5);
         // Hidden behind a nearer surface the pixel shows that surface (a wall in front of the
         // ground); without this test the "closest camera" rule would even keep that colour.
-        if (!view.visible(u, v, depth)) continue;
+        if (!view.unoccluded(u, v, depth)) continue;
         const uint8_t* px = image.at(u, v);
         uint8_t* tx = t.texture.at(b, a);
         for (int c = 0; c < 3; ++c) tx[c] = px[image.channels >= 3 ? c : 0];
