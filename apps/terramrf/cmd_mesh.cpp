@@ -4,6 +4,7 @@
 // when the config does not list one — and prints where the mesh went.
 #include <filesystem>
 #include <iostream>
+#include <variant>
 
 #include "commands.hpp"
 #include "terramrf/atomic_file.hpp"
@@ -22,7 +23,6 @@ int cmdMesh(const Args& args) {
   Pipeline p;
   if (!loadOrReport(config, ra.load, reg, p)) return kUsage;
   if (!firstFrameInRange(p, ro, "mesh")) return kUsage;
-  std::string mesh_dir = p.output_dir + "/mesh";
   bool have = false;
   for (const auto& o : p.outputs) have = have || o->type() == "textured_mesh";
   if (!have) {
@@ -45,6 +45,19 @@ int cmdMesh(const Args& args) {
     }
     p.outputs.emplace_back(static_cast<Output*>(pl.release()));
   }
+  // Where each textured_mesh output exports: its own `subdir` (default "mesh"), not a fixed name.
+  std::string mesh_dirs;
+  for (const auto& o : p.outputs) {
+    if (o->type() != "textured_mesh") continue;
+    std::string subdir = "mesh";
+    for (const auto& spec : declaredParams(*o)) {
+      if (spec.name != "subdir" || !spec.get) continue;
+      const ParamValue v = spec.get();
+      if (const auto* s = std::get_if<std::string>(&v)) subdir = *s;
+    }
+    mesh_dirs +=
+        (mesh_dirs.empty() ? "" : ", ") + (std::filesystem::path(p.output_dir) / subdir).string();
+  }
   std::error_code ec;
   std::filesystem::create_directories(p.output_dir, ec);
   if (ec || !std::filesystem::is_directory(p.output_dir)) {
@@ -53,7 +66,7 @@ int cmdMesh(const Args& args) {
     return kError;
   }
   std::cerr << "terramrf: " << p.source->size() << " frame(s) from " << p.source->type()
-            << ", mesh in " << mesh_dir << "\n";
+            << ", mesh in " << mesh_dirs << "\n";
   RunResult r;
   try {
     r = runPipeline(p, ro);
@@ -65,7 +78,7 @@ int cmdMesh(const Args& args) {
   std::cout << r.summary.frames_ok << " of " << r.frames_total << " frame(s) ok\n";
   for (const auto& [id, why] : r.summary.failed) std::cout << "  " << id << ": " << why << "\n";
   for (const auto& e : r.output_errors) std::cout << "error: " << e << "\n";
-  if (r.output_errors.empty()) std::cout << "mesh: " << mesh_dir << " (report.md)\n";
+  if (r.output_errors.empty()) std::cout << "mesh: " << mesh_dirs << " (report.md)\n";
   return r.exitCode();
 }
 

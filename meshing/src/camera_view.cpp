@@ -37,10 +37,14 @@ CameraView::CameraView(const CameraModel& cam, const Eigen::Isometry3d& T_wl, co
       tmp[std::size_t(v) * W + u] = m;
     }
   depth_.assign(raw.size(), inf);
+  depth_above_.assign(raw.size(), inf);
   for (int v = 0; v < H; ++v)
     for (int u = 0; u < W; ++u) {
       float m = inf;
-      for (int k = std::max(0, v - dilate); k <= std::min(H - 1, v + dilate); ++k)
+      for (int k = std::max(0, v - dilate); k <= v; ++k)
+        m = std::min(m, tmp[std::size_t(k) * W + u]);
+      depth_above_[std::size_t(v) * W + u] = m;
+      for (int k = v + 1; k <= std::min(H - 1, v + dilate); ++k)
         m = std::min(m, tmp[std::size_t(k) * W + u]);
       depth_[std::size_t(v) * W + u] = m;
     }

@@ -277,9 +277,15 @@ GroundSegmentation segmentGround(const Image& image, const CameraModel& cam,
   return g;
 }
 
-GroundConfusion compareGround(const GroundSegmentation& seg, const Image& truth) {
+GroundConfusion compareGround(const GroundSegmentation& seg, const Image& truth,
+                              const std::string& truth_name) {
   GroundConfusion c;
-  if (truth.width != seg.width || truth.height != seg.height || truth.channels != 1) return c;
+  if (truth.width != seg.width || truth.height != seg.height || truth.channels != 1)
+    throw InputError(truth_name, "is " + std::to_string(truth.width) + "x" +
+                                     std::to_string(truth.height) + " px with " +
+                                     std::to_string(truth.channels) + " channel(s); expected " +
+                                     std::to_string(seg.width) + "x" + std::to_string(seg.height) +
+                                     " px with 1 channel (the segmented image's size, label ids)");
   const std::size_t N = std::size_t(seg.width) * seg.height;
   for (std::size_t s = 0; s < N; ++s) {
     const LabelId t = truth.data[s];

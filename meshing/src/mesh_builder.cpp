@@ -29,11 +29,12 @@ void voteVertices(TerrainMesh& mesh, const CameraView& view, const GroundSegment
     const double dx = std::max({x0 - C.x(), 0.0, C.x() - (x0 + L)});
     const double dy = std::max({y0 - C.y(), 0.0, C.y() - (y0 + L)});
     if (dx * dx + dy * dy > max_range_m * max_range_m) continue;
-    // Owned vertices only (the far border belongs to the neighbour or is voted there).
-    for (int i = 0; i < span; ++i)
-      for (int j = 0; j < span; ++j) {
+    // Each global vertex votes once, from the tile that owns it (a far-border vertex belongs to
+    // the neighbour when that exists, else to this tile).
+    for (int i = 0; i < t.n; ++i)
+      for (int j = 0; j < t.n; ++j) {
         const int k = i * t.n + j;
-        if (!t.count[k]) continue;
+        if (!t.count[k] || !mesh.owns(t, i, j)) continue;
         const Eigen::Vector3d pw(x0 + i * cell, y0 + j * cell, t.z_sum[k] / t.count[k]);
         if ((pw.head<2>() - C.head<2>()).squaredNorm() > max_range_m * max_range_m) continue;
         double depth = 0;
@@ -69,6 +70,8 @@ FrameReport MeshBuilder::addFrame(const Frame& frame) {
   }
   rep.skipped_far = mesh_.addCloud(frame.points, T, p_.max_range_m);
   rep.registered = frame.points.size() - rep.skipped_far;
+  sum_.points_registered += rep.registered;
+  sum_.points_skipped_far += rep.skipped_far;
 
   for (std::size_t ci = 0; ci < frame.cameras.size(); ++ci) {
     const CameraImage& ci_img = frame.cameras[ci];
@@ -79,10 +82,26 @@ FrameReport MeshBuilder::addFrame(const Frame& frame) {
       cam.width = img.width;
       cam.height = img.height;
     }
+    const std::string cam_id = cam.name.empty() ? "camera" + std::to_string(ci) : cam.name;
     const std::string cam_name =
-        (cam.name.empty() ? "camera" + std::to_string(ci) : cam.name) +
-        (ci_img.source_path.empty() ? "" : " (" + ci_img.source_path + ")");
-    ++rep.images_used;
+        cam_id + (ci_img.source_path.empty() ? "" : " (" + ci_img.source_path + ")");
+    // Checked before anything is taken from the image: with another size every projection would
+    // be clamped to the image edge (texture from wrong pixels), and the segmentation needs RGB.
+    // These are not "cameras looking away": listed apart, with the reason.
+    std::string rejected;
+    if (img.width != cam.width || img.height != cam.height)
+      rejected = "image is " + std::to_string(img.width) + "x" + std::to_string(img.height) +
+                 " px but its camera model says " + std::to_string(cam.width) + "x" +
+                 std::to_string(cam.height) + "; expected the model's size (image not used)";
+    else if (p_.segment && img.channels != 3)
+      rejected = "image has " + std::to_string(img.channels) +
+                 " channel(s); expected RGB (3) for ground segmentation (image not used)";
+    if (!rejected.empty()) {
+      const InputError e(cam_name, rejected);
+      sum_.images_rejected.push_back(frame.id + "/" + e.what());
+      rep.notes.push_back(e.what());
+      continue;
+    }
     auto t0 = std::chrono::steady_clock::now();
     GroundSegmentation seg;
     bool have_seg = false;
@@ -93,29 +112,42 @@ FrameReport MeshBuilder::addFrame(const Frame& frame) {
       } catch (const InputError& e) {
         sum_.cameras_looking_away.push_back(frame.id + "/" + cam_name + ": " + e.what());
         rep.notes.push_back(e.what());
-        --rep.images_used;
         continue;
       }
       rep.segmentation_ms += msSince(t0);
       sum_.segmentation_ms.push_back(msSince(t0));
     }
+    ++rep.images_used;
     t0 = std::chrono::steady_clock::now();
     const CameraView view(cam, T, frame.points);
     if (have_seg) voteVertices(mesh_, view, seg, p_.max_range_m);
-    mesh_.bakeTexture(cam, img, T, p_.max_range_m);
+    mesh_.bakeTexture(view, img, p_.max_range_m);
     rep.texture_ms += msSince(t0);
+    CameraSegmentation cs;
+    cs.camera_index = ci;
+    cs.camera = cam_id;
     if (have_seg && p_.recover) {
       t0 = std::chrono::steady_clock::now();
       SceneRecoveryStats rs = recoverHeights(mesh_, view, img, seg, frame.points, p_.recovery);
       sum_.raised_estimates += rs.raised;
-      rep.last_object_mask = std::move(rs.object_mask);
+      cs.object_mask = std::move(rs.object_mask);
       rep.recovery_ms += msSince(t0);
     }
     if (have_seg && ci_img.truth && !ci_img.truth->empty()) {
-      rep.confusion.add(compareGround(seg, *ci_img.truth));
-      rep.has_truth = true;
+      // A truth image that does not fit is no evaluation: counted as one it would add an
+      // all-zero confusion and still count the frame.
+      try {
+        rep.confusion.add(compareGround(seg, *ci_img.truth, cam_name + " pixel truth"));
+        rep.has_truth = true;
+      } catch (const InputError& e) {
+        sum_.truth_rejected.push_back(frame.id + "/" + e.what());
+        rep.notes.push_back(std::string(e.what()) + " (not evaluated)");
+      }
     }
-    if (have_seg) rep.last_segmentation = std::move(seg);
+    if (have_seg) {
+      cs.ground = std::move(seg);
+      rep.segmentations.push_back(std::move(cs));
+    }
   }
   if (rep.images_used == 0) {
     sum_.frames_without_image.push_back(frame.id);
@@ -146,7 +178,11 @@ std::string MeshBuilder::report(const MaskStats* mask, const ExportStats* ex) co
   const std::size_t with_data = mesh_.verticesWithData(), textured = mesh_.texturedVertices();
   o << "- vertices with data: " << with_data << ", textured: " << textured << ", untextured: "
     << (with_data - textured) << "\n";
-  if (ex) o << "- exported: " << ex->tiles << " tiles, " << ex->vertices << " vertices, " << ex->triangles << " triangles\n";
+  if (ex && ex->tiles == 0)
+    o << "- exported: nothing (no mesh files written): " << emptyMeshReason() << "\n";
+  else if (ex)
+    o << "- exported: " << ex->tiles << " tiles, " << ex->vertices << " vertices, " << ex->triangles
+      << " triangles\n";
   if (mask)
     o << "- object vertices: " << mask->object_vertices << " (building " << mask->buildings
       << ", tree/other " << mask->trees << ")\n";
@@ -166,6 +202,8 @@ std::string MeshBuilder::report(const MaskStats* mask, const ExportStats* ex) co
   list("frames without a camera image (mesh untextured there)", sum_.frames_without_image);
   list("frames without a pose (LiDAR frame used as world)", sum_.frames_without_pose);
   list("cameras that see none of the points (skipped)", sum_.cameras_looking_away);
+  list("camera images rejected", sum_.images_rejected);
+  list("pixel truth images rejected (not evaluated)", sum_.truth_rejected);
   if (sum_.truth_frames) {
     const GroundConfusion& c = sum_.confusion;
     o << "\n## Image ground segmentation vs pixel truth (" << sum_.truth_frames << " image(s))\n\n";
@@ -176,6 +214,19 @@ std::string MeshBuilder::report(const MaskStats* mask, const ExportStats* ex) co
                   "%.2f %% (paper: 3.19 %%)\n",
                   100 * c.groundFound(), 100 * c.errorRate());
     o << buf;
+  }
+  return o.str();
+}
+
+std::string MeshBuilder::emptyMeshReason() const {
+  std::ostringstream o;
+  if (sum_.points_registered == 0) {
+    o << "no LiDAR point within max_range_m = " << p_.max_range_m << " m of the sensor ("
+      << sum_.points_skipped_far << " farther, over " << sum_.frames << " frame(s))";
+  } else {
+    o << "the " << mesh_.verticesWithData() << " vertices with data (from "
+      << sum_.points_registered
+      << " points) form no triangle: a cell needs three corners with data";
   }
   return o.str();
 }

@@ -157,20 +157,24 @@ ExportStats exportMesh(const TerrainMesh& mesh, const std::string& dir,
       st.vertices += m.positions.size();
       st.triangles += m.triangles.size();
     }
-    if (options.obj) {
+    if (tiles.empty()) {
+      // Nothing to write: an empty .glb has a zero-length buffer (invalid glTF) and an empty
+      // OBJ/PLY would pass for a mesh. The caller says why (add_files, the log).
+    } else if (options.obj) {
       writeObj(tiles, tmp.string(), options.basename);
       st.files.push_back(options.basename + ".obj");
       st.files.push_back(options.basename + ".mtl");
       for (const auto& m : tiles) st.files.push_back("textures/" + m.name + ".png");
     }
-    if (options.ply) {
+    if (options.ply && !tiles.empty()) {
       writePly(tiles, (tmp / (options.basename + ".ply")).string());
       st.files.push_back(options.basename + ".ply");
     }
-    if (options.gltf) {
+    if (options.gltf && !tiles.empty()) {
       writeGlb(tiles, (tmp / (options.basename + ".glb")).string());
       st.files.push_back(options.basename + ".glb");
     }
+    if (options.add_files) options.add_files(tmp.string(), st);
   } catch (const std::exception& e) {
     fs::remove_all(tmp, ec);
     throw std::runtime_error("mesh export to '" + target.string() +

@@ -87,6 +87,9 @@ SceneRecoveryStats recoverHeights(TerrainMesh& mesh, const CameraView& view, con
       for (int j = 0; j < t.n; ++j) {
         const int k = i * t.n + j;
         if (!isObjectVertex(t, k)) continue;
+        // A border vertex is in two to four tiles: handled from one, it is tried (and counted)
+        // once, as in the votes.
+        if (!mesh.owns(t, i, j)) continue;
         const Eigen::Vector3d pw(x0 + i * cell, y0 + j * cell, t.z_max[k]);
         if ((pw.head<2>() - C.head<2>()).norm() > p.max_range_m) continue;
         double depth = 0;

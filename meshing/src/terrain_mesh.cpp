@@ -101,6 +101,19 @@ Tile& TerrainMesh::ensureTile(int ti, int tj) {
           t.cls[k] = o.cls[ok];
         }
       }
+      // The shared texels too: a texel baked before this tile existed would stay grey here and
+      // show a seam along the border in the export.
+      const int tspan = span * p_.texels_per_cell;
+      for (int a = 0; a < T; ++a) {
+        const int oa = a - di * tspan;
+        if (oa < 0 || oa >= T) continue;
+        for (int b = 0; b < T; ++b) {
+          const int ob = b - dj * tspan;
+          if (ob < 0 || ob >= T) continue;
+          std::copy_n(o.texture.at(ob, oa), 3, t.texture.at(b, a));
+          t.texel_range[std::size_t(a) * T + b] = o.texel_range[std::size_t(oa) * T + ob];
+        }
+      }
     }
   }
   return t;
@@ -110,9 +123,12 @@ void TerrainMesh::addPoint(const Eigen::Vector3d& p) {
   if (!p.allFinite()) return;
   const int64_t gi = int64_t(std::floor(p.x() / p_.cell_m + 0.5));
   const int64_t gj = int64_t(std::floor(p.y() / p_.cell_m + 0.5));
-  int ti, tj;
-  tileOf(gi, gj, ti, tj);
-  ensureTile(ti, tj);
+  // The point's own tile (half-open: x ∈ [ti·L, (ti+1)·L)) is created only if missing, i.e. when
+  // the point lies outside every tile (paper §3.1). Its nearest vertex can be that tile's far
+  // border, which must not create the next tile: a point at x = 18.70 m in a tile ending at
+  // 18.75 m did, and the new tile held nothing but that border.
+  const double L = tileSpan() * p_.cell_m;
+  ensureTile(int(std::floor(p.x() / L)), int(std::floor(p.y() / L)));
   const float z = float(p.z());
   forEachCopy({gi, gj}, [&](Tile& t, int k) {
     if (t.count[k] == 0) {
@@ -147,7 +163,9 @@ float TerrainMesh::displayHeight(const Tile& t, int k) const {
   if (c == VertexClass::kGround || c == VertexClass::kUnknown) return t.z_sum[k] / t.count[k];
   float h = t.z_max[k];
   if (t.rec_weight[k] > 0) h = std::max(h, t.rec_sum[k] / t.rec_weight[k]);
-  else if (std::isfinite(t.rec_lower[k])) h = std::max(h, t.rec_lower[k]);
+  // The lower bound is measured (the object reaches at least there), so an estimate below it
+  // from another view is wrong and must not win.
+  if (std::isfinite(t.rec_lower[k])) h = std::max(h, t.rec_lower[k]);
   return h;
 }
 
@@ -165,11 +183,16 @@ Eigen::Vector2f TerrainMesh::vertexUv(int i, int j) const {
   return {(float(j * tpc) + 0.5f) / T, 1.0f - (float(i * tpc) + 0.5f) / T};
 }
 
-std::size_t TerrainMesh::bakeTexture(const CameraModel& cam, const Image& image,
-                                     const Eigen::Isometry3d& T_world_lidar, double max_range_m) {
+std::size_t TerrainMesh::bakeTexture(const CameraView& view, const Image& image,
+                                     double max_range_m) {
   if (image.empty() || image.channels < 1) return 0;
-  const Eigen::Isometry3d T_lw = T_world_lidar.inverse();
-  const Eigen::Vector3d cam_w = T_world_lidar * (cam.T_camera_lidar.inverse().translation());
+  // A different size would clamp every projection to the image edge: colours from wrong pixels.
+  if (image.width != view.width() || image.height != view.height())
+    throw std::invalid_argument("texture baking: image of camera '" + view.camera().name + "' is " +
+                                std::to_string(image.width) + "x" + std::to_string(image.height) +
+                                " px; expected the camera model's " + std::to_string(view.width()) +
+                                "x" + std::to_string(view.height()));
+  const Eigen::Vector3d cam_w = view.centre();
   const int span = tileSpan(), tpc = p_.texels_per_cell, T = textureSize();
   const double L = span * p_.cell_m, step = p_.cell_m / tpc;
   std::size_t updated = 0;
@@ -207,10 +230,13 @@ std::size_t TerrainMesh::bakeTexture(const CameraModel& cam, const Image& image,
         const float range = float((pw - cam_w).norm());
         const std::size_t tk = std::size_t(a) * T + b;
         if (!(range < t.texel_range[tk]) || range > max_range_m) continue;
-        const auto uv = cam.project(T_lw * pw);
+        double depth = 0;
+        const auto uv = view.project(pw, &depth);
         if (!uv) continue;
-        const int u = std::min(int(uv->x() + 0.5), image.width - 1);
-        const int v = std::min(int(uv->y() + 0.5), image.height - 1);
+        const int u = int(uv->x() + 0.5), v = int(uv->y() + 0.5);
+        // Hidden behind a nearer surface the pixel shows that surface (a wall in front of the
+        // ground); without this test the "closest camera" rule would even keep that colour.
+        if (!view.unoccluded(u, v, depth)) continue;
         const uint8_t* px = image.at(u, v);
         uint8_t* tx = t.texture.at(b, a);
         for (int c = 0; c < 3; ++c) tx[c] = px[image.channels >= 3 ? c : 0];

@@ -167,6 +167,149 @@ TEST(MeshBuilder, MissingImagesAndCamerasLookingAwayAreReported) {
   EXPECT_NE(report.find("cameras that see none of the points"), std::string::npos) << report;
 }
 
+TEST(MeshBuilder, EachCameraKeepsItsOwnSegmentation) {
+  SimScene s(5);
+  sim::CameraParams cp = SimScene::cameraParams();
+  cp.name = "image_3";
+  cp.yaw_deg = 90;  // looking left
+  const sim::CameraRenderer side(s.world, cp);
+  Frame f = s.frame(0);
+  f.cameras.push_back(side.render(*f.pose, 77));
+  // A third camera with an unusable (grey) image: no segmentation of its own, and none borrowed.
+  CameraImage grey = f.cameras[0];
+  grey.model.name = "image_4";
+  grey.image = std::make_shared<Image>(512, 256, 1);
+  grey.truth = nullptr;
+  f.cameras.push_back(grey);
+  MeshBuilder b;
+  const FrameReport r = b.addFrame(f);
+  ASSERT_EQ(r.segmentations.size(), 2u);
+  for (std::size_t c = 0; c < 2; ++c) {
+    const CameraSegmentation& cs = r.segmentations[c];
+    EXPECT_EQ(cs.camera_index, c);
+    EXPECT_EQ(cs.camera, f.cameras[c].model.name);
+    const GroundSegmentation own =
+        segmentGround(*f.cameras[c].image, f.cameras[c].model, f.points, b.params().ground);
+    EXPECT_TRUE(cs.ground.ground == own.ground) << cs.camera << ": not its own segmentation";
+    EXPECT_EQ(cs.object_mask.size(), own.ground.size()) << cs.camera;
+  }
+  EXPECT_FALSE(r.segmentations[0].ground.ground == r.segmentations[1].ground.ground);
+  EXPECT_EQ(b.summary().images_rejected.size(), 1u);
+}
+
+TEST(MeshBuilder, RejectedImagesAndTruthAreListedApart) {
+  SimScene s(5);
+  MeshBuilder b;
+  Frame grey = s.frame(0);
+  grey.cameras[0].image = std::make_shared<Image>(512, 256, 1);
+  const FrameReport rg = b.addFrame(grey);
+  EXPECT_TRUE(rg.segmentations.empty());
+  EXPECT_EQ(rg.images_used, 0);
+  Frame bad_truth = s.frame(5);
+  ASSERT_TRUE(bad_truth.cameras[0].truth);
+  bad_truth.cameras[0].truth = std::make_shared<Image>(256, 128, 1);
+  const FrameReport rt = b.addFrame(bad_truth);
+  EXPECT_FALSE(rt.has_truth);
+  EXPECT_EQ(rt.segmentations.size(), 1u);  // the image itself is fine and used
+  const BuilderSummary& sum = b.summary();
+  // Neither is a camera that sees none of the points.
+  EXPECT_TRUE(sum.cameras_looking_away.empty());
+  ASSERT_EQ(sum.images_rejected.size(), 1u);
+  EXPECT_NE(sum.images_rejected[0].find("1 channel(s); expected RGB"), std::string::npos)
+      << sum.images_rejected[0];
+  ASSERT_EQ(sum.truth_rejected.size(), 1u);
+  EXPECT_NE(sum.truth_rejected[0].find("pixel truth"), std::string::npos) << sum.truth_rejected[0];
+  EXPECT_NE(sum.truth_rejected[0].find("256x128"), std::string::npos) << sum.truth_rejected[0];
+  EXPECT_NE(sum.truth_rejected[0].find("512x256"), std::string::npos) << sum.truth_rejected[0];
+  // Not counted as an evaluated image.
+  EXPECT_EQ(sum.truth_frames, 0u);
+  EXPECT_EQ(sum.confusion.total(), 0u);
+  const std::string report = b.report();
+  EXPECT_NE(report.find("camera images rejected: 1"), std::string::npos) << report;
+  EXPECT_NE(report.find("pixel truth images rejected (not evaluated): 1"), std::string::npos)
+      << report;
+  EXPECT_EQ(report.find("cameras that see none of the points"), std::string::npos) << report;
+  EXPECT_EQ(report.find("Image ground segmentation vs pixel truth"), std::string::npos) << report;
+}
+
+TEST(MeshBuilder, WithoutSegmentationAnImageOfAnotherSizeIsRejected) {
+  SimScene s(5);
+  MeshBuilderParams p;
+  p.segment = false;
+  MeshBuilder b(p);
+  Frame f = s.frame(0);
+  f.cameras[0].image = std::make_shared<Image>(256, 128, 3);  // the model says 512 x 256
+  const FrameReport r = b.addFrame(f);
+  EXPECT_EQ(r.images_used, 0);
+  // Nothing baked from pixels clamped to the image edge.
+  EXPECT_EQ(b.mesh().texturedVertices(), 0u);
+  const BuilderSummary& sum = b.summary();
+  ASSERT_EQ(sum.images_rejected.size(), 1u);
+  EXPECT_NE(sum.images_rejected[0].find("256x128"), std::string::npos) << sum.images_rejected[0];
+  EXPECT_NE(sum.images_rejected[0].find("512x256"), std::string::npos) << sum.images_rejected[0];
+  EXPECT_NE(sum.images_rejected[0].find("image_2"), std::string::npos) << sum.images_rejected[0];
+}
+
+TEST(SceneRecovery, BorderVerticesAreTriedAndCountedOnce) {
+  // Object vertices on the border x = 5 m of tiles (0,0) and (1,0) (5 m tiles): each is in both
+  // tiles and must be tried once. A camera at (0, 2.5, 1) m looks along +x at a wall x = 5 m,
+  // y ∈ [0.5, 4.5] m, 2 m tall (brown) under the sky (blue); the LiDAR saw it up to 0.5 m.
+  TerrainMeshParams tp;
+  tp.tile_vertices = 11;
+  tp.cell_m = 0.5;
+  TerrainMesh mesh(tp);
+  for (int j = 2; j <= 8; ++j) mesh.addPoint({5.0, 0.5 * j, 0.5});  // 7 vertices, tile (1,0)
+  mesh.addPoint({4.0, 2.0, 0.0});  // creates tile (0,0): the 7 now have two copies
+  ASSERT_EQ(mesh.tileCount(), 2u);
+  for (int j = 2; j <= 8; ++j)
+    mesh.forEachCopy({10, j}, [](Tile& t, int k) {
+      t.object_votes[k] = 1;
+      t.cls[k] = VertexClass::kObject;
+    });
+  const int W = 200, H = 150;
+  const double f = 100;
+  CameraModel cam;
+  cam.name = "front";
+  cam.width = W;
+  cam.height = H;
+  cam.P << f, 0, W / 2.0, 0, 0, f, H / 2.0, 0, 0, 0, 1, 0;
+  Eigen::Matrix3d R;
+  R << 0, -1, 0, 0, 0, -1, 1, 0, 0;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = R;
+  const Eigen::Vector3d C(0, 2.5, 1.0);
+  T.translation() = -R * C;
+  cam.T_camera_lidar = T;
+  Image img(W, H, 3);
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      const double y = C.y() - (u - W / 2.0) * 5.0 / f, z = C.z() - (v - H / 2.0) * 5.0 / f;
+      const bool wall = y >= 0.5 && y <= 4.5 && z <= 2.0;
+      uint8_t* px = img.at(u, v);
+      px[0] = wall ? 140 : 60;
+      px[1] = wall ? 90 : 120;
+      px[2] = wall ? 40 : 230;
+    }
+  GroundSegmentation none;  // no ground pixel
+  none.width = W;
+  none.height = H;
+  none.ground.assign(std::size_t(W) * H, 0);
+  const CameraView view(cam, Eigen::Isometry3d::Identity(), PointCloud{});
+  const SceneRecoveryStats st = recoverHeights(mesh, view, img, none, PointCloud{}, {});
+  std::printf("tried %zu, estimates %zu, lower bounds %zu, raised %zu\n", st.vertices_tried,
+              st.estimates, st.lower_bounds, st.raised);
+  EXPECT_EQ(st.vertices_tried, 7u);
+  EXPECT_EQ(st.estimates + st.lower_bounds, 7u);
+  EXPECT_EQ(st.raised, 7u);  // every top found at the wall's 2 m, above the LiDAR's 0.5 m
+  // Both copies of a vertex carry the same single estimate.
+  const Tile& a = *mesh.tile(0, 0);
+  const Tile& b = *mesh.tile(1, 0);
+  for (int j = 2; j <= 8; ++j) {
+    EXPECT_FLOAT_EQ(a.rec_weight[10 * 11 + j], b.rec_weight[0 * 11 + j]) << j;
+    EXPECT_NEAR(mesh.displayHeight(b, j), 2.0, 0.15) << j;
+  }
+}
+
 TEST(MeshBuilder, GroundSegmentationOverTheDrive) {
   const Drive& d = drive();
   const GroundConfusion& c = d.builder.summary().confusion;

@@ -1,24 +1,28 @@
 // Tiled mesh (paper 004 §3.1) and its exports, read back with independent readers: CGAL for OBJ
 // and PLY, tinygltf for the .glb. Bad output folders and partial exports.
+#include "terramrf/meshing/mesh_export.hpp"
+
 #include <CGAL/IO/OBJ.h>
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/Surface_mesh.h>
 #include <gtest/gtest.h>
 #include <tiny_gltf.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <map>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <optional>
 #include <sstream>
 
 #include "output_test_support.hpp"
+#include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/meshing/decimation.hpp"
-#include "terramrf/meshing/mesh_export.hpp"
 #include "terramrf/meshing/terrain_mesh.hpp"
 #include "test_support.hpp"
 
@@ -56,6 +60,64 @@ TEST(TerrainMesh, TilesAreCreatedOnDemandAndShareBorders) {
   // Height statistics and display height (unknown class: mean).
   m.addPoint({1.0, 1.0, 0.4});
   EXPECT_NEAR(m.displayHeight(*a, 2 * 11 + 2), 0.3f, 1e-6);
+}
+
+TEST(TerrainMesh, APointInsideATileNeverCreatesTheNextOne) {
+  TerrainMesh m;  // 151 vertices, 0.125 m: tile 0 covers x ∈ [0, 18.75] m
+  m.addPoint({1.0, 1.0, 0.0});
+  // 18.70 m lies inside tile 0 but rounds to its far border vertex 150: no new tile (paper §3.1),
+  // the vertex is tile 0's.
+  m.addPoint({18.70, 1.0, 0.5});
+  EXPECT_EQ(m.tileCount(), 1u);
+  const Tile* t0 = m.tile(0, 0);
+  ASSERT_NE(t0, nullptr);
+  EXPECT_EQ(t0->count[150 * 151 + 8], 1u);
+  EXPECT_FLOAT_EQ(t0->z_max[150 * 151 + 8], 0.5f);
+  EXPECT_EQ(m.verticesWithData(), 2u);
+  // 18.80 m is outside tile 0: tile 1 is created, and the shared vertex is updated in both.
+  m.addPoint({18.80, 1.0, 0.7});
+  EXPECT_EQ(m.tileCount(), 2u);
+  const Tile* t1 = m.tile(1, 0);
+  ASSERT_NE(t1, nullptr);
+  EXPECT_EQ(t0->count[150 * 151 + 8], 2u);
+  EXPECT_EQ(t1->count[0 * 151 + 8], 2u);
+  EXPECT_FLOAT_EQ(t1->z_max[0 * 151 + 8], 0.7f);
+  EXPECT_EQ(m.verticesWithData(), 2u);
+}
+
+TEST(TerrainMesh, ANewTileCopiesTheBorderRegisteredBeforeIt) {
+  TerrainMeshParams p;
+  p.tile_vertices = 11;  // 5 m tiles
+  p.cell_m = 0.5;
+  TerrainMesh m(p);
+  m.addPoint({5.0, 1.0, 0.7});  // x = 5 m: tile (1,0), on its border with tile (0,0)
+  ASSERT_EQ(m.tileCount(), 1u);
+  ASSERT_EQ(m.tile(0, 0), nullptr);
+  m.addPoint({1.0, 1.0, 0.2});  // inside the lower tile, created now: it must copy the border
+  const Tile* a = m.tile(0, 0);
+  ASSERT_NE(a, nullptr);
+  EXPECT_EQ(a->count[10 * 11 + 2], 1u);
+  EXPECT_FLOAT_EQ(a->z_max[10 * 11 + 2], 0.7f);
+  EXPECT_EQ(m.verticesWithData(), 2u);
+}
+
+TEST(TerrainMesh, LowerBoundWinsOverALowerEstimate) {
+  TerrainMeshParams p;
+  p.tile_vertices = 11;
+  p.cell_m = 0.5;
+  TerrainMesh m(p);
+  m.addPoint({1.0, 1.0, 1.0});  // LiDAR top 1 m
+  Tile& t = *m.tiles().begin()->second;
+  const int k = 2 * 11 + 2;
+  t.cls[k] = VertexClass::kBuilding;
+  t.rec_sum[k] = 3.f;  // one estimate: 3 m
+  t.rec_weight[k] = 1.f;
+  t.rec_lower[k] = 5.f;  // another view: the wall runs out of the image at 5 m
+  EXPECT_FLOAT_EQ(m.displayHeight(t, k), 5.f);
+  t.rec_lower[k] = 2.f;  // a bound below the estimate does not lower it
+  EXPECT_FLOAT_EQ(m.displayHeight(t, k), 3.f);
+  t.rec_weight[k] = 0.f;  // bound alone
+  EXPECT_FLOAT_EQ(m.displayHeight(t, k), 2.f);
 }
 
 TEST(TerrainMesh, PaperDefaults) {
@@ -99,7 +161,8 @@ struct Scene {
     T_cam_world.linear() = R;
     T_cam_world.translation() = -R * Eigen::Vector3d(5, 5, 3);
     cam.T_camera_lidar = T_cam_world;  // pose = identity: LiDAR frame = world
-    mesh.bakeTexture(cam, image, pose, 50);
+    // No LiDAR points: nothing hides any texel.
+    mesh.bakeTexture(CameraView(cam, pose, PointCloud{}), image, 50);
   }
 };
 
@@ -197,6 +260,227 @@ TEST(MeshExport, TextureComesFromTheImage) {
   EXPECT_NEAR(px[0], 100, 2);
   EXPECT_NEAR(px[1], 100, 4);  // the slope moves the point a little in the image
   EXPECT_EQ(px[2], 100);
+}
+
+// Camera `f` px focal length, principal point at the image centre, at `at` in the world (pose =
+// identity), looking along +x (image right = −y, image down = −z).
+CameraModel forwardCamera(const Eigen::Vector3d& at, int w, int h, double f) {
+  CameraModel cam;
+  cam.name = "front";
+  cam.width = w;
+  cam.height = h;
+  cam.P << f, 0, w / 2.0, 0, 0, f, h / 2.0, 0, 0, 0, 1, 0;
+  Eigen::Matrix3d R;  // rows: camera axes in the world
+  R << 0, -1, 0, 0, 0, -1, 1, 0, 0;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = R;
+  T.translation() = -R * at;
+  cam.T_camera_lidar = T;
+  return cam;
+}
+
+TEST(MeshTexture, GroundBehindAWallKeepsNoWallColour) {
+  // Flat ground z = 0 over a 10 m tile; a 3 m wall at x = 4 m, y ∈ [3, 7] m in the LiDAR scan;
+  // a camera at (0, 5, 1.5) m looks along +x. The image is red where it shows the wall.
+  TerrainMeshParams p;
+  p.tile_vertices = 41;
+  p.cell_m = 0.25;
+  TerrainMesh mesh(p);
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) mesh.addPoint({0.25 * i, 0.25 * j, 0.0});
+  const Eigen::Vector3d C(0, 5, 1.5);
+  const int W = 200, H = 150;
+  const double f = 100;
+  const CameraModel cam = forwardCamera(C, W, H, f);
+  Image img(W, H, 3);
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      // The pixel's ray meets the wall's plane x = 4 m at (y, z).
+      const double y = C.y() - (u - W / 2.0) * 4.0 / f, z = C.z() - (v - H / 2.0) * 4.0 / f;
+      const bool wall = y >= 3 && y <= 7 && z >= 0 && z <= 3;
+      uint8_t* px = img.at(u, v);
+      px[0] = wall ? 255 : 0;
+      px[1] = wall ? 0 : 255;
+      px[2] = 0;
+    }
+  PointCloud wall;
+  for (double y = 3; y <= 7; y += 0.04)
+    for (double z = 0; z <= 3; z += 0.04) wall.push_back(4.0, float(y), float(z), 0);
+  mesh.bakeTexture(CameraView(cam, Eigen::Isometry3d::Identity(), wall), img, 40);
+  const Tile& t = *mesh.tile(0, 0);
+  const int T = mesh.textureSize();  // 81: texel (a, b) at (a, b) · 0.125 m
+  // (6, 5, 0) m: behind the wall, its pixel shows the wall: no colour from this image.
+  const int a_behind = 48, b = 40;
+  const uint8_t* behind = t.texture.at(b, a_behind);
+  EXPECT_FALSE(behind[0] == 255 && behind[1] == 0)
+      << "ground behind the wall took the wall's colour";
+  EXPECT_TRUE(std::isinf(t.texel_range[std::size_t(a_behind) * T + b]));
+  // (2.5, 5, 0) m: in front of the wall, visible: the ground's green.
+  const uint8_t* front = t.texture.at(b, 20);
+  EXPECT_EQ(front[0], 0);
+  EXPECT_EQ(front[1], 255);
+}
+
+TEST(MeshTexture, ANewTileCopiesTheBorderTexels) {
+  // Tile (1,0) is textured before tile (0,0) exists; when (0,0) is created its border texels
+  // (shared with (1,0)) must be the same, or the export shows a grey seam along the border.
+  TerrainMeshParams p;
+  p.tile_vertices = 11;  // 5 m tiles
+  p.cell_m = 0.5;
+  TerrainMesh mesh(p);
+  for (double x = 5.0; x < 10; x += 0.1)
+    for (double y = 0.0; y < 5; y += 0.1) mesh.addPoint({x, y, 0.0});
+  ASSERT_EQ(mesh.tileCount(), 1u);
+  const CameraModel cam = forwardCamera({1.0, 2.5, 2.0}, 200, 150, 100);
+  Image img(200, 150, 3);
+  for (int v = 0; v < 150; ++v)
+    for (int u = 0; u < 200; ++u) {
+      uint8_t* px = img.at(u, v);
+      px[0] = uint8_t(u);
+      px[1] = uint8_t(v);
+      px[2] = 7;
+    }
+  ASSERT_GT(mesh.bakeTexture(CameraView(cam, Eigen::Isometry3d::Identity(), PointCloud{}), img, 40),
+            0u);
+  mesh.addPoint({4.0, 2.0, 0.0});  // creates tile (0,0)
+  const Tile& lo = *mesh.tile(0, 0);
+  const Tile& hi = *mesh.tile(1, 0);
+  const int T = mesh.textureSize();
+  std::size_t coloured = 0;
+  for (int b = 0; b < T; ++b) {
+    const uint8_t* x = lo.texture.at(b, T - 1);
+    const uint8_t* y = hi.texture.at(b, 0);
+    EXPECT_TRUE(x[0] == y[0] && x[1] == y[1] && x[2] == y[2]) << "texel column " << b;
+    EXPECT_EQ(lo.texel_range[std::size_t(T - 1) * T + b], hi.texel_range[b])
+        << "texel column " << b;
+    coloured += y[2] == 7;
+  }
+  EXPECT_GT(coloured, std::size_t(T / 2));
+}
+
+// Samples an exported texture at a vertex's exported (u, v): must be the colour the camera saw
+// at that vertex (the Scene's image is a ramp: red = image column, green = image row), so a
+// flipped or shifted v picks another row and fails. OBJ: v up; glTF: v down.
+TEST(MeshExport, TextureCoordinatesSampleTheVertexColour) {
+  Scene s;
+  test::TempDir dir;
+  const std::string out = (dir.path() / "mesh").string();
+  ExportOptions o;
+  o.ply = false;
+  exportMesh(s.mesh, out, o);
+  const Eigen::Isometry3d T_lw = s.pose.inverse();
+  // Expected colour of world point p: the ramp pixel it projects to; nullopt outside the image.
+  auto expected = [&](const Eigen::Vector3d& p) -> std::optional<std::array<int, 2>> {
+    const auto uv = s.cam.project(T_lw * p);
+    if (!uv) return std::nullopt;
+    return std::array<int, 2>{int(uv->x() + 0.5), int(uv->y() + 0.5)};
+  };
+  auto sample = [](const Image& img, double u, double v_down) {
+    const int col = std::clamp(int(std::floor(u * img.width)), 0, img.width - 1);
+    const int row = std::clamp(int(std::floor(v_down * img.height)), 0, img.height - 1);
+    return img.at(col, row);
+  };
+
+  // OBJ: objects in order, vertex k of the file ↔ vt k; textures from the MTL's map_Kd.
+  std::map<std::string, Image> textures;
+  std::vector<std::array<double, 3>> v;
+  std::vector<std::array<double, 2>> vt;
+  std::vector<std::string> tex_of;  // texture of each vertex
+  std::string current;
+  std::istringstream in(readFile(out + "/terrain.obj"));
+  std::string line;
+  while (std::getline(in, line)) {
+    double a, b, c;
+    if (line.rfind("usemtl ", 0) == 0) {
+      current = line.substr(7);
+      textures.emplace(current, readImage(out + "/textures/" + current + ".png"));
+    } else if (std::sscanf(line.c_str(), "v %lf %lf %lf", &a, &b, &c) == 3) {
+      v.push_back({a, b, c});
+    } else if (std::sscanf(line.c_str(), "vt %lf %lf", &a, &b) == 2) {
+      vt.push_back({a, b});
+      tex_of.push_back(current);
+    }
+  }
+  ASSERT_EQ(v.size(), vt.size());
+  std::size_t checked = 0;
+  for (std::size_t k = 0; k < v.size(); k += 7) {
+    const auto e = expected({v[k][0], v[k][1], v[k][2]});
+    if (!e) continue;
+    const uint8_t* px = sample(textures.at(tex_of[k]), vt[k][0], 1.0 - vt[k][1]);
+    if (px[2] != 100) continue;  // untextured texel (grey) next to the image edge
+    EXPECT_NEAR(px[0], (*e)[0], 1) << "OBJ vertex " << k;
+    EXPECT_NEAR(px[1], (*e)[1], 1) << "OBJ vertex " << k;
+    ++checked;
+  }
+  EXPECT_GT(checked, 100u);
+
+  // glTF: positions relative to the root node, y-up (x, z, −y); TEXCOORD_0 with v down.
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model model;
+  std::string err, warn;
+  ASSERT_TRUE(loader.LoadBinaryFromFile(&model, &err, &warn, out + "/terrain.glb")) << err;
+  const tinygltf::Node& root = model.nodes.at(model.scenes.at(0).nodes.at(0));
+  ASSERT_EQ(root.translation.size(), 3u);
+  auto floats = [&](int accessor, std::size_t k, int n) {
+    const auto& acc = model.accessors.at(accessor);
+    const auto& bv = model.bufferViews.at(acc.bufferView);
+    const unsigned char* base =
+        model.buffers.at(bv.buffer).data.data() + bv.byteOffset + acc.byteOffset;
+    std::array<float, 3> r{};
+    std::memcpy(r.data(), base + (k * n) * 4, n * 4);
+    return r;
+  };
+  checked = 0;
+  for (const int child : root.children) {
+    const auto& prim = model.meshes.at(model.nodes.at(child).mesh).primitives.at(0);
+    const auto& img = model.images.at(
+        model.textures
+            .at(model.materials.at(prim.material).pbrMetallicRoughness.baseColorTexture.index)
+            .source);
+    ASSERT_GE(img.component, 3);
+    Image tex(img.width, img.height, 3);
+    for (int q = 0; q < img.width * img.height; ++q)
+      for (int c = 0; c < 3; ++c)
+        tex.data[std::size_t(q) * 3 + c] = img.image[std::size_t(q) * img.component + c];
+    const int a_pos = prim.attributes.at("POSITION"), a_uv = prim.attributes.at("TEXCOORD_0");
+    for (std::size_t k = 0; k < model.accessors.at(a_pos).count; k += 7) {
+      const auto g = floats(a_pos, k, 3);
+      const Eigen::Vector3d p(g[0] + root.translation[0], -(g[2] + root.translation[2]),
+                              g[1] + root.translation[1]);
+      const auto e = expected(p);
+      if (!e) continue;
+      const auto uv = floats(a_uv, k, 2);
+      const uint8_t* px = sample(tex, uv[0], uv[1]);
+      if (px[2] != 100) continue;
+      EXPECT_NEAR(px[0], (*e)[0], 1) << "glTF vertex " << k << " at " << p.transpose();
+      EXPECT_NEAR(px[1], (*e)[1], 1) << "glTF vertex " << k << " at " << p.transpose();
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 100u);
+}
+
+TEST(MeshExport, EmptyMeshWritesNoMeshFiles) {
+  // No triangle (two lone points): no .glb with an empty buffer (invalid glTF), no empty OBJ/PLY.
+  TerrainMesh m;
+  m.addPoint({1, 1, 0});
+  m.addPoint({5, 5, 0});
+  test::TempDir dir;
+  const std::string out = (dir.path() / "mesh").string();
+  ExportOptions o;
+  bool called = false;
+  o.add_files = [&](const std::string& folder, const ExportStats& st) {
+    called = true;
+    EXPECT_EQ(st.tiles, 0u);
+    writeFileAtomic(folder + "/report.md", "why");
+  };
+  const ExportStats st = exportMesh(m, out, o);
+  EXPECT_TRUE(called);
+  EXPECT_EQ(st.tiles, 0u);
+  EXPECT_TRUE(st.files.empty());
+  for (const char* f : {"terrain.obj", "terrain.mtl", "terrain.ply", "terrain.glb"})
+    EXPECT_FALSE(fs::exists(out + "/" + f)) << f;
+  EXPECT_EQ(readFile(out + "/report.md"), "why");  // swapped in with the export
 }
 
 TEST(MeshExport, UnwritableFolderIsAClearError) {

@@ -58,8 +58,8 @@ class TexturedMeshOutput : public Output {
     d.add("recovery_background_odds", p_.recovery.background_odds, "§3.3: a colour is background only where it is this many times more frequent far from LiDAR returns than at object returns").unit("1").range(0.01, 1e4);
     d.add("recovery_stop_at_occluders", p_.recovery.stop_at_occluders, "§3.3: a column walk under a clearly nearer LiDAR surface gives only a lower bound");
     d.add("write_overlays", write_overlays_,
-          "write overlays/<frame>_<camera>.png in the mesh folder: each camera image with its "
-          "ground segmentation and object mask drawn over it");
+          "write overlays/<frame>_<camera>.png in the mesh folder: each camera image with its own "
+          "ground segmentation and object mask drawn over it (none for a camera not segmented)");
     d.add("decimate", decimate_, "collapse flat regions of the exported mesh (CGAL edge collapse; "
           "tile borders, holes and class boundaries stay; texture coordinates stay exact)");
     d.add("flat_tolerance_m", flat_tolerance_m_,
@@ -100,13 +100,15 @@ class TexturedMeshOutput : public Output {
     if (!builder_) builder_ = std::make_unique<MeshBuilder>(p_);
     const FrameReport r = builder_->addFrame(*ctx.frame);
     for (const auto& n : r.notes) std::cerr << "textured_mesh: frame " << r.id << ": " << n << "\n";
-    if (write_overlays_ && !r.last_segmentation.ground.empty()) {
-      for (const auto& cam : ctx.frame->cameras) {
-        if (!cam.image || cam.image->width != r.last_segmentation.width) continue;
-        const Image o = overlaySegmentation(*cam.image, r.last_segmentation.ground, r.last_object_mask);
+    if (write_overlays_) {
+      // Each camera with its own segmentation and object mask; a camera without one (image
+      // rejected, no point in view) gets no overlay. Names go through safeFileName: frame ids
+      // and camera names come from the data.
+      for (const CameraSegmentation& cs : r.segmentations) {
+        const CameraImage& cam = ctx.frame->cameras.at(cs.camera_index);
+        const Image o = overlaySegmentation(*cam.image, cs.ground.ground, cs.object_mask);
         writeImageAtomic(
-            (stagedOverlays() /
-             (r.id + "_" + (cam.model.name.empty() ? "camera" : cam.model.name) + ".png"))
+            (stagedOverlays() / (safeFileName(r.id) + "_" + safeFileName(cs.camera) + ".png"))
                 .string(),
             o);
       }
@@ -119,15 +121,19 @@ class TexturedMeshOutput : public Output {
     const std::string dir = (fs::path(output_dir_) / subdir_).string();
     ExportStats es;
     const fs::path staged = stagedOverlays();
+    ExportOptions ex = ex_;
+    // report.md goes into the export's temporary folder, so it is swapped in with the mesh it
+    // describes (a failing export keeps the previous mesh and its own report).
+    ex.add_files = [&](const std::string& folder, const ExportStats& st) {
+      writeFileAtomic((fs::path(folder) / "report.md").string(), builder_->report(&ms, &st));
+    };
     try {
-      es = exportMesh(builder_->mesh(), dir, ex_);
+      es = exportMesh(builder_->mesh(), dir, ex);
     } catch (const std::exception& e) {
       if (!fs::exists(staged)) throw;
       throw std::runtime_error(std::string(e.what()) + "; this run's overlays are in " +
                                staged.string());
     }
-    const std::string report = builder_->report(&ms, &es);
-    writeFileAtomic((fs::path(dir) / "report.md").string(), report);
     if (fs::exists(staged)) {
       std::error_code ec;
       fs::rename(staged, fs::path(dir) / "overlays", ec);
@@ -136,8 +142,12 @@ class TexturedMeshOutput : public Output {
                                  ", but its overlays could not be moved there from " +
                                  staged.string() + ": " + ec.message());
     }
-    std::cerr << "textured_mesh: " << es.tiles << " tile(s), " << es.vertices << " vertices, "
-              << es.triangles << " triangles -> " << dir << "\n";
+    if (es.tiles == 0)
+      std::cerr << "textured_mesh: no mesh written to " << dir << ": "
+                << builder_->emptyMeshReason() << " (see report.md)\n";
+    else
+      std::cerr << "textured_mesh: " << es.tiles << " tile(s), " << es.vertices << " vertices, "
+                << es.triangles << " triangles -> " << dir << "\n";
     if (ex_.decimate)
       std::fprintf(stderr, "textured_mesh: decimated %zu -> %zu triangles (%.1f %%), deviation <= %.3f m\n",
                    es.triangles_before_decimation, es.triangles,
@@ -147,6 +157,12 @@ class TexturedMeshOutput : public Output {
     if (!s.frames_without_image.empty())
       std::cerr << "textured_mesh: " << s.frames_without_image.size()
                 << " frame(s) without a usable camera image: mesh untextured there (see report.md)\n";
+    if (!s.images_rejected.empty())
+      std::cerr << "textured_mesh: " << s.images_rejected.size()
+                << " camera image(s) rejected, not used (see report.md)\n";
+    if (!s.truth_rejected.empty())
+      std::cerr << "textured_mesh: " << s.truth_rejected.size()
+                << " pixel truth image(s) rejected, not evaluated (see report.md)\n";
     if (s.truth_frames)
       std::fprintf(stderr, "textured_mesh: image ground segmentation: %.2f %% of ground pixels found, %.2f %% errors\n",
                    100 * s.confusion.groundFound(), 100 * s.confusion.errorRate());

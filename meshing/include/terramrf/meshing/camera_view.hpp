@@ -34,6 +34,14 @@ class CameraView {
   bool visible(int u, int v, double depth, double tolerance_m = 0.6) const {
     return lidarDepth(u, v) >= depth - tolerance_m - 0.03 * depth;
   }
+  /// Like visible(), but a return covers only the pixels beside and below it (up to the
+  /// dilation): the gaps between LiDAR rows on a wall still close, while the nearer ground just
+  /// below a pixel, which is not in front of it, no longer counts as an occluder. visible()'s
+  /// square window does that on ground seen at a grazing angle (at 24 m, 3 rows lower is ~3 m
+  /// nearer): texture baking with it lost 40 % of the textured vertices of the demo.
+  bool unoccluded(int u, int v, double depth, double tolerance_m = 0.6) const {
+    return depth_above_[std::size_t(v) * cam_.width + u] >= depth - tolerance_m - 0.03 * depth;
+  }
 
  private:
   CameraModel cam_;
@@ -41,6 +49,7 @@ class CameraView {
   Eigen::Matrix3d M_inv_;  // (K·R_cl)⁻¹ for back projection in the LiDAR frame
   Eigen::Vector3d centre_w_;
   std::vector<float> depth_;
+  std::vector<float> depth_above_;  ///< min over the returns beside and up to `dilate` rows above
 };
 
 }  // namespace terramrf::meshing

@@ -93,6 +93,9 @@ struct GroundConfusion {
   /// Wrong pixels (both kinds) over all pixels (3.19 % in Table 1).
   double errorRate() const { return total() ? double(fn + fp) / double(total()) : 0.0; }
 };
-GroundConfusion compareGround(const GroundSegmentation& seg, const Image& truth_labels);
+/// Throws InputError naming `truth_name` when the truth is not one channel of the segmented
+/// image's size (an all-zero confusion would pass for an evaluated image).
+GroundConfusion compareGround(const GroundSegmentation& seg, const Image& truth_labels,
+                              const std::string& truth_name = "pixel truth");
 
 }  // namespace terramrf::meshing

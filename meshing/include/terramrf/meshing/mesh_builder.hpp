@@ -3,7 +3,8 @@
 // bake the texture, segment the ground in each image (§3.2) and vote the vertices' classes,
 // recover object heights (§3.3); at the end classify buildings and trees (§3.4) and export.
 // Frames without an image still add their points (that part of the mesh stays untextured; it is
-// counted and reported); a camera that sees none of the points is reported and skipped.
+// counted and reported); a camera that sees none of the points is reported and skipped, and so is
+// an image that cannot be used (size other than its camera model's, not RGB for segmentation).
 #include <Eigen/Geometry>
 #include <map>
 #include <string>
@@ -29,6 +30,14 @@ struct MeshBuilderParams {
   MaskParams mask;
 };
 
+/// One camera's segmentation in one frame (for overlays and tests).
+struct CameraSegmentation {
+  std::size_t camera_index = 0;      ///< into Frame::cameras
+  std::string camera;                ///< CameraModel::name, "camera<index>" without one
+  GroundSegmentation ground;         ///< §3.2
+  std::vector<uint8_t> object_mask;  ///< §3.3 object pixels; empty without recovery
+};
+
 struct FrameReport {
   std::string id;
   std::size_t registered = 0, skipped_far = 0;
@@ -37,8 +46,9 @@ struct FrameReport {
   bool has_truth = false;
   GroundConfusion confusion;        ///< when the image has pixel truth
   double segmentation_ms = 0, recovery_ms = 0, texture_ms = 0;
-  GroundSegmentation last_segmentation;  ///< of the last camera (for overlays/tests)
-  std::vector<uint8_t> last_object_mask;
+  /// Every camera segmented in this frame, in Frame::cameras order; a camera whose image was
+  /// rejected or saw no point has none.
+  std::vector<CameraSegmentation> segmentations;
 };
 
 struct BuilderSummary {
@@ -46,6 +56,9 @@ struct BuilderSummary {
   std::vector<std::string> frames_without_image;
   std::vector<std::string> frames_without_pose;
   std::vector<std::string> cameras_looking_away;  ///< "frame/camera: message"
+  std::vector<std::string> images_rejected;       ///< "frame/camera: why" (size, channels)
+  std::vector<std::string> truth_rejected;        ///< "frame/camera truth: why" (not evaluated)
+  std::size_t points_registered = 0, points_skipped_far = 0;  ///< over all frames
   GroundConfusion confusion;
   std::size_t truth_frames = 0;
   std::vector<double> segmentation_ms;
@@ -68,6 +81,9 @@ class MeshBuilder {
 
   /// Human-readable report (Markdown): counts, problems, Table-1-style confusion.
   std::string report(const MaskStats* mask = nullptr, const ExportStats* exported = nullptr) const;
+  /// Why the mesh has no triangle to export (for report.md and the log): no point in range, or
+  /// too few vertices with data.
+  std::string emptyMeshReason() const;
 
  private:
   MeshBuilderParams p_;

@@ -2,9 +2,12 @@
 // Exports of the textured terrain mesh: OBJ + MTL + one PNG texture per tile, PLY with per-vertex
 // colour and class (CGAL::Surface_mesh), binary glTF 2.0 (.glb, textures embedded; opens in
 // browser viewers). All files of one export go to a temporary folder first, which then replaces
-// the target folder, so a failing export never replaces a good one.
+// the target folder, so a failing export never replaces a good one. A mesh without a triangle
+// writes no mesh files (an empty .glb is not valid glTF): the folder then holds only what
+// ExportOptions::add_files writes (the plugin's report.md saying why).
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -29,6 +32,13 @@ struct TileMesh {
 /// by a triangle are kept. Tiles without triangles are left out.
 std::vector<TileMesh> extractTileMeshes(const TerrainMesh& mesh);
 
+struct ExportStats {
+  std::size_t tiles = 0, vertices = 0, triangles = 0;
+  std::size_t triangles_before_decimation = 0;  ///< = triangles when not decimated
+  double max_deviation_m = 0;                   ///< decimation: bound on the vertical deviation [m]
+  std::vector<std::string> files;               ///< relative to the export folder
+};
+
 struct ExportOptions {
   bool obj = true;
   bool ply = true;
@@ -37,13 +47,9 @@ struct ExportOptions {
   /// Collapse flat regions before writing (decimation.hpp); all formats get the same mesh.
   bool decimate = false;
   double flat_tolerance_m = 0.05;  ///< largest vertical deviation a collapse may cause [m]
-};
-
-struct ExportStats {
-  std::size_t tiles = 0, vertices = 0, triangles = 0;
-  std::size_t triangles_before_decimation = 0;  ///< = triangles when not decimated
-  double max_deviation_m = 0;  ///< decimation: bound on the vertical deviation [m]
-  std::vector<std::string> files;  ///< relative to the export folder
+  /// Called with the temporary folder after the mesh files are written and before it replaces
+  /// the target: what it writes there (report.md) is part of the same all-or-nothing swap.
+  std::function<void(const std::string& folder, const ExportStats&)> add_files;
 };
 
 /// Writes the selected formats into `dir` (created; its previous content is replaced only when

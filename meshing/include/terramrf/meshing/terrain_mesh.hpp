@@ -1,12 +1,15 @@
 #pragma once
 // Grid-based textured terrain mesh of paper 004 §3.1: square tiles of n × n vertices (151 × 151,
 // 0.125 m apart in the paper) in the world frame, created on demand when a registered point falls
-// outside the existing tiles. Each vertex keeps the elevation statistics of the points registered
-// on it, its class (§3.2–3.4) and the recovered height (§3.3); each tile keeps a texture baked from
-// the camera images, so a vertex's texture coordinate is fixed by its place in the tile.
+// outside the existing tiles (a point belongs to the tile with x ∈ [ti·L, (ti+1)·L), y likewise;
+// its nearest vertex may be that tile's far border, which it shares with the next tile). Each
+// vertex keeps the elevation statistics of the points registered on it, its class (§3.2–3.4) and
+// the recovered height (§3.3); each tile keeps a texture baked from the camera images, so a
+// vertex's texture coordinate is fixed by its place in the tile.
 //
-// Neighbouring tiles share their border row/column of vertices (a point on a border updates both
-// copies), so every tile is a self-contained mesh and the tiles join without gaps.
+// Neighbouring tiles share their border row/column of vertices and texels (a point on a border
+// updates every existing copy; a new tile copies them from its neighbours), so every tile is a
+// self-contained mesh and the tiles join without gaps or texture seams.
 #include <Eigen/Geometry>
 #include <cmath>
 #include <cstdint>
@@ -18,6 +21,7 @@
 
 #include "terramrf/camera.hpp"
 #include "terramrf/image.hpp"
+#include "terramrf/meshing/camera_view.hpp"
 #include "terramrf/point_cloud.hpp"
 
 namespace terramrf::meshing {
@@ -73,7 +77,8 @@ class TerrainMesh {
   int tileSpan() const { return p_.tile_vertices - 1; }  ///< cells per tile side
   int textureSize() const { return tileSpan() * p_.texels_per_cell + 1; }
 
-  /// Registers one world point [m] on its nearest vertex, creating the tile(s) if needed.
+  /// Registers one world point [m] on its nearest vertex (every existing copy of it). Creates the
+  /// point's tile only when it does not exist yet, i.e. when the point lies outside every tile.
   void addPoint(const Eigen::Vector3d& p_world);
   /// Registers a cloud given in the LiDAR frame with pose T_world_lidar; points farther than
   /// max_range_m from the sensor (horizontally) are skipped and counted in the return value.
@@ -87,8 +92,9 @@ class TerrainMesh {
 
   /// World position of vertex (i, j) of a tile [m] (z: display elevation, NaN without data).
   Eigen::Vector3d vertexPosition(const Tile& t, int i, int j) const;
-  /// Elevation shown in the exports [m]: recovered height if raised, else the max for objects and
-  /// the mean for ground/unknown vertices. NaN without data.
+  /// Elevation shown in the exports [m]: for objects the highest of the LiDAR max, the recovered
+  /// estimate and the recovered lower bound (an estimate below a measured bound is wrong); the
+  /// mean for ground/unknown vertices. NaN without data.
   float displayHeight(const Tile& t, int k) const;
   /// Texture coordinate in [0, 1]² of vertex (i, j) (u along the texture's columns = y).
   Eigen::Vector2f vertexUv(int i, int j) const;
@@ -97,16 +103,24 @@ class TerrainMesh {
   /// owning tile is the one where the vertex is not on the far border row/column).
   template <class F>
   void forEachVertex(F&& f) const;
+  /// True when `t` is the tile that reports its vertex (i, j) (see forEachVertex): loops over
+  /// tiles that must handle each global vertex once test this.
+  bool owns(const Tile& t, int i, int j) const {
+    const int span = tileSpan();
+    if (i < span && j < span) return true;
+    return ownerOf(int64_t(t.ti) * span + i, int64_t(t.tj) * span + j) == &t;
+  }
 
   /// Copy of value `apply` to the same global vertex in every tile holding it.
   template <class F>
   void forEachCopy(const VertexKey& key, F&& f);
 
   /// Bakes texture from one camera image: each texel with a known elevation that projects into
-  /// the image takes the pixel colour when the camera is closer than the texel's previous source.
-  /// Returns the number of texels updated.
-  std::size_t bakeTexture(const CameraModel& cam, const Image& image,
-                          const Eigen::Isometry3d& T_world_lidar, double max_range_m);
+  /// the image and is visible there (no LiDAR surface of the view clearly nearer: ground behind a
+  /// wall must not take the wall's colour) takes the pixel colour when the camera is closer than
+  /// the texel's previous source. `image` must have the view's size (std::invalid_argument
+  /// otherwise). Returns the number of texels updated.
+  std::size_t bakeTexture(const CameraView& view, const Image& image, double max_range_m);
 
   std::size_t verticesWithData() const;
   std::size_t texturedVertices() const;  ///< vertices with data whose texel got a colour

@@ -3,11 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
+#include <map>
+#include <memory>
 
 #include "output_test_support.hpp"
 #include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/meshing/mesh_builder.hpp"
 #include "terramrf/param_values.hpp"
 #include "terramrf/registry.hpp"
 #include "test_support.hpp"
@@ -80,6 +84,131 @@ TEST(TexturedMeshOutput, WritesAllFormatsAndAReport) {
   for (const auto& e : fs::directory_iterator(mesh / "overlays"))
     overlays.push_back(e.path().filename().string());
   EXPECT_EQ(overlays, (std::vector<std::string>{"000001_image_2.png"}));
+}
+
+// Two cameras (simulator image_2 ahead, image_3 to the left): each overlay shows its own
+// camera's segmentation; a camera whose image cannot be segmented gets none; names are safe.
+TEST(TexturedMeshOutput, EachCameraOverlayShowsItsOwnSegmentation) {
+  test::TempDir dir;
+  PluginContext ctx;
+  ctx.output_dir = dir.str();
+  PluginRegistry reg({test::pluginDir()});
+  auto src = reg.create("simulator");
+  setParams(*src,
+            "{seed: 2, frames: 2, camera_yaws_deg: [0, 90], camera_width: 256, "
+            "camera_height: 128, camera_fx: 148, azimuth_step_deg: 0.36}",
+            ctx);
+  auto* source = dynamic_cast<Source*>(src.get());
+  ASSERT_NE(source, nullptr);
+  const std::string params =
+      "{tile_vertices: 81, texels_per_cell: 1, max_range_m: 20, write_overlays: true}";
+  auto out = test::makeOutput("textured_mesh", params, ctx);
+  ASSERT_NE(out, nullptr);
+  RunInfo info;
+  info.output_dir = dir.str();
+  out->begin(info);
+  // The same frames through a MeshBuilder with the plugin's parameters give the expected overlays.
+  meshing::MeshBuilderParams mp;
+  mp.mesh.tile_vertices = 81;
+  mp.mesh.texels_per_cell = 1;
+  mp.max_range_m = 20;
+  meshing::MeshBuilder ref(mp);
+  std::map<std::string, Image> expected;
+  for (std::size_t i = 0; i < source->size(); ++i) {
+    Frame f = source->read(i);
+    ASSERT_EQ(f.cameras.size(), 2u);
+    if (i == 0) f.id = "run/7";  // a frame id that is no file name
+    if (i == 1) {
+      // image_3 unusable here (grey): no overlay, not another camera's.
+      f.cameras[1].image = std::make_shared<Image>(256, 128, 1);
+    }
+    const meshing::FrameReport r = ref.addFrame(f);
+    for (const auto& cs : r.segmentations)
+      expected[safeFileName(f.id) + "_" + cs.camera + ".png"] = meshing::overlaySegmentation(
+          *f.cameras[cs.camera_index].image, cs.ground.ground, cs.object_mask);
+    FrameContext fc;
+    fc.frame = &f;
+    fc.index = i;
+    out->write(fc);
+  }
+  out->end({});
+  std::vector<std::string> overlays;
+  for (const auto& e : fs::directory_iterator(dir.path() / "mesh" / "overlays"))
+    overlays.push_back(e.path().filename().string());
+  std::sort(overlays.begin(), overlays.end());
+  EXPECT_EQ(overlays, (std::vector<std::string>{"000001_image_2.png", "run_7_image_2.png",
+                                                "run_7_image_3.png"}));
+  ASSERT_EQ(expected.size(), 3u);
+  for (const auto& [name, want] : expected) {
+    const Image got = readImage((dir.path() / "mesh" / "overlays" / name).string());
+    EXPECT_TRUE(got.width == want.width && got.height == want.height && got.data == want.data)
+        << name << " does not show its own camera's segmentation";
+  }
+  // Two cameras' segmentations differ, so a borrowed one would have been caught above.
+  EXPECT_FALSE(expected.at("run_7_image_2.png").data == expected.at("run_7_image_3.png").data);
+  const std::string report = readFile((dir.path() / "mesh" / "report.md").string());
+  EXPECT_NE(report.find("camera images rejected: 1"), std::string::npos) << report;
+}
+
+// No point within max_range_m (1 m around the sensor): no mesh files (an empty .glb is invalid
+// glTF), and report.md says why.
+TEST(TexturedMeshOutput, NoPointInRangeWritesNoMeshAndSaysWhy) {
+  test::TempDir dir;
+  PluginContext ctx;
+  ctx.output_dir = dir.str();
+  PluginRegistry reg({test::pluginDir()});
+  auto src = reg.create("simulator");
+  setParams(*src,
+            "{seed: 2, frames: 2, camera_width: 256, camera_height: 128, camera_fx: 148, "
+            "azimuth_step_deg: 0.36}",
+            ctx);
+  auto* source = dynamic_cast<Source*>(src.get());
+  ASSERT_NE(source, nullptr);
+  auto out = test::makeOutput("textured_mesh", "{tile_vertices: 81, max_range_m: 1}", ctx);
+  ASSERT_NE(out, nullptr);
+  RunInfo info;
+  info.output_dir = dir.str();
+  out->begin(info);
+  for (std::size_t i = 0; i < source->size(); ++i) {
+    Frame f = source->read(i);
+    FrameContext fc;
+    fc.frame = &f;
+    fc.index = i;
+    out->write(fc);
+  }
+  out->end({});
+  const fs::path mesh = dir.path() / "mesh";
+  for (const char* f : {"terrain.obj", "terrain.mtl", "terrain.ply", "terrain.glb"})
+    EXPECT_FALSE(fs::exists(mesh / f)) << f;
+  const std::string report = readFile((mesh / "report.md").string());
+  EXPECT_NE(report.find("exported: nothing (no mesh files written): no LiDAR point within "
+                        "max_range_m = 1 m"),
+            std::string::npos)
+      << report;
+}
+
+// `terramrf mesh` names the folder the textured_mesh output really writes (its `subdir`).
+TEST(TexturedMeshOutput, MeshCommandReportsTheConfiguredSubdir) {
+  test::TempDir dir;
+  const std::string cfg = (dir.path() / "mesh.yaml").string();
+  writeFileAtomic(cfg,
+                  "version: 1\ngrid: {size_m: 40, cell_m: 0.5}\nsource:\n  type: simulator\n"
+                  "  params: {seed: 2, frames: 1, camera_width: 256, camera_height: 128, "
+                  "camera_fx: 148, azimuth_step_deg: 0.36}\nstages: []\noutputs:\n"
+                  "  - type: textured_mesh\n    params: {subdir: terrain3d, tile_vertices: 81, "
+                  "max_range_m: 20, formats: [obj]}\n");
+  const std::string out = (dir.path() / "out").string();
+  const std::string cmd = test::cli() + " mesh " + cfg + " --no-progress --out " + out + " 2>&1";
+  std::FILE* pipe = popen(cmd.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string text;
+  char buf[4096];
+  while (std::size_t n = std::fread(buf, 1, sizeof buf, pipe)) text.append(buf, n);
+  ASSERT_EQ(pclose(pipe), 0) << text;
+  EXPECT_TRUE(fs::exists(out + "/terrain3d/report.md")) << text;
+  EXPECT_NE(text.find("mesh in " + out + "/terrain3d"), std::string::npos) << text;
+  EXPECT_NE(text.find("mesh: " + out + "/terrain3d (report.md)"), std::string::npos) << text;
+  EXPECT_EQ(text.find(out + "/mesh"), std::string::npos) << text;
 }
 
 TEST(TexturedMeshOutput, BadParametersAreRejected) {
