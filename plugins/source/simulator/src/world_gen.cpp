@@ -311,8 +311,10 @@ void World::generateObjects() {
         return int(buildings_.size()) - 1;
       };
       // A landmark: tall, close to the road on the left, a little ahead of x = 0, so the first
-      // frames always see a wall taller than the top beam reaches.
-      if (k == 0 && side > 0) landmark = tryBuilding(rng.uniform(15, 25), true, 10, 15);
+      // frames always see a wall taller than the top beam reaches. obstacle_density 0 asks for no
+      // objects at all, the landmark (and the trees beside it) included.
+      if (k == 0 && side > 0 && density > 0)
+        landmark = tryBuilding(rng.uniform(15, 25), true, 10, 15);
       for (double x = chunk_a + rng.uniform(0, 15); x < chunk_b;) {
         const bool place = density > 0 && rng.chance(std::min(1.0, 0.6 * density));
         const bool close = rng.chance(0.4);
