@@ -254,6 +254,28 @@ void World::generateObjects() {
     }
     return std::abs(lat) + r < p_.object_half_width_m && inChunk(p.x() - r, p.x() + r, 0.3);
   };
+  // How far the outline of building `b` (on `side`: +1 left, -1 right) reaches into the road,
+  // shoulder or ditch plus the 0.5 m margin clearOfRoad() keeps [m]; <= 0 when clear. Walls are
+  // sampled every ~1 m: a bend or the building's own yaw can bring the middle or a corner of a
+  // wall closer than its centre line.
+  auto intrusion = [&](const Building& b, double side) {
+    double worst = -1e300;
+    const auto c = b.corners();
+    for (int e = 0; e < 4; ++e) {
+      const Eigen::Vector2d a = c[e], edge = c[(e + 1) % 4] - a;
+      const int n = 1 + int(edge.norm());
+      for (int i = 0; i <= n; ++i) {
+        const Eigen::Vector2d q = a + edge * (double(i) / n);
+        double need = d0 + 0.5;
+        if (side < 0)  // the ditches lie on the right
+          for (const Ditch& d : ditches_)
+            if (q.x() > d.x_begin_m - 0.5 && q.x() < d.x_end_m + 0.5)
+              need = std::max(need, -d.offset_m + d.half_width_m + 0.5);
+        worst = std::max(worst, need - side * lateralOffset(q.x(), q.y()));
+      }
+    }
+    return worst;
+  };
   auto free = [&](const Eigen::Vector2d& p, double r, double building_margin) {
     for (const Building& b : buildings_)
       if (distToBuilding(b, p) < r + building_margin) return false;
@@ -286,11 +308,22 @@ void World::generateObjects() {
         const double xc = x + b.half_size_m.x();
         b.centre_m = at(xc, side * (near + b.half_size_m.y()));
         b.yaw_rad = std::atan(roadCentreSlope(xc)) + rng.uniform(-0.08, 0.08);
+        // "Close" means 7.5–10 m from the centre line, which clears a default road, shoulder and
+        // ditch; a wider road pushes the building out until it is clear (worlds with the default
+        // widths never need it: their walls keep >= 0.75 m beyond the margin, seeds 1–40).
+        double push = 0;
+        for (int it = 0; it < 4; ++it) {
+          const double in = intrusion(b, side);
+          if (in <= 0) break;
+          push += in + 0.01;
+          b.centre_m = at(xc, side * (near + push + b.half_size_m.y()));
+        }
         const double h = rng.uniform(min_h, max_h);
         b.wall_rgb = pick(
             rng,
             {{205, 190, 160}, {150, 72, 55}, {160, 160, 165}, {226, 222, 214}, {214, 190, 120}});
         b.roof_rgb = pick(rng, {{110, 50, 40}, {82, 82, 88}, {60, 60, 66}});
+        if (push > 0 && intrusion(b, side) > 0) return -1;
         const double lat = std::abs(lateralOffset(b.centre_m.x(), b.centre_m.y()));
         if (lat + b.half_size_m.norm() > p_.object_half_width_m) return -1;
         double cx0 = 1e300, cx1 = -1e300;
@@ -406,7 +439,11 @@ void World::generateObjects() {
       ++placed;
     }
 
-    // Parked cars: along the left road edge and in building yards.
+    // Parked cars: along the left road edge and in building yards. A road-edge car stands in the
+    // oncoming (left) lane with its left wheels on the shoulder; where that lane is narrower than
+    // the widest car (road_width_m < 3.2 m) it would reach into the driving lane, so none parks.
+    constexpr double kCarMaxHalfWidthM = 0.95;  // makeCar() draws 0.85–0.95 m
+    const bool edge_parking = half - 0.65 - kCarMaxHalfWidthM >= 0;
     auto makeCar = [&](const Eigen::Vector2d& p, double yaw) {
       Car c;
       c.centre_m = p;
@@ -427,7 +464,8 @@ void World::generateObjects() {
       const bool place = rng.chance(std::min(1.0, 0.5 * density));
       const double yaw = std::atan(roadCentreSlope(x)) + rng.uniform(-0.03, 0.03);
       const Eigen::Vector2d p = at(x, half + 0.3 - 0.95);  // right wheels on the asphalt
-      if (!place || !inChunk(p.x() - 2.4, p.x() + 2.4, 0.3) || !free(p, 2.4, 0.5)) continue;
+      if (!place || !edge_parking || !inChunk(p.x() - 2.4, p.x() + 2.4, 0.3) || !free(p, 2.4, 0.5))
+        continue;
       cars_.push_back(makeCar(p, yaw));
       discs.push_back({p, 2.4});
     }

@@ -52,5 +52,97 @@ TEST(SimSceneParams, ObstacleDensityZeroMeansNoObjects) {
   EXPECT_FALSE(low.world().buildings().empty());
 }
 
+/// Distance by which (x, y) keeps clear of the road, the shoulder and the ditches [m] (negative:
+/// on one of them).
+double clearance(const World& w, double x, double y) {
+  const WorldParams& p = w.params();
+  const double lat = w.lateralOffset(x, y);
+  double c = std::abs(lat) - (0.5 * p.road_width_m + p.shoulder_m);
+  for (const Ditch& d : w.ditches())
+    if (x > d.x_begin_m && x < d.x_end_m)
+      c = std::min(c, std::abs(lat - d.offset_m) - d.half_width_m);
+  return c;
+}
+
+// docs/plugins/simulator.md: objects stay off the road, the shoulder and the ditches; parked cars
+// stand in the oncoming lane, never in the driving lane. Close buildings were put 7.5–10 m from
+// the centre line whatever the road's width (seed 1, road_width_m 20: the landmark's wall 4.9 m
+// inside the margin, on the asphalt), and road-edge cars half a lane from the edge (road_width_m
+// 3: 0.09 m into the driving lane; the ego drove through one in frames 18–23).
+TEST(SimSceneParams, ObjectsStayOffRoadShoulderAndDitchAtAnyRoadWidth) {
+  for (double width : {3.0, 3.2, 4.0, 6.5, 12.0, 20.0}) {
+    for (uint64_t seed : {1, 2, 3, 4}) {
+      WorldParams p;
+      p.seed = seed;
+      p.x_min_m = -60;  // five 60 m chunks of objects (the landmark's included)
+      p.x_max_m = 240;
+      p.terrain_half_width_m = 90;
+      p.road_width_m = width;
+      const World w(p);
+      const std::string at =
+          "road_width_m " + std::to_string(width) + " seed " + std::to_string(seed);
+      const double half = 0.5 * width;
+      for (const Building& b : w.buildings()) {
+        const auto c = b.corners();
+        for (int e = 0; e < 4; ++e)
+          for (double t = 0; t <= 1.0; t += 1.0 / 64) {
+            const Eigen::Vector2d q = c[e] + (c[(e + 1) % 4] - c[e]) * t;
+            ASSERT_GT(clearance(w, q.x(), q.y()), 0.45) << at << ": wall at " << q.transpose();
+          }
+      }
+      for (const Tree& t : w.trees())
+        ASSERT_GT(clearance(w, t.position_m.x(), t.position_m.y()) - t.trunk_radius_m, 0.45)
+            << at << ": trunk at " << t.position_m.transpose();
+      for (const Rock& r : w.rocks())
+        ASSERT_GT(
+            clearance(w, r.centre_m.x(), r.centre_m.y()) - std::max(r.radii_m.x(), r.radii_m.y()),
+            0.45)
+            << at << ": rock at " << r.centre_m.transpose();
+      for (const Car& car : w.cars()) {
+        const double lat = w.lateralOffset(car.centre_m.x(), car.centre_m.y());
+        if (std::abs(lat) < half + 1.0) {  // parked at the road edge: in the left lane
+          ASSERT_GE(lat - car.half_size_m.y(), -1e-9)
+              << at << ": car centre " << lat << " m left of the centre line";
+        } else {  // in a yard
+          ASSERT_GT(clearance(w, car.centre_m.x(), car.centre_m.y()) - 2.4, 0.45) << at;
+        }
+      }
+      if (width >= 6.5) EXPECT_FALSE(w.cars().empty()) << at;
+    }
+  }
+}
+
+// The same through the sensors: no wall point on the road, shoulder or ditch of a 20 m road, and
+// no car point in the driving lane of a 3 m road.
+TEST(SimSceneParams, NoObjectPointOnTheRoadOfANarrowOrWideRoad) {
+  struct Case {
+    std::string params;
+    std::size_t first, last;
+  };
+  for (const Case& c :
+       {Case{"{seed: 1, frames: 1, road_width_m: 20, enable_camera: false, azimuth_step_deg: 0.18}",
+             0, 0},
+        Case{"{frames: 24, road_width_m: 3, enable_camera: false, azimuth_step_deg: 0.18}", 18,
+             23}}) {
+    const Simulation sim(parseSimulationConfig(c.params));
+    const World& w = sim.world();
+    for (std::size_t i = c.first; i <= c.last; ++i) {
+      const Frame f = sim.frame(i);
+      std::size_t bad = 0;
+      for (std::size_t k = 0; k < f.points.size(); ++k) {
+        const Material m = Material(f.truth.raw[k]);
+        if (m != Material::kBuildingWall && m != Material::kCar) continue;
+        const Eigen::Vector3d q =
+            *f.pose * Eigen::Vector3d(f.points.x[k], f.points.y[k], f.points.z[k]);
+        if (m == Material::kCar)
+          bad += w.lateralOffset(q.x(), q.y()) < -0.05;  // right of the centre line (range noise)
+        else
+          bad += clearance(w, q.x(), q.y()) < 0.3;
+      }
+      EXPECT_EQ(bad, 0u) << c.params << " frame " << i;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace terramrf::sim
