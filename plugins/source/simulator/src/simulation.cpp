@@ -1,6 +1,7 @@
 #include "terramrf/sim/simulation.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
@@ -11,6 +12,15 @@
 
 namespace terramrf::sim {
 
+namespace {
+/// A number for an error message: up to 3 significant decimals, no trailing zeros.
+std::string fmt(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3g", v);
+  return b;
+}
+}  // namespace
+
 void declareSimulationParams(ParamDecl& d, SimulationConfig& c) {
   d.add("seed", c.seed, "seed of the world and of all sensor noise").unit("1").min(0);
   d.add("frames", c.frames, "number of frames (sweeps)").unit("frames").range(1, 1e6);
@@ -19,9 +29,11 @@ void declareSimulationParams(ParamDecl& d, SimulationConfig& c) {
         "distance at both ends")
       .unit("m")
       .range(50, 1e5);
-  d.add("scene_width_m", c.scene_width_m, "width of the strip around the road holding objects")
+  d.add("scene_width_m", c.scene_width_m,
+        "width of the strip around the road holding objects (at least 60 m: the landmark building "
+        "near the start reaches up to 29 m from the road)")
       .unit("m")
-      .range(30, 1000);
+      .range(60, 1000);
   d.add("speed_m_s", c.speed_m_s, "mean driving speed (varies ±8% slowly)")
       .unit("m/s")
       .range(0.5, 40);
@@ -176,6 +188,14 @@ Simulation::Simulation(const SimulationConfig& config) : c_(config) {
   } catch (const std::invalid_argument& e) {
     throw ParamError("", e.what());
   }
+  // 60 m always holds the landmark beside a road up to ~14 m wide; a wider one pushes it out.
+  if (world_->landmarkWidthNeeded_m() > 0)
+    throw ParamError("scene_width_m",
+                     "is " + fmt(c_.scene_width_m) +
+                         " m, too narrow for the landmark building (left of the road, 15-25 m "
+                         "ahead of the start): beside this road it needs " +
+                         fmt(std::ceil(2 * world_->landmarkWidthNeeded_m())) +
+                         " m; raise scene_width_m or set obstacle_density: 0");
   trajectory_ = std::make_unique<Trajectory>(*world_, tp);
   if (trajectory_->endTime() < c_.frames * period)
     throw ParamError("frames", "the drive leaves the generated world; lower frames or speed_m_s");

@@ -296,6 +296,7 @@ void World::generateObjects() {
 
   // ---- pass 1: buildings (3 m inside their chunk, so chunks never interact) ----
   int landmark = -1;
+  double width_needed = 0;  // half width the last building refused for the strip's width needed
   for (int k = k0; k <= k1; ++k) {
     chunk_a = k * kChunkM;
     chunk_b = chunk_a + kChunkM;
@@ -325,7 +326,10 @@ void World::generateObjects() {
         b.roof_rgb = pick(rng, {{110, 50, 40}, {82, 82, 88}, {60, 60, 66}});
         if (push > 0 && intrusion(b, side) > 0) return -1;
         const double lat = std::abs(lateralOffset(b.centre_m.x(), b.centre_m.y()));
-        if (lat + b.half_size_m.norm() > p_.object_half_width_m) return -1;
+        if (lat + b.half_size_m.norm() > p_.object_half_width_m) {
+          width_needed = lat + b.half_size_m.norm();
+          return -1;
+        }
         double cx0 = 1e300, cx1 = -1e300;
         for (const auto& c : b.corners()) {
           cx0 = std::min(cx0, c.x());
@@ -346,8 +350,11 @@ void World::generateObjects() {
       // A landmark: tall, close to the road on the left, a little ahead of x = 0, so the first
       // frames always see a wall taller than the top beam reaches. obstacle_density 0 asks for no
       // objects at all, the landmark (and the trees beside it) included.
-      if (k == 0 && side > 0 && density > 0)
+      if (k == 0 && side > 0 && density > 0) {
+        width_needed = 0;
         landmark = tryBuilding(rng.uniform(15, 25), true, 10, 15);
+        if (landmark < 0) landmark_width_needed_m_ = width_needed;
+      }
       for (double x = chunk_a + rng.uniform(0, 15); x < chunk_b;) {
         const bool place = density > 0 && rng.chance(std::min(1.0, 0.6 * density));
         const bool close = rng.chance(0.4);

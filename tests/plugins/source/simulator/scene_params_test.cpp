@@ -144,5 +144,53 @@ TEST(SimSceneParams, NoObjectPointOnTheRoadOfANarrowOrWideRoad) {
   }
 }
 
+/// True if the world has its landmark: a building 10–15 m tall left of the road, starting
+/// 15–25 m ahead of x = 0.
+bool hasLandmark(const World& w) {
+  for (const Building& b : w.buildings())
+    if (b.height_m() >= 10 - 1e-9 && b.centre_m.x() > 15 && b.centre_m.x() < 50 &&
+        w.lateralOffset(b.centre_m.x(), b.centre_m.y()) > 0)
+      return true;
+  return false;
+}
+
+// scene_width_m 30 or 40 was accepted and silently left out every building, the documented
+// landmark included. The declared minimum is now 60 m, which holds the landmark beside any road
+// the parameters allow; a narrower strip set from C++ is refused, naming the width it needs.
+TEST(SimSceneParams, ASceneTooNarrowForTheLandmarkIsRefused) {
+  for (const char* params : {"{scene_width_m: 30}", "{scene_width_m: 40}"}) {
+    try {
+      parseSimulationConfig(params);
+      ADD_FAILURE() << "accepted " << params;
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find("'scene_width_m'"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("expected in [60, 1000] m"), std::string::npos)
+          << e.what();
+    }
+  }
+  SimulationConfig c;
+  c.frames = 1;
+  c.enable_camera = false;
+  c.scene_width_m = 30;
+  try {
+    const Simulation sim(c);
+    ADD_FAILURE() << "accepted scene_width_m 30";
+  } catch (const ParamError& e) {
+    EXPECT_EQ(e.param(), "scene_width_m");
+    EXPECT_NE(std::string(e.what()).find("is 30 m, too narrow for the landmark building"),
+              std::string::npos)
+        << e.what();
+  }
+  // The narrowest strip holds the landmark, beside the widest road too.
+  for (const char* road : {"6.5", "20"}) {
+    for (int seed : {1, 2, 3}) {
+      const Simulation sim(parseSimulationConfig("{seed: " + std::to_string(seed) +
+                                                 ", frames: 1, enable_camera: false, " +
+                                                 "scene_width_m: 60, road_width_m: " + road + "}"));
+      EXPECT_TRUE(hasLandmark(sim.world())) << "road_width_m " << road << " seed " << seed;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace terramrf::sim

@@ -163,6 +163,9 @@ class World {
   const std::vector<Rock>& rocks() const { return rocks_; }
   const std::vector<Car>& cars() const { return cars_; }
   const std::vector<Ditch>& ditches() const { return ditches_; }
+  /// If the landmark building (tall, left of the road, 15–25 m ahead of x = 0) is missing because
+  /// it did not fit within object_half_width_m: the distance from the road it needed [m]; else 0.
+  double landmarkWidthNeeded_m() const { return landmark_width_needed_m_; }
 
   // ---- ray casting ----
   RayScratch makeScratch() const;
@@ -223,6 +226,7 @@ class World {
   };
   std::vector<Wave> hills_;
   uint32_t noise_seed_ = 0;
+  double landmark_width_needed_m_ = 0;
   // centre-line table for fast lateral offsets
   double cl_x0_ = 0, cl_dx_ = 0.25;
   std::vector<float> cl_y_, cl_inv_norm_;
