@@ -44,7 +44,9 @@ void declareSimulationParams(ParamDecl& d, SimulationConfig& c) {
         "scales the number of buildings, trees, rocks, cars")
       .unit("1")
       .range(0, 5);
-  d.add("hill_height_m", c.hill_height_m, "amplitude of the terrain's hills")
+  d.add("hill_height_m", c.hill_height_m,
+        "amplitude of the terrain's hills; the road's grade can reach 6.98 % per metre of it and "
+        "is limited to 20 %, so at most 2.86 m")
       .unit("m")
       .range(0, 20);
   d.add("rough_noise_m", c.rough_noise_m, "max small-scale height noise of grass/gravel")
@@ -161,6 +163,18 @@ Simulation::Simulation(const SimulationConfig& config) : c_(config) {
     throw ParamError("ditch_width_m", "must exceed 0.5 m (two 0.25 m walls)");
   if (c_.point_order != "column" && c_.point_order != "ring")
     throw ParamError("point_order", "expected 'column' or 'ring'");
+  // The road follows the longest hills; steeper than 20 % it is no road to drive (hill_height_m
+  // 20 drove a 52° slope).
+  constexpr double kMaxRoadGrade = 0.20;
+  const double grade = World::roadGradeBound(c_.hill_height_m);
+  if (grade > kMaxRoadGrade)
+    throw ParamError("hill_height_m",
+                     "is " + fmt(c_.hill_height_m) +
+                         " m: the road follows the two longest hills, "
+                         "so its grade could reach " +
+                         fmt(100 * grade) + " %; at most 20 % is allowed, i.e. hill_height_m <= " +
+                         fmt(std::floor(100 * kMaxRoadGrade / World::roadGradeBound(1.0)) / 100) +
+                         " m");
   const double period = 1.0 / c_.frame_rate_hz;
   TrajectoryParams tp;
   tp.speed_m_s = c_.speed_m_s;

@@ -12,12 +12,23 @@ namespace terramrf::sim {
 
 namespace {
 constexpr double kTwoPi = 6.283185307179586;
+// Hills: plane waves, amplitudes relative to hill_height_m and wavelength ranges [m].
+constexpr double kHillRelAmp[4] = {1.0, 0.5, 0.15, 0.06};
+constexpr double kHillWavelengthM[4][2] = {{180, 260}, {90, 130}, {40, 60}, {20, 30}};
 
 std::array<uint8_t, 3> pick(Rng& rng, std::initializer_list<std::array<uint8_t, 3>> palette) {
   const std::size_t i = std::min(palette.size() - 1, std::size_t(rng.uniform() * palette.size()));
   return *(palette.begin() + i);
 }
 }  // namespace
+
+double World::roadGradeBound(double hill_height_m) {
+  // The road follows the two longest waves (roadProfile()); along any direction a wave's slope
+  // is at most amplitude · 2π / wavelength.
+  double g = 0;
+  for (int k = 0; k < 2; ++k) g += hill_height_m * kHillRelAmp[k] * kTwoPi / kHillWavelengthM[k][0];
+  return g;
+}
 
 std::array<Eigen::Vector2d, 4> Building::corners() const {
   const Eigen::Vector2d ax(std::cos(yaw_rad), std::sin(yaw_rad)), ay(-ax.y(), ax.x());
@@ -43,12 +54,10 @@ World::World(const WorldParams& params) : p_(params) {
   road_freq_ = {kTwoPi / rng.uniform(250, 400), kTwoPi / rng.uniform(90, 150)};
   road_phase_ = {rng.uniform(0, kTwoPi), rng.uniform(0, kTwoPi)};
   // Hills: a few plane waves; with the default 2 m the steepest slope stays around 10°.
-  const double rel_amp[4] = {1.0, 0.5, 0.15, 0.06};
-  const double wavelength[4][2] = {{180, 260}, {90, 130}, {40, 60}, {20, 30}};
   for (int k = 0; k < 4; ++k) {
-    const double f = kTwoPi / rng.uniform(wavelength[k][0], wavelength[k][1]);
+    const double f = kTwoPi / rng.uniform(kHillWavelengthM[k][0], kHillWavelengthM[k][1]);
     const double dir = rng.uniform(0, kTwoPi);
-    hills_.push_back({p_.hill_height_m * rel_amp[k], f * std::cos(dir), f * std::sin(dir),
+    hills_.push_back({p_.hill_height_m * kHillRelAmp[k], f * std::cos(dir), f * std::sin(dir),
                       rng.uniform(0, kTwoPi)});
   }
   noise_seed_ = uint32_t(rng.next() >> 32);

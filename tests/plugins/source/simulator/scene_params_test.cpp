@@ -192,5 +192,54 @@ TEST(SimSceneParams, ASceneTooNarrowForTheLandmarkIsRefused) {
   }
 }
 
+/// Steepest grade of the road's centre line between x_from and x_to, over 2 m [1].
+double steepestRoadGrade(const World& w, double x_from, double x_to) {
+  double g = 0;
+  for (double x = x_from; x < x_to; x += 0.5) {
+    const double y0 = w.roadCentreY(x), y1 = w.roadCentreY(x + 2);
+    const double run = std::hypot(2.0, y1 - y0);
+    g = std::max(g, std::abs(w.smoothHeight(x + 2, y1) - w.smoothHeight(x, y0)) / run);
+  }
+  return g;
+}
+
+// hill_height_m up to 20 was accepted and the road followed the hills up a 52° slope; the
+// documented grade (≤ ~11 %) was exceeded by the defaults too (12.2 % at seed 1's start).
+TEST(SimSceneParams, HillsThatMakeTheRoadTooSteepAreRefused) {
+  EXPECT_NEAR(World::roadGradeBound(2.0), 0.1396, 1e-4);
+  for (const char* params : {"{hill_height_m: 20}", "{hill_height_m: 2.9}"}) {
+    try {
+      parseSimulationConfig(params);  // in the declared range
+      const Simulation sim(parseSimulationConfig(params));
+      ADD_FAILURE() << "accepted " << params;
+    } catch (const ParamError& e) {
+      EXPECT_EQ(e.param(), "hill_height_m");
+      EXPECT_NE(std::string(e.what()).find("at most 20 % is allowed, i.e. hill_height_m <= 2.86 m"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  try {
+    const Simulation sim(parseSimulationConfig("{hill_height_m: 20}"));
+  } catch (const ParamError& e) {
+    EXPECT_NE(std::string(e.what()).find("is 20 m: the road follows the two longest hills, so its "
+                                         "grade could reach 140 %"),
+              std::string::npos)
+        << e.what();
+  }
+  // The bound holds: the steepest allowed hills and the defaults, over several worlds.
+  for (const char* hill : {"2.86", "2"}) {
+    for (int seed : {1, 2, 3, 4}) {
+      const Simulation sim(parseSimulationConfig("{seed: " + std::to_string(seed) +
+                                                 ", frames: 300, enable_camera: false, "
+                                                 "hill_height_m: " +
+                                                 hill + "}"));
+      const double bound = World::roadGradeBound(std::stod(hill));
+      EXPECT_LE(steepestRoadGrade(sim.world(), 0, 300), bound + 1e-3)
+          << "hill_height_m " << hill << " seed " << seed;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace terramrf::sim

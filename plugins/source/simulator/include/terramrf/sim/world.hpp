@@ -130,6 +130,9 @@ class World {
   explicit World(const WorldParams& params);
 
   const WorldParams& params() const { return p_; }
+  /// Steepest grade the road can have with hills of this amplitude, whatever the seed [1]
+  /// (hill_height_m · 2π / 90 m: 14 % for the default 2 m).
+  static double roadGradeBound(double hill_height_m);
 
   // ---- road ----
   /// y of the road's centre line at x [m] (analytic, smooth).
