@@ -197,6 +197,18 @@ Simulation::Simulation(const SimulationConfig& config) : c_(config) {
   wp.ditch_depth_m = c_.ditch_depth_m;
   wp.ditch_width_m = c_.ditch_width_m;
   wp.obstacle_density = c_.obstacle_density;
+  // The strip grows with the drive (~8 KB of terrain table per metre with the camera's view):
+  // frames: 1000000 wanted ~8 GB and ended in std::bad_alloc, or took minutes to build.
+  constexpr double kMaxTableBytes = 2e9;
+  const double table_bytes = World::terrainTableBytes(wp);
+  if (table_bytes > kMaxTableBytes)
+    throw ParamError(
+        "frames", "is " + std::to_string(c_.frames) + ": a drive of up to " + fmt(drive_m / 1000) +
+                      " km needs a terrain table of " + fmt(table_bytes / 1e9) +
+                      " GB (0.5 m cells over a strip " + fmt((wp.x_max_m - wp.x_min_m) / 1000) +
+                      " km long and " + fmt(2 * wp.terrain_half_width_m) +
+                      " m wide), more than the 2 GB allowed; lower frames or speed_m_s "
+                      "(max_range_m and camera_far_m widen the strip)");
   try {
     world_ = std::make_unique<World>(wp);
   } catch (const std::invalid_argument& e) {

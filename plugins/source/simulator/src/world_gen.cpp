@@ -30,6 +30,16 @@ double World::roadGradeBound(double hill_height_m) {
   return g;
 }
 
+double World::terrainTableBytes(const WorldParams& p) {
+  // As buildTerrainTable() sizes it: the strip, widened by the road's bends (the centre line
+  // swings by up to 1.15 · road_curve_m each way) and the block lattice's rounding.
+  const double margin = 2 * p.terrain_cell_m * kBlockCells;
+  const double nx = (p.x_max_m - p.x_min_m + margin) / p.terrain_cell_m + 2;
+  const double ny =
+      (2 * p.terrain_half_width_m + 2.3 * p.road_curve_m + margin) / p.terrain_cell_m + 2;
+  return nx * ny * sizeof(float);
+}
+
 std::array<Eigen::Vector2d, 4> Building::corners() const {
   const Eigen::Vector2d ax(std::cos(yaw_rad), std::sin(yaw_rad)), ay(-ax.y(), ax.x());
   const Eigen::Vector2d u = ax * half_size_m.x(), v = ay * half_size_m.y();

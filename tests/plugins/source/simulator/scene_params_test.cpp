@@ -3,6 +3,7 @@
 // an error naming the parameter.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <string>
 
@@ -239,6 +240,30 @@ TEST(SimSceneParams, HillsThatMakeTheRoadTooSteepAreRefused) {
           << "hill_height_m " << hill << " seed " << seed;
     }
   }
+}
+
+// frames accepts up to 10⁶, but the world's terrain table grows with the drive (~8 KB per metre):
+// frames: 1000000 wanted ~8 GB and ended in std::bad_alloc after minutes. Refused at once now,
+// with the size it would need.
+TEST(SimSceneParams, ADriveTooLongForMemoryIsRefusedWithItsSize) {
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    const Simulation sim(parseSimulationConfig("{frames: 1000000}"));
+    ADD_FAILURE() << "accepted frames: 1000000";
+  } catch (const ParamError& e) {
+    EXPECT_EQ(e.param(), "frames");
+    const std::string what = e.what();
+    EXPECT_NE(what.find("is 1000000: a drive of up to 972 km needs a terrain table of 8."),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("more than the 2 GB allowed; lower frames or speed_m_s"), std::string::npos)
+        << what;
+  }
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0)
+      << "refused before building anything";
+  // WorldParams' defaults: a 600 m strip, 230 m each side of the road, bends of 12 m: about
+  // 1218 × 993 cells of 4 bytes.
+  EXPECT_NEAR(World::terrainTableBytes(WorldParams{}) / 1e6, 4.84, 0.05);
 }
 
 }  // namespace

@@ -133,6 +133,9 @@ class World {
   /// Steepest grade the road can have with hills of this amplitude, whatever the seed [1]
   /// (hill_height_m · 2π / 90 m: 14 % for the default 2 m).
   static double roadGradeBound(double hill_height_m);
+  /// Memory the smooth-height table of a world with these parameters takes, within a few
+  /// percent [bytes]: ~5 KB per metre of strip with a 140 m half width, the most of the world.
+  static double terrainTableBytes(const WorldParams& p);
 
   // ---- road ----
   /// y of the road's centre line at x [m] (analytic, smooth).
