@@ -85,15 +85,48 @@ TEST(SimulatorSource, DeterministicAndIndependentOfReadOrder) {
   EXPECT_NEAR((a2.pose->translation() - a1.pose->translation()).norm(), 0.9, 0.1);
 }
 
+// The strip is sized from frames, ranges and the camera; what is guaranteed of the LiDAR frames
+// (docs/plugins/simulator.md): identical points, rings, times and poses; labels equal except a
+// few points at a grass/gravel edge (with their intensities), other intensities but for a few
+// last bits (the lattices' origins
+// follow the strip, so a hit can differ by ~1e-14 m inside the float output). Seed 4 alone was
+// tested and passed exactly; seeds 13 and 40 flip 2 and 8 labels (1–40: at most 8 of ~235k).
 TEST(SimulatorSource, SeedMeansOneWorldWhateverTheFrameCountOrCamera) {
-  // The strip is sized from frames, ranges and the camera; the LiDAR frames must not change.
-  auto a = makeSource("{frames: 2, seed: 4, enable_camera: false, azimuth_step_deg: 0.5}");
-  auto b = makeSource(
-      "{frames: 300, seed: 4, azimuth_step_deg: 0.5, camera_width: 64, "
-      "camera_height: 64, camera_fx: 40}");
-  Frame fa = src(a).read(1), fb = src(b).read(1);
-  fb.cameras.clear();
-  expectSameFrame(fa, fb);
+  const std::string tiny_camera = "camera_width: 64, camera_height: 64, camera_fx: 40";
+  for (const auto& [seed, other] :
+       std::vector<std::pair<int, std::string>>{{4, "frames: 300, " + tiny_camera},
+                                                {13, "frames: 1, " + tiny_camera},
+                                                {40, "frames: 1, " + tiny_camera},
+                                                {36, "frames: 300, enable_camera: false"}}) {
+    const std::string s = "seed: " + std::to_string(seed);
+    auto a = makeSource("{frames: 1, enable_camera: false, " + s + "}");
+    auto b = makeSource("{" + other + ", " + s + "}");
+    const Frame fa = src(a).read(0), fb = src(b).read(0);
+    ASSERT_EQ(fa.points.size(), fb.points.size()) << s;
+    EXPECT_EQ(fa.points.x, fb.points.x) << s;
+    EXPECT_EQ(fa.points.y, fb.points.y) << s;
+    EXPECT_EQ(fa.points.z, fb.points.z) << s;
+    EXPECT_EQ(fa.points.ring, fb.points.ring) << s;
+    EXPECT_EQ(fa.points.time_s, fb.points.time_s) << s;
+    EXPECT_TRUE(fa.pose->isApprox(*fb.pose, 0.0)) << s;
+    std::size_t labels = 0, intensities = 0;
+    using M = sim::Material;
+    for (std::size_t i = 0; i < fa.points.size(); ++i) {
+      const uint32_t ra = fa.truth.raw[i], rb = fb.truth.raw[i];
+      if (ra != rb) {
+        ++labels;
+        EXPECT_TRUE((ra == uint32_t(M::kGrass) && rb == uint32_t(M::kGravel)) ||
+                    (ra == uint32_t(M::kGravel) && rb == uint32_t(M::kGrass)))
+            << s << " point " << i << ": " << ra << " vs " << rb;
+      }
+      if (ra == rb && fa.points.intensity[i] != fb.points.intensity[i]) {  // else reflectivity
+        ++intensities;
+        EXPECT_NEAR(fa.points.intensity[i], fb.points.intensity[i], 1e-6) << s << " point " << i;
+      }
+    }
+    EXPECT_LE(labels, 10u) << s;
+    EXPECT_LE(intensities, 12u) << s;
+  }
 }
 
 TEST(SimulatorSource, LibraryRebuildsThePluginsWorld) {
