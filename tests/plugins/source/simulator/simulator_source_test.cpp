@@ -191,6 +191,41 @@ TEST(SimulatorSource, Hdl64eRingsAnglesAndScanOrder) {
   EXPECT_NEAR(min_r63, 1.73 / std::sin(24.33 * M_PI / 180), 0.4);
 }
 
+// docs/plugins/simulator.md: the head spins clockwise seen from above and column 0 looks
+// backwards; a point's time is its column's firing time. So every point's azimuth is
+// π − 2π · time_s / 0.1 s (mod 2π): backwards at 0, left at 0.025 s, forward at 0.05 s, right at
+// 0.075 s. Checked on every point of both orders (RingOrderIsKittiLike looks at two).
+TEST(SimulatorSource, ScanIsClockwiseFromBehind) {
+  for (const char* order : {"column", "ring"}) {
+    auto p = makeSource(std::string("{frames: 1, enable_camera: false, azimuth_step_deg: 0.36, ") +
+                        "point_order: " + order + "}");
+    const Frame f = src(p).read(0);
+    ASSERT_GT(f.points.size(), 10000u);
+    const double step = 0.36 * M_PI / 180;
+    double worst = 0;
+    std::size_t quarter[4] = {0, 0, 0, 0};
+    for (std::size_t i = 0; i < f.points.size(); ++i) {
+      const double expected = M_PI - 2 * M_PI * f.points.time_s[i] / 0.1;
+      const double az = std::atan2(f.points.y[i], f.points.x[i]);
+      const double d = std::remainder(az - expected, 2 * M_PI);
+      worst = std::max(worst, std::abs(d));
+      // Which way the head looks: 0 behind, 1 left, 2 ahead, 3 right.
+      const int q = std::min(3, int(f.points.time_s[i] / 0.025));
+      const double dir[4][2] = {{-1, 0}, {0, 1}, {1, 0}, {0, -1}};
+      quarter[q] += f.points.x[i] * dir[q][0] + f.points.y[i] * dir[q][1] > 0;
+    }
+    EXPECT_LT(worst, 0.5 * step + 1e-4) << order << ": azimuth off its column's time";
+    for (int q = 0; q < 4; ++q) EXPECT_GT(quarter[q], 1000u) << order << " quarter " << q;
+    // Column 0 (time 0) looks straight back; it is the first in column order.
+    if (std::string(order) == "column") {
+      EXPECT_EQ(f.points.time_s[0], 0.0f);
+      EXPECT_LT(f.points.x[0], 0.0f);
+      EXPECT_LT(std::abs(std::remainder(std::atan2(f.points.y[0], f.points.x[0]) - M_PI, 2 * M_PI)),
+                0.5 * step + 1e-4);
+    }
+  }
+}
+
 TEST(SimulatorSource, RingOrderIsKittiLike) {
   auto p =
       makeSource("{frames: 1, enable_camera: false, point_order: ring, azimuth_step_deg: 0.36}");
