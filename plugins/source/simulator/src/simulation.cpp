@@ -1,6 +1,7 @@
 #include "terramrf/sim/simulation.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
@@ -11,6 +12,15 @@
 
 namespace terramrf::sim {
 
+namespace {
+/// A number for an error message: up to 3 significant decimals, no trailing zeros.
+std::string fmt(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3g", v);
+  return b;
+}
+}  // namespace
+
 void declareSimulationParams(ParamDecl& d, SimulationConfig& c) {
   d.add("seed", c.seed, "seed of the world and of all sensor noise").unit("1").min(0);
   d.add("frames", c.frames, "number of frames (sweeps)").unit("frames").range(1, 1e6);
@@ -19,9 +29,11 @@ void declareSimulationParams(ParamDecl& d, SimulationConfig& c) {
         "distance at both ends")
       .unit("m")
       .range(50, 1e5);
-  d.add("scene_width_m", c.scene_width_m, "width of the strip around the road holding objects")
+  d.add("scene_width_m", c.scene_width_m,
+        "width of the strip around the road holding objects (at least 60 m: the landmark building "
+        "near the start reaches up to 29 m from the road)")
       .unit("m")
-      .range(30, 1000);
+      .range(60, 1000);
   d.add("speed_m_s", c.speed_m_s, "mean driving speed (varies ±8% slowly)")
       .unit("m/s")
       .range(0.5, 40);
@@ -32,7 +44,9 @@ void declareSimulationParams(ParamDecl& d, SimulationConfig& c) {
         "scales the number of buildings, trees, rocks, cars")
       .unit("1")
       .range(0, 5);
-  d.add("hill_height_m", c.hill_height_m, "amplitude of the terrain's hills")
+  d.add("hill_height_m", c.hill_height_m,
+        "amplitude of the terrain's hills; the road's grade can reach 6.98 % per metre of it and "
+        "is limited to 20 %, so at most 2.86 m")
       .unit("m")
       .range(0, 20);
   d.add("rough_noise_m", c.rough_noise_m, "max small-scale height noise of grass/gravel")
@@ -149,6 +163,18 @@ Simulation::Simulation(const SimulationConfig& config) : c_(config) {
     throw ParamError("ditch_width_m", "must exceed 0.5 m (two 0.25 m walls)");
   if (c_.point_order != "column" && c_.point_order != "ring")
     throw ParamError("point_order", "expected 'column' or 'ring'");
+  // The road follows the longest hills; steeper than 20 % it is no road to drive (hill_height_m
+  // 20 drove a 52° slope).
+  constexpr double kMaxRoadGrade = 0.20;
+  const double grade = World::roadGradeBound(c_.hill_height_m);
+  if (grade > kMaxRoadGrade)
+    throw ParamError("hill_height_m",
+                     "is " + fmt(c_.hill_height_m) +
+                         " m: the road follows the two longest hills, "
+                         "so its grade could reach " +
+                         fmt(100 * grade) + " %; at most 20 % is allowed, i.e. hill_height_m <= " +
+                         fmt(std::floor(100 * kMaxRoadGrade / World::roadGradeBound(1.0)) / 100) +
+                         " m");
   const double period = 1.0 / c_.frame_rate_hz;
   TrajectoryParams tp;
   tp.speed_m_s = c_.speed_m_s;
@@ -171,11 +197,32 @@ Simulation::Simulation(const SimulationConfig& config) : c_(config) {
   wp.ditch_depth_m = c_.ditch_depth_m;
   wp.ditch_width_m = c_.ditch_width_m;
   wp.obstacle_density = c_.obstacle_density;
+  // The strip grows with the drive (~8 KB of terrain table per metre with the camera's view):
+  // frames: 1000000 wanted ~8 GB and ended in std::bad_alloc, or took minutes to build.
+  constexpr double kMaxTableBytes = 2e9;
+  const double table_bytes = World::terrainTableBytes(wp);
+  if (table_bytes > kMaxTableBytes)
+    throw ParamError(
+        "frames", "is " + std::to_string(c_.frames) + ": a drive of up to " + fmt(drive_m / 1000) +
+                      " km needs a terrain table of " + fmt(table_bytes / 1e9) +
+                      " GB (0.5 m cells over a strip " + fmt((wp.x_max_m - wp.x_min_m) / 1000) +
+                      " km long and " + fmt(2 * wp.terrain_half_width_m) +
+                      " m wide), more than the 2 GB allowed; lower frames or speed_m_s "
+                      "(max_range_m and camera_far_m widen the strip)");
   try {
     world_ = std::make_unique<World>(wp);
   } catch (const std::invalid_argument& e) {
     throw ParamError("", e.what());
   }
+  // The declared 60 m held the landmark beside every road width tried (6.5–20 m, seeds 1–60);
+  // this catches a narrower strip set from C++ (and any seed that would need more).
+  if (world_->landmarkWidthNeeded_m() > 0)
+    throw ParamError("scene_width_m",
+                     "is " + fmt(c_.scene_width_m) +
+                         " m, too narrow for the landmark building (left of the road, 15-25 m "
+                         "ahead of the start): beside this road it needs " +
+                         fmt(std::ceil(2 * world_->landmarkWidthNeeded_m())) +
+                         " m; raise scene_width_m or set obstacle_density: 0");
   trajectory_ = std::make_unique<Trajectory>(*world_, tp);
   if (trajectory_->endTime() < c_.frames * period)
     throw ParamError("frames", "the drive leaves the generated world; lower frames or speed_m_s");

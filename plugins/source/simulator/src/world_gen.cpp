@@ -12,12 +12,33 @@ namespace terramrf::sim {
 
 namespace {
 constexpr double kTwoPi = 6.283185307179586;
+// Hills: plane waves, amplitudes relative to hill_height_m and wavelength ranges [m].
+constexpr double kHillRelAmp[4] = {1.0, 0.5, 0.15, 0.06};
+constexpr double kHillWavelengthM[4][2] = {{180, 260}, {90, 130}, {40, 60}, {20, 30}};
 
 std::array<uint8_t, 3> pick(Rng& rng, std::initializer_list<std::array<uint8_t, 3>> palette) {
   const std::size_t i = std::min(palette.size() - 1, std::size_t(rng.uniform() * palette.size()));
   return *(palette.begin() + i);
 }
 }  // namespace
+
+double World::roadGradeBound(double hill_height_m) {
+  // The road follows the two longest waves (roadProfile()); along any direction a wave's slope
+  // is at most amplitude · 2π / wavelength.
+  double g = 0;
+  for (int k = 0; k < 2; ++k) g += hill_height_m * kHillRelAmp[k] * kTwoPi / kHillWavelengthM[k][0];
+  return g;
+}
+
+double World::terrainTableBytes(const WorldParams& p) {
+  // As buildTerrainTable() sizes it: the strip, widened by the road's bends (the centre line
+  // swings by up to 1.15 · road_curve_m each way) and the block lattice's rounding.
+  const double margin = 2 * p.terrain_cell_m * kBlockCells;
+  const double nx = (p.x_max_m - p.x_min_m + margin) / p.terrain_cell_m + 2;
+  const double ny =
+      (2 * p.terrain_half_width_m + 2.3 * p.road_curve_m + margin) / p.terrain_cell_m + 2;
+  return nx * ny * sizeof(float);
+}
 
 std::array<Eigen::Vector2d, 4> Building::corners() const {
   const Eigen::Vector2d ax(std::cos(yaw_rad), std::sin(yaw_rad)), ay(-ax.y(), ax.x());
@@ -43,12 +64,10 @@ World::World(const WorldParams& params) : p_(params) {
   road_freq_ = {kTwoPi / rng.uniform(250, 400), kTwoPi / rng.uniform(90, 150)};
   road_phase_ = {rng.uniform(0, kTwoPi), rng.uniform(0, kTwoPi)};
   // Hills: a few plane waves; with the default 2 m the steepest slope stays around 10°.
-  const double rel_amp[4] = {1.0, 0.5, 0.15, 0.06};
-  const double wavelength[4][2] = {{180, 260}, {90, 130}, {40, 60}, {20, 30}};
   for (int k = 0; k < 4; ++k) {
-    const double f = kTwoPi / rng.uniform(wavelength[k][0], wavelength[k][1]);
+    const double f = kTwoPi / rng.uniform(kHillWavelengthM[k][0], kHillWavelengthM[k][1]);
     const double dir = rng.uniform(0, kTwoPi);
-    hills_.push_back({p_.hill_height_m * rel_amp[k], f * std::cos(dir), f * std::sin(dir),
+    hills_.push_back({p_.hill_height_m * kHillRelAmp[k], f * std::cos(dir), f * std::sin(dir),
                       rng.uniform(0, kTwoPi)});
   }
   noise_seed_ = uint32_t(rng.next() >> 32);
@@ -254,6 +273,28 @@ void World::generateObjects() {
     }
     return std::abs(lat) + r < p_.object_half_width_m && inChunk(p.x() - r, p.x() + r, 0.3);
   };
+  // How far the outline of building `b` (on `side`: +1 left, -1 right) reaches into the road,
+  // shoulder or ditch plus the 0.5 m margin clearOfRoad() keeps [m]; <= 0 when clear. Walls are
+  // sampled every ~1 m: a bend or the building's own yaw can bring the middle or a corner of a
+  // wall closer than its centre line.
+  auto intrusion = [&](const Building& b, double side) {
+    double worst = -1e300;
+    const auto c = b.corners();
+    for (int e = 0; e < 4; ++e) {
+      const Eigen::Vector2d a = c[e], edge = c[(e + 1) % 4] - a;
+      const int n = 1 + int(edge.norm());
+      for (int i = 0; i <= n; ++i) {
+        const Eigen::Vector2d q = a + edge * (double(i) / n);
+        double need = d0 + 0.5;
+        if (side < 0)  // the ditches lie on the right
+          for (const Ditch& d : ditches_)
+            if (q.x() > d.x_begin_m - 0.5 && q.x() < d.x_end_m + 0.5)
+              need = std::max(need, -d.offset_m + d.half_width_m + 0.5);
+        worst = std::max(worst, need - side * lateralOffset(q.x(), q.y()));
+      }
+    }
+    return worst;
+  };
   auto free = [&](const Eigen::Vector2d& p, double r, double building_margin) {
     for (const Building& b : buildings_)
       if (distToBuilding(b, p) < r + building_margin) return false;
@@ -274,6 +315,7 @@ void World::generateObjects() {
 
   // ---- pass 1: buildings (3 m inside their chunk, so chunks never interact) ----
   int landmark = -1;
+  double width_needed = 0;  // half width the last building refused for the strip's width needed
   for (int k = k0; k <= k1; ++k) {
     chunk_a = k * kChunkM;
     chunk_b = chunk_a + kChunkM;
@@ -286,13 +328,27 @@ void World::generateObjects() {
         const double xc = x + b.half_size_m.x();
         b.centre_m = at(xc, side * (near + b.half_size_m.y()));
         b.yaw_rad = std::atan(roadCentreSlope(xc)) + rng.uniform(-0.08, 0.08);
+        // "Close" means 7.5–10 m from the centre line, which clears a default road, shoulder and
+        // ditch; a wider road pushes the building out until it is clear (worlds with the default
+        // widths never need it: their walls keep >= 0.75 m beyond the margin, seeds 1–40).
+        double push = 0;
+        for (int it = 0; it < 4; ++it) {
+          const double in = intrusion(b, side);
+          if (in <= 0) break;
+          push += in + 0.01;
+          b.centre_m = at(xc, side * (near + push + b.half_size_m.y()));
+        }
         const double h = rng.uniform(min_h, max_h);
         b.wall_rgb = pick(
             rng,
             {{205, 190, 160}, {150, 72, 55}, {160, 160, 165}, {226, 222, 214}, {214, 190, 120}});
         b.roof_rgb = pick(rng, {{110, 50, 40}, {82, 82, 88}, {60, 60, 66}});
+        if (push > 0 && intrusion(b, side) > 0) return -1;
         const double lat = std::abs(lateralOffset(b.centre_m.x(), b.centre_m.y()));
-        if (lat + b.half_size_m.norm() > p_.object_half_width_m) return -1;
+        if (lat + b.half_size_m.norm() > p_.object_half_width_m) {
+          width_needed = lat + b.half_size_m.norm();
+          return -1;
+        }
         double cx0 = 1e300, cx1 = -1e300;
         for (const auto& c : b.corners()) {
           cx0 = std::min(cx0, c.x());
@@ -311,8 +367,13 @@ void World::generateObjects() {
         return int(buildings_.size()) - 1;
       };
       // A landmark: tall, close to the road on the left, a little ahead of x = 0, so the first
-      // frames always see a wall taller than the top beam reaches.
-      if (k == 0 && side > 0) landmark = tryBuilding(rng.uniform(15, 25), true, 10, 15);
+      // frames always see a wall taller than the top beam reaches. obstacle_density 0 asks for no
+      // objects at all, the landmark (and the trees beside it) included.
+      if (k == 0 && side > 0 && density > 0) {
+        width_needed = 0;
+        landmark = tryBuilding(rng.uniform(15, 25), true, 10, 15);
+        if (landmark < 0) landmark_width_needed_m_ = width_needed;
+      }
       for (double x = chunk_a + rng.uniform(0, 15); x < chunk_b;) {
         const bool place = density > 0 && rng.chance(std::min(1.0, 0.6 * density));
         const bool close = rng.chance(0.4);
@@ -404,7 +465,11 @@ void World::generateObjects() {
       ++placed;
     }
 
-    // Parked cars: along the left road edge and in building yards.
+    // Parked cars: along the left road edge and in building yards. A road-edge car stands in the
+    // oncoming (left) lane with its left wheels on the shoulder; where that lane is narrower than
+    // the widest car (road_width_m < 3.2 m) it would reach into the driving lane, so none parks.
+    constexpr double kCarMaxHalfWidthM = 0.95;  // makeCar() draws 0.85–0.95 m
+    const bool edge_parking = half - 0.65 - kCarMaxHalfWidthM >= 0;
     auto makeCar = [&](const Eigen::Vector2d& p, double yaw) {
       Car c;
       c.centre_m = p;
@@ -425,7 +490,8 @@ void World::generateObjects() {
       const bool place = rng.chance(std::min(1.0, 0.5 * density));
       const double yaw = std::atan(roadCentreSlope(x)) + rng.uniform(-0.03, 0.03);
       const Eigen::Vector2d p = at(x, half + 0.3 - 0.95);  // right wheels on the asphalt
-      if (!place || !inChunk(p.x() - 2.4, p.x() + 2.4, 0.3) || !free(p, 2.4, 0.5)) continue;
+      if (!place || !edge_parking || !inChunk(p.x() - 2.4, p.x() + 2.4, 0.3) || !free(p, 2.4, 0.5))
+        continue;
       cars_.push_back(makeCar(p, yaw));
       discs.push_back({p, 2.4});
     }

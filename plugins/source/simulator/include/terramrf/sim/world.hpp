@@ -130,6 +130,12 @@ class World {
   explicit World(const WorldParams& params);
 
   const WorldParams& params() const { return p_; }
+  /// Steepest grade the road can have with hills of this amplitude, whatever the seed [1]
+  /// (hill_height_m · 2π / 90 m: 14 % for the default 2 m).
+  static double roadGradeBound(double hill_height_m);
+  /// Memory the smooth-height table of a world with these parameters takes, within a few
+  /// percent [bytes]: ~5 KB per metre of strip with a 140 m half width, the most of the world.
+  static double terrainTableBytes(const WorldParams& p);
 
   // ---- road ----
   /// y of the road's centre line at x [m] (analytic, smooth).
@@ -163,6 +169,9 @@ class World {
   const std::vector<Rock>& rocks() const { return rocks_; }
   const std::vector<Car>& cars() const { return cars_; }
   const std::vector<Ditch>& ditches() const { return ditches_; }
+  /// If the landmark building (tall, left of the road, 15–25 m ahead of x = 0) is missing because
+  /// it did not fit within object_half_width_m: the distance from the road it needed [m]; else 0.
+  double landmarkWidthNeeded_m() const { return landmark_width_needed_m_; }
 
   // ---- ray casting ----
   RayScratch makeScratch() const;
@@ -223,6 +232,7 @@ class World {
   };
   std::vector<Wave> hills_;
   uint32_t noise_seed_ = 0;
+  double landmark_width_needed_m_ = 0;
   // centre-line table for fast lateral offsets
   double cl_x0_ = 0, cl_dx_ = 0.25;
   std::vector<float> cl_y_, cl_inv_norm_;
