@@ -323,3 +323,42 @@ TEST(MeshBuilder, GroundSegmentationOverTheDrive) {
 
 }  // namespace
 }  // namespace terramrf::meshing
+
+namespace terramrf::meshing {
+namespace {
+
+// A wall patch (ground around a 3 m wall, 5 m long) at `x0, y0`.
+void addWallPatch(TerrainMesh& mesh, double x0, double y0) {
+  const double cell = mesh.params().cell_m;
+  for (int i = 0; i <= 48; ++i)
+    for (int j = 0; j <= 48; ++j) {
+      const double x = x0 + i * cell, y = y0 + j * cell;
+      const bool wall = i == 24 && j >= 4 && j <= 44;
+      mesh.addPoint({x, y, wall ? 3.0 : 0.0});
+    }
+}
+
+}  // namespace
+
+// The masking works tile by tile with a margin: two patches 37.5 km apart (2000 tiles) cost two
+// tiles' arrays, not ones over the 37.5 km box between them (~9e10 cells: the whole-box arrays
+// threw std::bad_alloc), and both are masked alike.
+TEST(BuildingMask, FarApartPatchesAreMaskedTileByTileAndAlike) {
+  TerrainMesh mesh;
+  const double far = 2000 * mesh.tileSpan() * mesh.params().cell_m;
+  addWallPatch(mesh, 1.0, 1.0);
+  addWallPatch(mesh, far + 1.0, far + 1.0);
+  for (auto& [key, tp] : mesh.tiles()) {
+    Tile& t = *tp;
+    for (std::size_t k = 0; k < t.vertices(); ++k)
+      if (t.hasData(int(k)))
+        (t.z_sum[k] / t.count[k] > 1 ? t.object_votes[k] : t.ground_votes[k]) = 1;
+  }
+  MaskStats st;
+  ASSERT_NO_THROW(st = classifyVertices(mesh, MaskParams{}));
+  EXPECT_EQ(st.object_vertices, 2u * 41);
+  EXPECT_EQ(st.buildings, 2u * 41);  // a straight 3 m wall: building along its whole length
+  EXPECT_EQ(st.trees, 0u);
+}
+
+}  // namespace terramrf::meshing
