@@ -202,6 +202,7 @@ int cmdDescribe(const Args& args) {
       std::cout << "}";
     }
     if (s.existing_path) std::cout << ", must exist";
+    if (s.unique) std::cout << ", each entry once";
     std::cout << "\n      " << s.doc << "\n";
   }
   return kOk;

@@ -130,6 +130,8 @@ std::string convert(const ParamSpec& s, const YAML::Node& n, ParamValue& out) {
           if (!s.choices.empty() &&
               std::find(s.choices.begin(), s.choices.end(), e.Scalar()) == s.choices.end())
             return "'" + e.Scalar() + "' is not an allowed value";
+          if (s.unique && std::find(v.begin(), v.end(), e.Scalar()) != v.end())
+            return "'" + e.Scalar() + "' is listed twice; list each entry once";
           v.push_back(e.Scalar());
         }
       } else if (!n.IsNull()) return want + ", got " + describeNode(n);

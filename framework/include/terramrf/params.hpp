@@ -33,6 +33,7 @@ struct ParamSpec {
   std::vector<std::string> choices;  ///< allowed strings, if restricted
   bool required = false;           ///< no default; the config must give it
   bool existing_path = false;      ///< a string that names a file/folder which must exist
+  bool unique = false;             ///< a string list whose entries must all differ
   ParamValue default_value;        ///< the bound member's value at declaration time
 
   // Bound member access (set by ParamDecl::add).
@@ -52,6 +53,11 @@ class ParamRef {
   ParamRef& required() { s_.required = true; return *this; }
   /// The value is a path that must exist (resolved relative to the config file's folder).
   ParamRef& existingPath() { s_.existing_path = true; return *this; }
+  /// A string list whose entries must all differ (layers, features, classes, cameras).
+  ParamRef& unique() {
+    s_.unique = true;
+    return *this;
+  }
 
  private:
   ParamSpec& s_;

@@ -30,11 +30,14 @@ class PottsGaussian final : public Stage {
   void declare(ParamDecl& d) override {
     d.add("model", model_path_, "per-class feature model file (YAML: classes → feature → {mean, sigma})")
         .required().existingPath();
-    d.add("features", features_, "grid layers used as features; each must be in the model for every class")
-        .required();
+    d.add("features", features_,
+          "grid layers used as features; each must be in the model for every class")
+        .required()
+        .unique();
     d.add("classes", classes_param_,
           "labels the optimiser may assign (names from the label set); empty = every class of the "
-          "label set but 'unknown', in id order (road, rough, obstacle with the default set)");
+          "label set but 'unknown', in id order (road, rough, obstacle with the default set)")
+        .unique();
     d.add("alpha", alpha_, "weight α of the feature energy (eq. 12)").unit("1").range(0, 1e6);
     d.add("beta", beta_, "Potts weight β of the 4 edge neighbours (eq. 10)").unit("1").range(0, 1e6);
     d.add("beta_diagonal", beta_diagonal_,
@@ -88,9 +91,8 @@ class PottsGaussian final : public Stage {
     for (const auto& c : classes_) {
       const int id = ctx.labels->find(c);
       if (id <= 0)
-        throw ParamError("classes", "'" + c + "' is not a class of the label set (or is 'unknown')");
-      if (std::find(active_.begin(), active_.end(), static_cast<LabelId>(id)) != active_.end())
-        throw ParamError("classes", "'" + c + "' is listed twice; list each class once");
+        throw ParamError("classes",
+                         "'" + c + "' is not a class of the label set (or is 'unknown')");
       if (c == "obstacle") obstacle_index_ = static_cast<int>(active_.size());
       active_.push_back(static_cast<LabelId>(id));
       auto it = model_.classes.find(c);

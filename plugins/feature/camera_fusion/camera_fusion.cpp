@@ -35,7 +35,8 @@ namespace terramrf {
 class CameraFusion final : public Stage {
  public:
   void declare(ParamDecl& d) override {
-    d.add("cameras", cameras_, "names of the cameras to fuse (CameraModel::name); empty = all");
+    d.add("cameras", cameras_, "names of the cameras to fuse (CameraModel::name); empty = all")
+        .unique();
     d.add("footprint_height", footprint_height_,
           "height of the projected cell square: mean or lowest z of the cell's points")
         .choices({"mean", "min"});

@@ -20,7 +20,7 @@ namespace terramrf {
 class FeatureStats final : public Output {
  public:
   void declare(ParamDecl& d) override {
-    d.add("features", features_, "grid layers to model").required();
+    d.add("features", features_, "grid layers to model").required().unique();
     d.add("model", out_path_, "model file to write (relative to the output folder)");
     d.add("min_purity", min_purity_,
           "a cell is a training sample of class c if at least this fraction of its labelled "
@@ -52,12 +52,6 @@ class FeatureStats final : public Output {
   }
   void configure(const PluginContext& ctx) override {
     if (features_.empty()) throw ParamError("features", "is empty; name at least one grid layer");
-    for (std::size_t i = 0; i < features_.size(); ++i)
-      for (std::size_t j = 0; j < i; ++j)
-        if (features_[i] == features_[j])
-          throw ParamError("features", "'" + features_[i] +
-                                           "' is listed twice; the model holds one entry per "
-                                           "feature (the energy refuses duplicates)");
     if (out_path_.empty() || out_path_.back() == '/')
       throw ParamError("model", "'" + out_path_ +
                                     "' is not a file name; expected the model file to write, "

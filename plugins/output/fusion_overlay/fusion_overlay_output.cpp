@@ -23,7 +23,8 @@ class FusionOverlayOutput final : public Output {
  public:
   void declare(ParamDecl& d) override {
     d.add("subdir", subdir_, "folder for the PNGs, relative to the run's output folder");
-    d.add("cameras", cameras_, "names of the fused cameras to draw; empty = every fused camera");
+    d.add("cameras", cameras_, "names of the fused cameras to draw; empty = every fused camera")
+        .unique();
     d.add("point_radius_px", point_radius_px_, "radius of a drawn point (0 = one pixel)")
         .unit("px")
         .range(0, 20);

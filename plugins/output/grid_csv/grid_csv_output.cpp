@@ -1,7 +1,6 @@
 // Output "grid_csv": the labelled grid as a per-cell CSV table per frame, for scripts and
 // spreadsheets (format in grid_csv_format.hpp and docs/plugins/outputs.md).
 #include <filesystem>
-#include <set>
 #include <stdexcept>
 #include <string>
 
@@ -17,7 +16,8 @@ class GridCsvOutput : public Output {
  public:
   void declare(ParamDecl& d) override {
     d.add("subdir", subdir_, "folder for the CSV files, relative to the run's output folder");
-    d.add("layers", layers_, "float layers to write as columns; empty = every layer of the grid");
+    d.add("layers", layers_, "float layers to write as columns; empty = every layer of the grid")
+        .unique();
     d.add("truth", truth_,
           "add columns truth, truth_name, truth_points: each cell's true class by the evaluation's "
           "rule (paper 001 §VI-B) and its labelled points; empty where the frame has no truth");
@@ -25,10 +25,6 @@ class GridCsvOutput : public Output {
 
   void configure(const PluginContext& ctx) override {
     checkOutputSubdir(subdir_, "grid_csv");
-    std::set<std::string> seen;
-    for (const auto& l : layers_) {
-      if (!seen.insert(l).second) throw ParamError("layers", "layer '" + l + "' is listed twice");
-    }
     output_dir_ = ctx.output_dir;
     if (ctx.labels) labels_ = *ctx.labels;
   }

@@ -19,7 +19,7 @@ class LcmPublishOutput : public Output {
           "LCM provider URL (udpm://group:port?ttl=N for the network, memq:// in-process, "
           "file:///path.lcmlog?mode=w to log (mode=a appends); empty = $LCM_DEFAULT_URL)");
     d.add("channel", channel_, "channel of the terrain_grid_t messages");
-    d.add("layers", layers_, "float layers to send; empty = every layer of the grid");
+    d.add("layers", layers_, "float layers to send; empty = every layer of the grid").unique();
     d.add("publish_points", publish_points_,
           "also publish the scan's points as point_cloud_t on <channel>_POINTS");
   }
@@ -43,10 +43,6 @@ class LcmPublishOutput : public Output {
                                     "' opens the log for reading; to write one give "
                                     "?mode=w (or ?mode=a to append), e.g. "
                                     "file:///tmp/run.lcmlog?mode=w");
-    }
-    std::set<std::string> seen;
-    for (const auto& l : layers_) {
-      if (!seen.insert(l).second) throw ParamError("layers", "layer '" + l + "' is listed twice");
     }
     if (ctx.labels) labels_ = *ctx.labels;
   }

@@ -46,7 +46,8 @@ class SemanticKittiSource : public Source {
           "errors)");
     d.add("cameras", cameras_,
           "with use_images: the camera folders to read, each projected with its own P "
-          "(image_0 … image_3: P0 … P3; KITTI's colour pair is image_2, image_3)");
+          "(image_0 … image_3: P0 … P3; KITTI's colour pair is image_2, image_3)")
+        .unique();
     d.add("image_size", image_size_,
           "with use_images: [width, height] of the images the calibration was made for; another "
           "size is an error. Empty: not checked exactly (the files store no size), but the "
@@ -86,8 +87,6 @@ class SemanticKittiSource : public Source {
         throw ParamError("cameras", "unknown camera '" + c +
                                         "'; expected image_0, image_1, image_2 or image_3 (the "
                                         "calibration holds P0 … P3)");
-      if (std::count(cameras_.begin(), cameras_.end(), c) > 1)
-        throw ParamError("cameras", "'" + c + "' is listed twice");
       camera_index_.push_back(c[6] - '0');
     }
     layout_ = resolveKittiLayout(path_, sequence_);

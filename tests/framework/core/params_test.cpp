@@ -95,6 +95,33 @@ TEST(Params, RangeMessagesStateNumbersExactly) {
   }
 }
 
+// A list declared unique() refuses a repeated entry in the core, for every plugin alike (five
+// plugins each had a check of their own; potts_gaussian's features and the camera lists of
+// camera_fusion and fusion_overlay had none).
+TEST(Params, AUniqueListRefusesARepeatedEntry) {
+  struct Lists : Stage {
+    std::vector<std::string> layers, free_list;
+    void declare(ParamDecl& d) override {
+      d.add("layers", layers, "layers").unique();
+      d.add("free_list", free_list, "may repeat");
+    }
+    void process(FrameContext&) override {}
+  } l;
+  try {
+    setParams(l, "{layers: [a, b, a]}", PluginContext{});
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("parameter 'layers': 'a' is listed twice; list each entry once"),
+        std::string::npos)
+        << e.what();
+  }
+  EXPECT_NO_THROW(setParams(l, "{layers: [a, b], free_list: [x, x]}", PluginContext{}));
+  EXPECT_EQ(l.free_list, (std::vector<std::string>{"x", "x"}));
+  EXPECT_TRUE(declaredParams(l)[0].unique);
+  EXPECT_FALSE(declaredParams(l)[1].unique);
+}
+
 TEST(Params, ConfigureErrorNamesTheParameter) {
   Demo d;
   try {

@@ -395,6 +395,15 @@ TEST(PottsGaussian, DefaultClassesAreTheLabelSetsAndARepeatIsRefused) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("'road' is listed twice"), std::string::npos) << e.what();
   }
+  // A repeated feature would count twice in eq. 11 (it used to be accepted).
+  try {
+    h.make("potts_gaussian", "{model: " + m + ", features: [f, f]}");
+    FAIL() << "a feature listed twice was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("parameter 'features': 'f' is listed twice"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace terramrf
