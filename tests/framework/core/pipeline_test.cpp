@@ -6,6 +6,9 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <optional>
 #include <sstream>
 
 #include "config_fixture.hpp"
@@ -219,6 +222,17 @@ TEST(Pipeline, TheResolvedConfigReproducesTheRun) {
 
 namespace {
 /// An output that notes, when its first frame comes, whether a file exists.
+/// Files an earlier run left in `out` ("earlier run\n"), dated `mtime` if given.
+void putEarlierRunFiles(const std::string& out, std::initializer_list<const char*> files,
+                        std::optional<std::filesystem::file_time_type> mtime = std::nullopt) {
+  for (const char* file : files) {
+    const std::string path = out + "/" + file;
+    std::filesystem::create_directories(std::filesystem::path(path).parent_path());
+    std::ofstream(path) << "earlier run\n";
+    if (mtime) std::filesystem::last_write_time(path, *mtime);
+  }
+}
+
 /// Fails the frames it is told to, after the outputs before it have written them.
 struct FailingOutput : Output {
   std::string fail_id;
@@ -244,13 +258,8 @@ TEST(Pipeline, EarlierRunsFilesCannotPassForThisRuns) {
   std::string text = test::ConfigFixture::validPipeline("{frames: 3, bad_frames: [1]}");
   text.replace(text.find("outputs: []"), 11, "outputs: [{type: grid_csv}, {type: evaluation}]");
   const std::string out = f.dir.str() + "/out";
-  const auto old_time = fs::file_time_type::clock::now() - std::chrono::hours(1);
-  for (const char* file : {"grid_csv/000000.csv", "grid_csv/000001.csv", "evaluation/000001.json",
-                           "evaluation/summary.md", "timing.md"}) {
-    fs::create_directories(fs::path(out + "/" + file).parent_path());
-    std::ofstream(out + "/" + file) << "earlier run\n";
-    fs::last_write_time(out + "/" + file, old_time);
-  }
+  putEarlierRunFiles(out, {"grid_csv/000000.csv", "grid_csv/000001.csv", "evaluation/000001.json",
+                           "evaluation/summary.md", "timing.md"});
   LoadOptions lo;
   lo.output_dir = out;
   Pipeline p = loadPipeline(f.write("c.yaml", text), lo, f.registry);
@@ -287,13 +296,8 @@ TEST(Pipeline, AFailedFramesFilesGoByWhoWroteThemNotByTheirTimes) {
   std::string text = test::ConfigFixture::validPipeline("{frames: 3}");
   text.replace(text.find("outputs: []"), 11, "outputs: [{type: grid_csv}]");
   const std::string out = f.dir.str() + "/out";
-  const auto future = fs::file_time_type::clock::now() + std::chrono::hours(1);
-  fs::create_directories(out + "/grid_csv");
-  fs::create_directories(out + "/evaluation");
-  for (const char* file : {"grid_csv/000001.csv", "evaluation/000001.json"}) {
-    std::ofstream(out + "/" + file) << "earlier run\n";
-    fs::last_write_time(out + "/" + file, future);
-  }
+  putEarlierRunFiles(out, {"grid_csv/000001.csv", "evaluation/000001.json"},
+                     fs::file_time_type::clock::now() + std::chrono::hours(1));
   LoadOptions lo;
   lo.output_dir = out;
   Pipeline p = loadPipeline(f.write("c.yaml", text), lo, f.registry);
