@@ -67,6 +67,8 @@ bool parseDouble(const YAML::Node& n, double& out) {
 
 std::string rangeText(const ParamSpec& s) {
   std::ostringstream o;
+  if (!s.min && !s.max)
+    return "a finite number" + (s.unit.empty() || s.unit == "1" ? "" : " (" + s.unit + ")");
   if (s.min && s.max)
     o << "in [" << numberText(*s.min) << ", " << numberText(*s.max) << "]";
   else if (s.min)
@@ -80,8 +82,10 @@ std::string rangeText(const ParamSpec& s) {
 // Converts one node to the spec's type; returns "" on success or the complaint.
 std::string convert(const ParamSpec& s, const YAML::Node& n, ParamValue& out) {
   const std::string want = std::string("expected ") + toString(s.type);
+  // Not finite is out of every range: an unbounded `class_cost: .inf` would make the
+  // optimisers' energy differences NaN as surely as a NaN would.
   auto checkRange = [&](double v) -> std::string {
-    if ((s.min && v < *s.min) || (s.max && v > *s.max) || std::isnan(v)) {
+    if ((s.min && v < *s.min) || (s.max && v > *s.max) || !std::isfinite(v)) {
       std::ostringstream o;
       o << "value " << numberText(v) << " out of range: expected " << rangeText(s);
       return o.str();

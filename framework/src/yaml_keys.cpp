@@ -2,8 +2,11 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <map>
 
+#include "param_yaml.hpp"
 #include "terramrf/errors.hpp"
 
 namespace terramrf {
@@ -47,6 +50,23 @@ void throwOnRepeatedYamlKey(const YAML::Node& root, const std::string& file) {
   if (!repeats.empty()) throw InputError(file, repeats.front().message());
 }
 
+void throwOnUnknownYamlKeys(const YAML::Node& map, const std::vector<std::string>& allowed,
+                            const std::string& file, const std::string& where) {
+  if (!map.IsMap()) return;
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    const std::string key = it->first.IsScalar() ? it->first.Scalar() : "";
+    if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
+    const YAML::Mark m = it->first.Mark();
+    std::string msg = "line " + std::to_string(m.line + 1) + ":" + std::to_string(m.column + 1) +
+                      ": unknown key '" + key + "' in " + where;
+    const std::string dym = detail::didYouMean(key, allowed);
+    if (!dym.empty()) msg += " (did you mean '" + dym + "'?)";
+    std::string list;
+    for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+    throw InputError(file, msg + "; expected one of: " + list);
+  }
+}
+
 namespace {
 std::string where(const YAML::Exception& e) {
   if (e.mark.is_null()) return "";
@@ -61,6 +81,10 @@ void throwYamlInputError(const std::string& file, const YAML::Exception& e,
 
 YAML::Node loadUserYaml(const std::string& file) {
   YAML::Node root;
+  std::error_code ec;
+  // std::ifstream opens a folder and then fails to read it with "basic_filebuf::underflow".
+  if (std::filesystem::is_directory(file, ec))
+    throw InputError(file, "is a folder; expected a YAML file");
   try {
     root = YAML::LoadFile(file);
   } catch (const YAML::BadFile&) {

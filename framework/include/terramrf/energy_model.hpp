@@ -2,7 +2,8 @@
 // The MRF of paper 000 eq. 10–12 in the form optimisers consume.
 //
 // Labels an optimiser may assign are indexed 0..K-1 ("active labels", mapped to LabelIds by
-// `active`). Cells marked `fixed` (no data) keep `initial` and take no part in pairwise terms.
+// `active`). Cells marked `fixed` (no data) are not optimised, take no part in pairwise terms and
+// end as unknown (`initial` is ignored for them).
 //
 //   E(ω) = Σ_cells unary[c][ω_c]  +  Σ_{unordered 8-neighbour pairs {c,d}} w_cd · δ(ω_c, ω_d)
 //

@@ -31,9 +31,17 @@ std::vector<RepeatedYamlKey> repeatedYamlKeys(const YAML::Node& root);
 /// Throws InputError(file, first repeat's message) when `root` repeats a key.
 void throwOnRepeatedYamlKey(const YAML::Node& root, const std::string& file);
 
+/// Throws InputError(file, "line L:C: unknown key 'sigmaa' in <where> (did you mean 'sigma'?);
+/// expected one of: mean, sigma") for the first key of `map` that is not in `allowed`: a
+/// misspelt key in a file the user edits would otherwise be ignored without a word. Does
+/// nothing when `map` is not a map (the caller reports that in its own words).
+void throwOnUnknownYamlKeys(const YAML::Node& map, const std::vector<std::string>& allowed,
+                            const std::string& file, const std::string& where);
+
 /// The YAML of a file the user writes or edits (label map, model, calibration), with its repeated
-/// keys refused. A file that cannot be read or parsed throws InputError(file, "line L:C: YAML
-/// syntax error: …") — the position as repeats give it, not yaml-cpp's own wording.
+/// keys refused. A folder at `file` is refused as such. A file that cannot be read or parsed throws
+/// InputError(file, "line L:C: YAML syntax error: …") — the position as repeats give it, not
+/// yaml-cpp's own wording.
 YAML::Node loadUserYaml(const std::string& file);
 
 /// yaml-cpp's error from reading `file`'s nodes (a scalar indexed as a map, a key that is not a

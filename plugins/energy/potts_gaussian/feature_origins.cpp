@@ -24,6 +24,14 @@ std::set<std::string> keysOf(const YAML::Node& a, const YAML::Node& b, const cha
   return keys;
 }
 
+/// `n[key][sub]`, or an undefined node when `n[key]` is missing or not a map: yaml-cpp throws when
+/// a missing node is indexed, and a record without `inputs` (a stage that reads none) is valid.
+YAML::Node child(const YAML::Node& n, const char* key, const std::string& sub) {
+  const YAML::Node m = n[key];
+  if (!m || !m.IsMap()) return YAML::Node(YAML::NodeType::Undefined);
+  return m[sub];
+}
+
 void compare(const YAML::Node& learnt, const YAML::Node& here, const std::string& prefix,
              std::vector<std::string>& out) {
   const std::string stage_l = text(learnt["stage"]), stage_h = text(here["stage"]);
@@ -37,11 +45,11 @@ void compare(const YAML::Node& learnt, const YAML::Node& here, const std::string
     out.push_back("cells of " + text(here["cell_m"]) + " m here, " + text(learnt["cell_m"]) +
                   " m in the model");
   for (const auto& k : keysOf(learnt, here, "params")) {
-    const std::string l = text(learnt["params"][k]), h = text(here["params"][k]);
+    const std::string l = text(child(learnt, "params", k)), h = text(child(here, "params", k));
     if (l != h) out.push_back(prefix + k + ": " + h + " here, " + l + " in the model");
   }
   for (const auto& in : keysOf(learnt, here, "inputs")) {
-    const YAML::Node l = learnt["inputs"][in], h = here["inputs"][in];
+    const YAML::Node l = child(learnt, "inputs", in), h = child(here, "inputs", in);
     const std::string p = prefix + "input '" + in + "': ";
     if (!l || !h)
       out.push_back(p + (h ? "computed here, not recorded in the model"

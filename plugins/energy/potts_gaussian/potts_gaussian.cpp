@@ -50,7 +50,8 @@ class PottsGaussian final : public Stage {
           "unary after the alpha weighting: unary_k = alpha·E_f + cost_k, E = Σ unary + pairs. "
           "A negative log prior, or the price of missing a class — a negative obstacle cost "
           "trades false alarms for obstacle recall (docs/energy.md)")
-        .unit("energy");
+        .unit("energy")
+        .range(-1e6, 1e6);
     d.add("min_points", min_points_, "cells with fewer points are fixed to unknown (no data)")
         .unit("points").range(1, 1000);
     d.add("evidence_layers", evidence_layers_,
@@ -124,6 +125,14 @@ class PottsGaussian final : public Stage {
         neglogw_.push_back(static_cast<float>(-std::log(comp.weight)));
         for (std::size_t f = 0; f < F; ++f) {
           const Gaussian& g = comp.features.at(features_[f]);
+          // The loader checks the model in double; the unaries are single precision, where
+          // σ < 4e-20 gives 1/(2σ²) = inf and a feature equal to the mean then NaN.
+          if (!(std::abs(g.mean) <= 3e38) || !(g.sigma >= 1e-18 && g.sigma <= 1e18))
+            throw ParamError("model", model_path_ + ": " + classes_[k] + "." + features_[f] +
+                                          ": mean " + numberText(g.mean) + ", sigma " +
+                                          numberText(g.sigma) +
+                                          " cannot be computed with in single precision; "
+                                          "expected |mean| < 3e38 and sigma in [1e-18, 1e18]");
           mean_.push_back(static_cast<float>(g.mean));
           inv2var_.push_back(static_cast<float>(1.0 / (2 * g.sigma * g.sigma)));
           lognorm_.push_back(static_cast<float>(std::log(std::sqrt(2 * M_PI) * g.sigma)));
@@ -200,6 +209,10 @@ class PottsGaussian final : public Stage {
           for (int j = b; j < e; ++j) sum += std::exp(emin - comp_energy_[j]);
           energy = emin - std::log(sum);
         }
+        // A feature 1e20 σ from every component's mean overflows to inf (and α = 0 would make
+        // that NaN); optimisers need finite differences, and "as unlikely as can be" orders the
+        // classes the same way.
+        if (!(energy <= kMaxFeatureEnergy)) energy = kMaxFeatureEnergy;
         u[k] = alpha * energy + cost_[k] + (has_evidence ? ev[k][c] : 0.f);
       }
       // Initial labelling: the pre-classification decides obstacle vs flat; among the others
@@ -265,6 +278,9 @@ class PottsGaussian final : public Stage {
                                     "\n    retrain it with these stages, or give them the model's "
                                     "parameters (check_feature_origins: false uses it anyway)");
   }
+
+  /// Cap of eq. 11's energy per cell and class: finite, and far above any sum of real terms.
+  static constexpr float kMaxFeatureEnergy = 1e20f;
 
   std::string model_path_;
   std::vector<std::string> features_;

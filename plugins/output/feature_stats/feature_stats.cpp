@@ -56,9 +56,17 @@ class FeatureStats final : public Output {
       throw ParamError("model", "'" + out_path_ +
                                     "' is not a file name; expected the model file to write, "
                                     "e.g. model.yaml (relative to the output folder)");
-    if (min_sigma_.size() > 1 && min_sigma_.size() != features_.size())
+    if (min_sigma_.empty() || (min_sigma_.size() > 1 && min_sigma_.size() != features_.size()))
       throw ParamError("min_sigma", "give one value, or one per feature (" +
                                         std::to_string(features_.size()) + ")");
+    // A feature constant in a class's cells would otherwise be written as sigma: 0, a model
+    // that potts_gaussian refuses only at the next run.
+    for (std::size_t f = 0; f < min_sigma_.size(); ++f)
+      if (!(min_sigma_[f] > 0))
+        throw ParamError("min_sigma", "floors must be > 0 (entry " + std::to_string(f + 1) +
+                                          " is " + numberText(min_sigma_[f]) +
+                                          "): a class whose cells all share one value would "
+                                          "get sigma 0, which no model can use");
     // Without an obstacle class the rule would be skipped while the model's provenance says it
     // was applied.
     if (obstacle_rule_ && ctx.labels && ctx.labels->obstacle() < 0)
@@ -284,9 +292,7 @@ class FeatureStats final : public Output {
     return out_path_.front() == '/' ? out_path_ : info_.output_dir + "/" + out_path_;
   }
 
-  double sigmaFloor(std::size_t f) const {
-    return min_sigma_.empty() ? 0 : min_sigma_[min_sigma_.size() == 1 ? 0 : f];
-  }
+  double sigmaFloor(std::size_t f) const { return min_sigma_[min_sigma_.size() == 1 ? 0 : f]; }
 
   /// Classification EM over one class's cells (`x`: cells × F, NaN = no data). Starts from equal
   /// shares of the cells ordered by the first feature, then alternates: estimate each component

@@ -95,6 +95,34 @@ TEST(Params, RangeMessagesStateNumbersExactly) {
   }
 }
 
+// A number without declared bounds must still be finite: `class_cost: .inf` was accepted and
+// made every optimiser's energy differences NaN. The message said "expected  energy".
+TEST(Params, NonFiniteNumbersAreRefusedEvenWithoutARange) {
+  struct Free : Stage {
+    double cost = 0;
+    std::vector<double> costs;
+    void declare(ParamDecl& d) override {
+      d.add("cost", cost, "a cost").unit("energy");
+      d.add("costs", costs, "costs").unit("energy");
+    }
+    void process(FrameContext&) override {}
+  } f;
+  try {
+    setParams(f, "{cost: .inf, costs: [0, -.inf]}", PluginContext{});
+    FAIL() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("'cost': value inf out of range: expected a finite number (energy)"),
+              std::string::npos)
+        << m;
+    EXPECT_NE(m.find("'costs': value -inf out of range: expected a finite number (energy)"),
+              std::string::npos)
+        << m;
+  }
+  setParams(f, "{cost: -1e300, costs: [1e300]}", PluginContext{});
+  EXPECT_EQ(f.cost, -1e300);
+}
+
 // A list declared unique() refuses a repeated entry in the core, for every plugin alike (five
 // plugins each had a check of their own; potts_gaussian's features and the camera lists of
 // camera_fusion and fusion_overlay had none).

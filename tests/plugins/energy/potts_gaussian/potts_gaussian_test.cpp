@@ -268,9 +268,25 @@ TEST(PottsGaussian, BadMixturesNameTheFileAndLine) {
              "bad.yaml:4:13: class 'obstacle' must map features to {mean, sigma}"},
         // A component without a weight, or one that is not a number.
         Case{"  obstacle: {components: [{features: {f: {mean: 0, sigma: 1}}}]}\n",
-             "bad.yaml:4:27: obstacle.components: each needs 'weight: <number > 0>'"},
+             "bad.yaml:4:27: obstacle.components: missing 'weight'"},
         Case{"  obstacle: {components: [{weight: half, features: {f: {mean: 0, sigma: 1}}}]}\n",
-             "bad.yaml:4:27: obstacle.components: each needs 'weight: <number > 0>'"},
+             "bad.yaml:4:36: obstacle.components.weight: expected a number, got 'half'"},
+        // Numbers in messages as written, not as six fixed decimals ("got -0.000000").
+        Case{"  obstacle: {f: {mean: 1, sigma: -1e-9}}\n",
+             "obstacle.f: sigma must be a finite number > 0, got -1e-09"},
+        Case{"  obstacle: {f: {mean: abc, sigma: 1}}\n",
+             "bad.yaml:4:24: obstacle.f.mean: expected a number, got 'abc'"},
+        Case{"  obstacle: {f: {sigma: 1}}\n", "bad.yaml:4:17: obstacle.f: missing 'mean'"},
+        // A misspelt or misplaced key used to be ignored without a word.
+        Case{"  obstacle: {f: {mean: 1, sigma: 1, sigmaa: 5}}\n",
+             "bad.yaml: line 4:37: unknown key 'sigmaa' in feature 'obstacle.f' (did you mean "
+             "'sigma'?); expected one of: mean, sigma"},
+        Case{"  obstacle: {f: {mean: 99, sigma: 1}, components: [{weight: 1, features: {f: "
+             "{mean: 0, sigma: 1}}}]}\n",
+             "unknown key 'f' in class 'obstacle' (a class with 'components' has nothing else)"},
+        Case{"  obstacle: {components: [{weight: 1, featurs: {f: {mean: 0, sigma: 1}}}]}\n",
+             "unknown key 'featurs' in a component of class 'obstacle' (did you mean "
+             "'features'?)"},
         // A component without features.
         Case{"  obstacle: {components: [{weight: 1}]}\n",
              "bad.yaml:4:27: obstacle.components: each needs 'features:'"},
@@ -464,6 +480,132 @@ TEST(PottsGaussian, AModelLearntOnFeaturesComputedOtherwiseIsRefused) {
   EXPECT_NO_THROW(h.make("potts_gaussian", "{model: " + m + ", features: [f]}"));
   h.layer_origins = &here;
   EXPECT_NO_THROW(h.make("potts_gaussian", "{model: " + writeModel(d) + ", features: [f]}"));
+}
+
+}  // namespace terramrf
+
+namespace terramrf {
+
+namespace {
+/// The message of the error making `params` fails with, or "" when it is accepted.
+std::string refusal(test::StageHarness& h, const std::string& params) {
+  try {
+    h.make("potts_gaussian", params);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+// `class_cost: .inf` (or 1e39, infinite once in single precision) used to pass: α-expansion then
+// accepted no move and Gibbs returned its start with energy −inf, exit status 0.
+TEST(PottsGaussian, ANonFiniteOrHugeClassCostIsRefused) {
+  test::TempDir d;
+  test::StageHarness h;
+  const std::string m = writeModel(d);
+  for (const char* cost : {".inf", "-.inf", "1e39", ".nan"}) {
+    const std::string what =
+        refusal(h, "{model: " + m + ", features: [f], class_cost: [0, " + cost + ", 0]}");
+    EXPECT_NE(what.find("class_cost"), std::string::npos) << cost << ": " << what;
+    EXPECT_NE(what.find("expected in [-1000000, 1000000]"), std::string::npos)
+        << cost << ": " << what;
+  }
+  EXPECT_EQ(refusal(h, "{model: " + m + ", features: [f], class_cost: [0, -1e6, 1e6]}"), "");
+}
+
+// σ = 1e-25 passed the loader (finite, > 0) but 1/(2σ²) is infinite in the single-precision
+// unaries: a cell whose feature equals the mean got NaN, and the class was never chosen.
+TEST(PottsGaussian, AModelSigmaOutsideSinglePrecisionIsRefused) {
+  test::TempDir d;
+  test::StageHarness h;
+  for (const char* entry :
+       {"{mean: 0, sigma: 1e-25}", "{mean: 0, sigma: 1e20}", "{mean: 1e39, sigma: 1}"}) {
+    const std::string p = d.str() + "/tiny.yaml";
+    std::ofstream(p) << "classes:\n  road: {f: " << entry
+                     << "}\n  rough: {f: {mean: 1, sigma: 1}}\n"
+                        "  obstacle: {f: {mean: 5, sigma: 2}}\n";
+    const std::string what = refusal(h, "{model: " + p + ", features: [f]}");
+    EXPECT_NE(what.find("tiny.yaml: road.f: mean "), std::string::npos) << entry << ": " << what;
+    EXPECT_NE(what.find("cannot be computed with in single precision"), std::string::npos) << what;
+  }
+}
+
+// A feature astronomically far from every mean (or infinite) gives a finite unary, also with
+// α = 0, where inf · 0 used to be NaN.
+TEST(PottsGaussian, UnariesStayFiniteForExtremeFeatures) {
+  test::TempDir d;
+  const std::string m = writeModel(d);
+  for (const char* alpha : {"1", "0"}) {
+    test::StageHarness h;
+    h.frame.points.push_back(1.1f, 1.1f, -1.7f, 0);
+    h.frame.points.push_back(-1.1f, 1.1f, -1.7f, 0);
+    h.bin();
+    const int a = h.geom.cellOf(1.1, 1.1), b = h.geom.cellOf(-1.1, 1.1);
+    h.grid.add("f")[a] = INFINITY;
+    h.grid.layer("f")[b] = 1e30f;
+    h.make("potts_gaussian", std::string("{model: ") + m + ", features: [f], alpha: " + alpha + "}")
+        ->process(h.ctx);
+    for (int c : {a, b})
+      for (int k = 0; k < 3; ++k)
+        EXPECT_TRUE(std::isfinite(h.ctx.energy.unary[c * 3 + k]))
+            << "alpha " << alpha << " cell " << c << " class " << k << ": "
+            << h.ctx.energy.unary[c * 3 + k];
+    EXPECT_TRUE(std::isfinite(h.ctx.energy.energy(h.ctx.energy.initial)));
+  }
+}
+
+// A misspelt top-level key (`feature_origin:`) switched the origin check off without a word.
+TEST(PottsGaussian, AnUnknownTopLevelKeyOfTheModelIsRefused) {
+  test::TempDir d;
+  test::StageHarness h;
+  const std::string p = d.str() + "/typo.yaml";
+  std::ofstream(p) << "feature_origin:\n  f: {stage: roughness}\nclasses:\n"
+                      "  road: {f: {mean: 0, sigma: 1}}\n  rough: {f: {mean: 1, sigma: 1}}\n"
+                      "  obstacle: {f: {mean: 5, sigma: 2}}\n";
+  const std::string what = refusal(h, "{model: " + p + ", features: [f]}");
+  EXPECT_NE(what.find("typo.yaml: line 1:1: unknown key 'feature_origin' in the model file (did "
+                      "you mean 'feature_origins'?); expected one of: provenance, trained_from, "
+                      "feature_origins, classes"),
+            std::string::npos)
+      << what;
+}
+
+// A folder given as the model read as "basic_filebuf::underflow error reading the file".
+TEST(PottsGaussian, AFolderAsTheModelIsNamedAsSuch) {
+  test::TempDir d;
+  test::StageHarness h;
+  const std::string what = refusal(h, "{model: " + d.str() + ", features: [f]}");
+  EXPECT_NE(what.find(d.str() + ": is a folder; expected a YAML file"), std::string::npos) << what;
+}
+
+// A stage that reads no layer records no `inputs:`; comparing it with a run where the feature's
+// stage does read one used to end in "the model's record of it cannot be read".
+TEST(PottsGaussian, AnOriginRecordWithoutInputsIsComparedNotCalledUnreadable) {
+  test::TempDir d;
+  const std::string m = d.str() + "/m.yaml";
+  std::ofstream(m) << "feature_origins:\n  f: {stage: log_transform, params: {input: roughness}}\n"
+                   << "classes:\n"
+                      "  road:     {f: {mean: 0.0, sigma: 0.1}}\n"
+                      "  rough:    {f: {mean: 1.0, sigma: 0.5}}\n"
+                      "  obstacle: {f: {mean: 5.0, sigma: 2.0}}\n";
+  test::StageHarness h;
+  std::map<std::string, std::string> here{
+      {"f",
+       "{stage: log_transform, params: {input: roughness}, inputs: {roughness: {stage: "
+       "roughness, params: {window: 2}}}}"}};
+  h.layer_origins = &here;
+  std::string what = refusal(h, "{model: " + m + ", features: [f]}");
+  EXPECT_NE(what.find("feature 'f': input 'roughness': computed here, not recorded in the model"),
+            std::string::npos)
+      << what;
+  EXPECT_EQ(what.find("cannot be read"), std::string::npos) << what;
+  // And the other way round: no `params` here.
+  here["f"] = "{stage: log_transform}";
+  what = refusal(h, "{model: " + m + ", features: [f]}");
+  EXPECT_NE(what.find("feature 'f': input: (not set) here, roughness in the model"),
+            std::string::npos)
+      << what;
 }
 
 }  // namespace terramrf

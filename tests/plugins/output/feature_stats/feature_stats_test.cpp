@@ -166,6 +166,16 @@ TEST(FeatureStats, FeatureListAndModelNameAreChecked) {
   EXPECT_NE(paramError("{features: [a], model: models/}").find("'models/' is not a file name"),
             std::string::npos);
   EXPECT_EQ(paramError("{features: [a, b], model: m.yaml}"), "no error");
+  // A floor of 0 (or none) wrote `sigma: 0` for a feature constant in a class's cells: a model
+  // that potts_gaussian refused only at the next run.
+  EXPECT_NE(paramError("{features: [a, b], min_sigma: [0.1, 0]}")
+                .find("parameter 'min_sigma': floors must be > 0 (entry 2 is 0)"),
+            std::string::npos)
+      << paramError("{features: [a, b], min_sigma: [0.1, 0]}");
+  EXPECT_NE(paramError("{features: [a, b], min_sigma: []}")
+                .find("parameter 'min_sigma': give one value, or one per feature (2)"),
+            std::string::npos)
+      << paramError("{features: [a, b], min_sigma: []}");
   // A folder where the model goes: refused at the run's start.
   test::TempDir dir;
   std::filesystem::create_directories(dir.str() + "/model.yaml");
