@@ -138,6 +138,8 @@ int cmdRun(const Args& args) {
   } else {
     std::cout << "\n";
   }
+  // Every frame may be ok and the run still fail (exit 4): the summary says why, not only stderr.
+  for (const auto& e : r.output_errors) std::cout << "error: " << e << "\n";
   if (r.points_dropped_nonfinite + r.points_dropped_no_return > 0)
     std::cout << "points dropped while reading: " << r.points_dropped_nonfinite
               << " with NaN/inf values, " << r.points_dropped_no_return

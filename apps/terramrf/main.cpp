@@ -105,5 +105,8 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     std::cerr << "terramrf " << cmd << ": " << e.what() << "\n";
     return kError;
+  } catch (...) {  // thrown by a plugin: not a std::exception, so nothing more to say of it
+    std::cerr << "terramrf " << cmd << ": unknown exception (not a std::exception)\n";
+    return kError;
   }
 }

@@ -71,20 +71,15 @@ std::string safeFileName(std::string s) {
   return s;
 }
 
-std::vector<std::string> frameFilesIn(const std::string& dir, const std::string& stem,
-                                      const std::string& ext) {
+std::vector<std::string> frameFileNames(const std::string& dir, const std::string& stem,
+                                        const std::vector<std::string>& cameras,
+                                        const std::string& ext) {
   namespace fs = std::filesystem;
-  std::vector<std::string> out;
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(dir, ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.size() < stem.size() + ext.size() || name.rfind(stem, 0) != 0 ||
-        name.compare(name.size() - ext.size(), ext.size(), ext) != 0)
-      continue;
-    const std::string middle = name.substr(stem.size(), name.size() - stem.size() - ext.size());
-    if (middle.empty() || middle[0] == '_') out.push_back(e.path().string());
+  std::vector<std::string> out = {(fs::path(dir) / (stem + ext)).string()};
+  for (const std::string& camera : cameras) {
+    std::string f = (fs::path(dir) / (stem + "_" + safeFileName(camera) + ext)).string();
+    if (std::find(out.begin(), out.end(), f) == out.end()) out.push_back(std::move(f));
   }
-  std::sort(out.begin(), out.end());
   return out;
 }
 

@@ -36,6 +36,7 @@ class CachedSource final : public Source {
   Frame read(std::size_t i) override;
   /// As the inner source: the cache itself is locked.
   bool concurrentReads() const override { return inner_->concurrentReads(); }
+  std::vector<std::string> cameraNames() const override { return inner_->cameraNames(); }
 
   /// Counts once the sweep's runs are over (not locked).
   std::size_t hits() const { return hits_; }

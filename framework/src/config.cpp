@@ -232,6 +232,7 @@ CommonKeys readCommonKeys(const YAML::Node& root, const std::string& base_dir,
                           PluginRegistry& reg, Diags& d, KeyHint hint) {
   CommonKeys k;
   if (const YAML::Node pp = root["plugin_path"]) {
+    std::vector<std::string> found;
     if (!pp.IsSequence()) {
       d.add(pp.Mark(), "'plugin_path' must be a list of folders");
     } else {
@@ -241,11 +242,15 @@ CommonKeys readCommonKeys(const YAML::Node& root, const std::string& base_dir,
           continue;
         }
         const std::string dir = (fs::path(base_dir) / e.Scalar()).lexically_normal().string();
-        if (!fs::is_directory(dir))
-          d.add(e.Mark(), "plugin_path entry '" + dir + "' is not a folder");
         k.plugin_dirs.push_back(dir);
+        // An error here, at its line; the registry would only warn of it (as of an environment
+        // variable's folder), and the run would go on without the plugins meant.
+        if (fs::is_directory(dir))
+          found.push_back(dir);
+        else
+          d.add(e.Mark(), "plugin_path entry '" + dir + "' is not a folder");
       }
-      if (!k.plugin_dirs.empty()) reg.prependDirs(k.plugin_dirs);
+      if (!found.empty()) reg.prependDirs(found);
     }
   }
   if (const YAML::Node g = root["grid"]) {

@@ -109,6 +109,24 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   std::ostream& log = opt.log ? *opt.log : std::cerr;
   RunResult res;
   std::filesystem::create_directories(p.output_dir);
+  auto inOutputDir = [&](const std::string& f) {
+    const std::filesystem::path path(f);
+    return path.is_absolute() ? path : std::filesystem::path(p.output_dir) / path;
+  };
+  // An earlier run's summaries would pass for this run's should it stop before the end, where
+  // they are written again, or fail in an output's begin(): they go before this run's resolved
+  // config is written. Asked again after begin(), for an output that names them only then. Its
+  // per-frame files are removed only for frames that fail (below).
+  auto removeSummaries = [&] {
+    std::vector<std::string> summaries = {kTimingFile, kMetricsFile};
+    for (auto& o : p.outputs)
+      for (const auto& f : o->summaryFiles()) summaries.push_back(f);
+    for (const auto& f : summaries) {
+      std::error_code ec;
+      std::filesystem::remove(inOutputDir(f), ec);
+    }
+  };
+  removeSummaries();
   std::string frames_run;  // the frames are chosen on the command line, not in the config
   if (opt.first > 0 || opt.limit > 0)
     frames_run = "# This run: --first " + std::to_string(opt.first) +
@@ -127,28 +145,16 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   info.frames = n;
   info.labels = p.labels.get();
   info.grid = p.grid;
+  info.cameras = p.source->cameraNames();
   for (auto& o : p.outputs) o->begin(info);
-  // An earlier run's summaries would pass for this run's should it stop before the end, where
-  // they are written again; its per-frame files are removed only for frames that fail (below).
-  auto inOutputDir = [&](const std::string& f) {
-    const std::filesystem::path path(f);
-    return path.is_absolute() ? path : std::filesystem::path(p.output_dir) / path;
-  };
-  {
-    std::vector<std::string> summaries = {kTimingFile, kMetricsFile};
-    for (auto& o : p.outputs)
-      for (const auto& f : o->summaryFiles()) summaries.push_back(f);
-    for (const auto& f : summaries) {
-      std::error_code ec;
-      std::filesystem::remove(inOutputDir(f), ec);
-    }
-  }
+  removeSummaries();
   // A failed frame's files from the outputs that did not write it this run are an earlier run's
   // (outputs before the failure wrote theirs: those are kept). Decided by who wrote, not by
   // modification times, which a coarse or skewed clock could misorder.
-  auto removeStaleFrameFiles = [&](const std::string& frame_id, std::size_t outputs_done) {
+  auto removeStaleFrameFiles = [&](const std::string& frame_id, const Frame* frame,
+                                   std::size_t outputs_done) {
     for (std::size_t k = outputs_done; k < p.outputs.size(); ++k) {
-      for (const auto& f : p.outputs[k]->frameFiles(frame_id)) {
+      for (const auto& f : p.outputs[k]->frameFiles(frame_id, frame)) {
         std::error_code ec;
         const auto path = inOutputDir(f);
         if (std::filesystem::remove(path, ec))
@@ -156,6 +162,24 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
               << " failed before its output wrote it)\n";
       }
     }
+  };
+  // Inside a frame's failure: should it fail too (an output's frameFiles(), a folder that cannot
+  // be listed), the run still goes on and every output still ends.
+  auto removeStaleFrameFilesOrSay = [&](const std::string& frame_id, const Frame* frame,
+                                        std::size_t outputs_done) {
+    std::string why;
+    try {
+      removeStaleFrameFiles(frame_id, frame, outputs_done);
+    } catch (const std::exception& e) {
+      why = e.what();
+    } catch (...) {
+      why = "unknown exception (not a std::exception)";
+    }
+    if (!why.empty())
+      log << "warning: frame " << frame_id
+          << ": an earlier run's files of this frame may be left, and pass for this run's: "
+             "removing them failed: "
+          << why << "\n";
   };
 
   // Timing slots: read, read wait, egomotion stages, grid, other stages, outputs, total.
@@ -187,8 +211,11 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
                 : 1;
   std::unique_ptr<FrameReader> reader;
   if (depth > 0 && n > 1) {
+    // Frames are held `depth` deep, but more threads than cores would only take turns.
+    const std::size_t threads =
+        std::min<std::size_t>(depth, std::max(1u, std::thread::hardware_concurrency()));
     try {
-      reader = std::make_unique<FrameReader>(*p.source, first, n, depth, depth);
+      reader = std::make_unique<FrameReader>(*p.source, first, n, depth, threads);
       res.read_ahead = depth;
       res.read_threads = reader->threads();
     } catch (const std::system_error& e) {
@@ -198,7 +225,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
 
   for (std::size_t k = 0; k < n; ++k) {
     const std::size_t i = first + k;
-    const std::string id = p.source->frameId(i);
+    std::string id;  // known once frameId() returns, which a source may make throw
     FrameContext& ctx = ctxs[cur];
     ctx = FrameContext{};
     ctx.frame = &frames[cur];
@@ -210,10 +237,14 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
     const auto t_frame = Clock::now();
     std::string stage_name = "read";
     std::size_t outputs_done = 0;  // outputs that wrote this frame
+    bool read_ok = false;          // frames[cur] holds this frame (its cameras name files)
+    bool taken = false;            // the reader handed this frame over
     try {
+      id = p.source->frameId(i);
       auto t = Clock::now();
       if (reader) {
         FrameReader::Result r = reader->take(k);
+        taken = true;
         slot_ms[slot++] = r.read_ms;
         if (r.error) std::rethrow_exception(r.error);
         frames[cur] = std::move(r.frame);
@@ -223,7 +254,11 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       }
       slot_ms[slot++] = msSince(t);
       if (frames[cur].id.empty()) frames[cur].id = id;
+      read_ok = true;
       noteDroppedPoints(frames[cur], res, log, opt.progress);
+      // The grid is built after the egomotion stages; until then it would still hold the layers
+      // of the frame two back (the slot's last use), which they could take for this frame's.
+      if (first_non_ego > 0) grids[cur].reset(p.grid);
       for (std::size_t s = 0; s < first_non_ego; ++s) {
         stage_name = p.stages[s]->name();
         t = Clock::now();
@@ -257,23 +292,40 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       ctx.previous = nullptr;
       have_prev = true;
       cur = 1 - cur;
-    } catch (const std::exception& e) {
-      const std::string why = "[" + stage_name + "] " + e.what();
+    } catch (...) {
+      std::string why = "[" + stage_name + "] ";
+      try {
+        throw;
+      } catch (const std::exception& e) {
+        why += e.what();
+      } catch (...) {  // a plugin's own type, an int: the run goes on all the same
+        why += "unknown exception (not a std::exception)";
+      }
+      // The reader hands frames over in order and reads no further than its depth past the
+      // last one taken: a frame left with it would stall the run.
+      if (reader && !taken) reader->take(k);
+      const bool id_known = !id.empty();
+      if (!id_known) id = "#" + std::to_string(i);  // frameId() itself failed
       res.summary.failed.push_back({id, why});
       if (opt.progress) std::fprintf(stderr, "%s", ::isatty(2) ? "\n" : "");
       log << "frame " << id << " failed and was skipped: " << why << "\n";
-      removeStaleFrameFiles(id, outputs_done);
+      if (id_known) removeStaleFrameFilesOrSay(id, read_ok ? &frames[cur] : nullptr, outputs_done);
     }
     progress.update(k + 1, id, msSince(t_frame), res.summary.failed.size());
   }
 
   for (auto& o : p.outputs) {
+    std::string why;
     try {
       o->end(res.summary);
+      continue;
     } catch (const std::exception& e) {
-      res.output_errors.push_back("output '" + o->name() + "': " + e.what());
-      log << "output '" << o->name() << "' failed at the end: " << e.what() << "\n";
+      why = e.what();
+    } catch (...) {
+      why = "unknown exception (not a std::exception)";
     }
+    res.output_errors.push_back("output '" + o->name() + "': " + why);
+    log << "output '" << o->name() << "' failed at the end: " << why << "\n";
   }
   return res;
 }

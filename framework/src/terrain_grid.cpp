@@ -15,7 +15,6 @@ void TerrainGrid::reset(const GridGeometry& g) {
   geom_ = g;
   rows_ = g.rows();
   cols_ = g.cols();
-  for (auto& kv : layers_) kv.second.clear();
   layers_.clear();
   labels_.assign(cells(), labels::kUnknown);
   offsets_.assign(cells() + 1, 0);

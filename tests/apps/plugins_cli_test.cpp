@@ -46,6 +46,28 @@ std::string oneStageConfig(const test::TempDir& dir, const std::string& sim_para
   return config;
 }
 
+/// `dir`/c.yaml: `source` (a YAML flow map), stages that label every cell (as the core tests'
+/// pipeline), and `outputs` (a YAML flow list).
+std::string labellingConfig(const test::TempDir& dir, const std::string& source,
+                            const std::string& outputs) {
+  std::ofstream(dir.str() + "/model.yaml")
+      << "provenance: hand-written for tests\nclasses:\n"
+         "  road:     {height_diff: {mean: 0.02, sigma: 0.02}}\n"
+         "  rough:    {height_diff: {mean: 0.08, sigma: 0.05}}\n"
+         "  obstacle: {height_diff: {mean: 1.0, sigma: 0.8}}\n";
+  const std::string config = dir.str() + "/c.yaml";
+  std::ofstream(config) << "version: 1\ngrid: {size_m: 20, cell_m: 0.5}\nsource: " << source
+                        << "\nstages:\n"
+                           "  - {name: pre, type: eigen_preclass}\n"
+                           "  - {name: hdiff, type: height_difference}\n"
+                           "  - {name: mrf, type: potts_gaussian, params: {model: model.yaml, "
+                           "features: [height_diff], preclass_layer: preclass}}\n"
+                           "  - {name: solve, type: icm}\n"
+                           "outputs: "
+                        << outputs << "\n";
+  return config;
+}
+
 double asNumber(const ParamValue& v) {
   if (const auto* i = std::get_if<int64_t>(&v)) return static_cast<double>(*i);
   return std::get<double>(v);
@@ -227,6 +249,67 @@ TEST(RunCli, PluginFilesThatDoNotLoadAreNamedWithTheirReason) {
   }
 }
 
+// Frame "a" fails on a rerun: its output files from the earlier run go, but not those of frame
+// "a_b", whose name only begins with "a_" (before, grid_png removed every a_*.png).
+TEST(RunCli, AFailedFramesFilesAreRemovedButNotThoseOfAFrameItsIdBegins) {
+  test::TempDir dir;
+  fs::create_directories(dir.str() + "/pcd");
+  auto writeScan = [&](const std::string& name) {
+    std::ofstream(dir.str() + "/pcd/" + name)
+        << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\n"
+           "HEIGHT 1\nPOINTS 3\nDATA ascii\n1 0 -1.7\n2 1 -1.7\n3 -1 -1.7\n";
+  };
+  writeScan("a.pcd");
+  writeScan("a_b.pcd");
+  const std::string config =
+      labellingConfig(dir, "{type: pointcloud_file, params: {path: pcd}}", "[{type: grid_png}]");
+  const std::string out = dir.str() + "/out";
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  ASSERT_EQ(cli::cmdRun({config, "--out", out, "--no-progress"}), cli::kOk)
+      << testing::internal::GetCapturedStderr();
+  testing::internal::GetCapturedStdout();
+  testing::internal::GetCapturedStderr();
+  ASSERT_TRUE(fs::exists(out + "/grid/a.png"));
+  ASSERT_TRUE(fs::exists(out + "/grid/a_b.png"));
+  // An earlier run's camera image of frame a (a camera named "b" would be a_b.png itself).
+  std::ofstream(out + "/grid/a_camera0.png") << "earlier run";
+
+  std::ofstream(dir.str() + "/pcd/a.pcd") << "VERSION 0.7\nbroken";
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  const int rc = cli::cmdRun({config, "--out", out, "--no-progress", "--limit", "1"});
+  testing::internal::GetCapturedStdout();
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(rc, cli::kFailed) << err;  // no frame ok
+  EXPECT_FALSE(fs::exists(out + "/grid/a.png")) << err;
+  EXPECT_TRUE(fs::exists(out + "/grid/a_b.png")) << "frame a_b's own image was removed\n" << err;
+  // Not a camera this run knows of: left, as it cannot be told from another frame's file.
+  EXPECT_TRUE(fs::exists(out + "/grid/a_camera0.png")) << err;
+}
+
+// Every frame ok but an output failing at its end: the run's summary says which and why (before,
+// "1 of 1 frame(s) ok" and exit 4, the reason only on stderr).
+TEST(RunCli, AnOutputFailingAtTheEndIsNamedInTheSummary) {
+  test::TempDir dir;
+  const std::string config = labellingConfig(
+      dir, "{type: simulator, params: {frames: 1, enable_camera: false}}", "[{type: evaluation}]");
+  const std::string out = dir.str() + "/out";
+  // A folder where evaluation/summary.json goes: the runner cannot remove it, end() cannot
+  // replace it.
+  fs::create_directories(out + "/evaluation/summary.json/held");
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  const int rc = cli::cmdRun({config, "--out", out, "--no-progress"});
+  const std::string said = testing::internal::GetCapturedStdout();
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(rc, cli::kFailed) << said << err;
+  EXPECT_NE(said.find("1 of 1 frame(s) ok\nerror: output 'evaluation': cannot replace output '" +
+                      out + "/evaluation/summary.json'"),
+            std::string::npos)
+      << said << err;
+}
+
 // `mesh` on a config that lists no textured_mesh output adds one with its defaults; an output
 // folder that cannot be made is an error before anything runs.
 TEST(MeshCli, AddsTheMeshOutputAndRefusesAFolderThatIsAFile) {
@@ -363,6 +446,28 @@ TEST(MainCli, UnknownCommandIsAUsageErrorListingTheCommands) {
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("terramrf: unknown command 'frobnicate'"), std::string::npos) << text;
   EXPECT_NE(text.find("commands:"), std::string::npos) << text;
+}
+
+// A plugin that throws what is not a std::exception (here an output's begin(), which the runner
+// does not catch) ends the command with a message and status 1 (before: std::terminate, 134).
+TEST(MainCli, AnExceptionThatIsNotAStdExceptionEndsTheCommandWithAMessage) {
+  test::TempDir dir;
+  const std::string config = dir.str() + "/c.yaml";
+  std::ofstream(config) << "version: 1\nplugin_path: [" << TERRAMRF_TEST_PLUGIN_DIR
+                        << "/begin_throws]\ngrid: {size_m: 30, cell_m: 0.5}\n"
+                           "source: {type: simulator, params: {frames: 1, enable_camera: false}}\n"
+                           "stages:\n  - {name: hdiff, type: height_difference}\n"
+                           "outputs: [{type: test_begin_throws}]\n";
+  const std::string err = dir.str() + "/err.txt";
+  const int status = std::system((test::cli() + " run " + config + " --out " + dir.str() +
+                                  "/out --no-progress > /dev/null 2> " + err)
+                                     .c_str());
+  std::ifstream in(err);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_TRUE(WIFEXITED(status)) << text;
+  EXPECT_EQ(WEXITSTATUS(status), cli::kError) << text;
+  EXPECT_NE(text.find("terramrf run: unknown exception (not a std::exception)"), std::string::npos)
+      << text;
 }
 
 // `terramrf <command> --help` prints that command's synopsis and exits 0 (it used to be read as

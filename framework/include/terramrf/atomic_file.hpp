@@ -15,11 +15,13 @@ void writeFileAtomic(const std::string& path, std::string_view bytes);
 /// separators, ':' and spaces become '_', and "", "." and ".." get a leading '_'.
 std::string safeFileName(std::string s);
 
-/// The files of folder `dir` (not its subfolders) named `<stem><ext>` or `<stem>_<anything><ext>`:
-/// what an output wrote for one frame, camera images included (`Output::frameFiles`). None if the
-/// folder does not exist.
-std::vector<std::string> frameFilesIn(const std::string& dir, const std::string& stem,
-                                      const std::string& ext);
+/// The files an output names for one frame in folder `dir`: `<stem><ext>` and, for each of
+/// `cameras` (made safe, each once), `<stem>_<camera><ext>` (`Output::frameFiles`). Exact names,
+/// never a pattern: frame "a"'s files must not take in those of frame "a_b". Whether they exist is
+/// not checked.
+std::vector<std::string> frameFileNames(const std::string& dir, const std::string& stem,
+                                        const std::vector<std::string>& cameras,
+                                        const std::string& ext);
 
 /// Reads a whole file; throws InputError naming it if it cannot be read.
 std::string readFile(const std::string& path);

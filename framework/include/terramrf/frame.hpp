@@ -55,4 +55,11 @@ struct Frame {
   std::size_t dropped_no_return_points = 0;
 };
 
+/// Camera `i` of `f` as outputs name it in file names: its model's name, or "camera<i>" when it
+/// has none.
+inline std::string cameraName(const Frame& f, std::size_t i) {
+  const std::string& name = f.cameras[i].model.name;
+  return name.empty() ? "camera" + std::to_string(i) : name;
+}
+
 }  // namespace terramrf

@@ -5,6 +5,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "terramrf/energy_model.hpp"
@@ -89,6 +90,11 @@ class Source : public Plugin {
   /// state). The pipeline then reads several frames at once; otherwise one after another, in
   /// order. Frames reach the stages in order either way.
   virtual bool concurrentReads() const { return false; }
+  /// Names of the cameras its frames carry (CameraModel::name), known without reading a frame;
+  /// empty if none, or if they are known only from the files read. Outputs name their camera
+  /// images with them, so a frame that fails before it is read still has an earlier run's
+  /// camera images removed (RunInfo::cameras).
+  virtual std::vector<std::string> cameraNames() const { return {}; }
 };
 
 /// Everything a stage sees for one frame. Stages read what earlier stages wrote.
@@ -120,6 +126,8 @@ struct RunInfo {
   std::size_t frames = 0;
   const LabelSet* labels = nullptr;
   GridGeometry grid;
+  /// The source's camera names (Source::cameraNames()); may be empty.
+  std::vector<std::string> cameras;
 };
 
 struct RunSummary {
@@ -134,10 +142,16 @@ class Output : public Plugin {
   virtual void write(const FrameContext& ctx) = 0;
   /// Called once at the end (e.g. evaluation totals). Files written here must be atomic.
   virtual void end(const RunSummary& /*summary*/) {}
-  /// The files write() makes for frame `frame_id` (absolute, or relative to the run's output
-  /// folder). When the frame fails, the runner removes those an earlier run left there, so they
-  /// cannot pass for this run's.
-  virtual std::vector<std::string> frameFiles(const std::string& /*frame_id*/) const { return {}; }
+  /// The files write() may make for frame `frame_id` (absolute, or relative to the run's output
+  /// folder): exact names, never a pattern, since one frame's id may begin another's ("a",
+  /// "a_b"). When the frame fails, the runner removes those an earlier run left there, so they
+  /// cannot pass for this run's. `frame` is the failed frame as read (its cameras name camera
+  /// images), or nullptr if reading it failed; camera names from RunInfo::cameras and from the
+  /// frames written so far then stand in.
+  virtual std::vector<std::string> frameFiles(const std::string& /*frame_id*/,
+                                              const Frame* /*frame*/) const {
+    return {};
+  }
   /// The files end() makes. The runner removes them before the first frame: a run that stops
   /// early leaves none of an earlier run's summaries beside its own resolved config.
   virtual std::vector<std::string> summaryFiles() const { return {}; }
@@ -145,26 +159,82 @@ class Output : public Plugin {
 
 // ---- registration -------------------------------------------------------------------------
 
+/// Size and alignment of one core type as a plugin's compiler laid it out [bytes].
+struct TypeLayout {
+  const char* name;
+  std::size_t size_bytes;
+  std::size_t align_bytes;
+};
+
 struct PluginDescriptor {
   PluginKind kind;
   const char* type;     ///< type name used in configs
   const char* summary;  ///< one line for `terramrf plugins`
   Plugin* (*create)();
+  /// How the plugin's compiler laid out the core types it is handed. Another -m flag (-mavx,
+  /// -march=native) raises Eigen's static alignment and so the size of every type holding a
+  /// fixed-size Eigen member (Frame: 528 → 576 bytes), which the version string cannot show;
+  /// the loader compares these with its own and refuses a library that differs.
+  int eigen_max_static_align_bytes;  ///< EIGEN_MAX_STATIC_ALIGN_BYTES [bytes]
+  const TypeLayout* layouts;
+  std::size_t layout_count;
 };
 
+namespace detail {
+/// True if `C` derives from the base class a plugin of kind `k` is used as.
+template <class C>
+constexpr bool derivesFromKindBase(PluginKind k) {
+  switch (k) {
+    case PluginKind::kSource:
+      return std::is_base_of_v<Source, C>;
+    case PluginKind::kOutput:
+      return std::is_base_of_v<Output, C>;
+    case PluginKind::kEgomotion:
+    case PluginKind::kFeature:
+    case PluginKind::kEnergy:
+    case PluginKind::kOptimiser:
+      return std::is_base_of_v<Stage, C>;
+  }
+  return false;
+}
+}  // namespace detail
+
 }  // namespace terramrf
+
+/// The core types a plugin is handed, whose layout plugin and core must agree on. X(type) each.
+#define TERRAMRF_PLUGIN_LAYOUT_TYPES(X)                                                            \
+  X(PointCloud)                                                                                    \
+  X(CameraModel) X(CameraImage) X(Frame) X(GridGeometry) X(TerrainGrid) X(LabelSet) X(EnergyModel) \
+      X(OptimiserReport) X(FrameContext) X(PluginContext) X(RunInfo) X(RunSummary)
+#define TERRAMRF_PLUGIN_LAYOUT_ENTRY(T) \
+  ::terramrf::TypeLayout{#T, sizeof(::terramrf::T), alignof(::terramrf::T)},
 
 #define TERRAMRF_PLUGIN_ABI_SYMBOL terramrf_plugin_abi
 #define TERRAMRF_PLUGIN_DESCRIPTOR_SYMBOL terramrf_plugin_descriptor
 
 /// Exports `Class` as plugin `type_name` of `kind` (a terramrf::PluginKind). One per library.
+/// The layouts are measured here, in the plugin's own translation unit and with its flags (an
+/// inline function of the core's could be bound to the core's copy at load time).
 #define TERRAMRF_PLUGIN(Class, kind, type_name, summary)                                      \
+  static_assert(::terramrf::detail::derivesFromKindBase<Class>(kind),                         \
+                "TERRAMRF_PLUGIN(" #Class ", " #kind                                          \
+                ", ...): the class must derive from the "                                     \
+                "base class of its kind: terramrf::Source for kSource, terramrf::Output for " \
+                "kOutput, terramrf::Stage for kEgomotion, kFeature, kEnergy and kOptimiser"); \
   extern "C" __attribute__((visibility("default"))) const char* terramrf_plugin_abi() {       \
     return TERRAMRF_ABI_STRING;                                                               \
   }                                                                                           \
-  extern "C" __attribute__((visibility("default"))) const ::terramrf::PluginDescriptor*      \
+  extern "C" __attribute__((visibility("default"))) const ::terramrf::PluginDescriptor*       \
   terramrf_plugin_descriptor() {                                                              \
+    static const ::terramrf::TypeLayout layouts[] = {                                         \
+        TERRAMRF_PLUGIN_LAYOUT_TYPES(TERRAMRF_PLUGIN_LAYOUT_ENTRY)};                          \
     static const ::terramrf::PluginDescriptor d{                                              \
-        kind, type_name, summary, []() -> ::terramrf::Plugin* { return new Class(); }};       \
+        kind,                                                                                 \
+        type_name,                                                                            \
+        summary,                                                                              \
+        []() -> ::terramrf::Plugin* { return new Class(); },                                  \
+        EIGEN_MAX_STATIC_ALIGN_BYTES,                                                         \
+        layouts,                                                                              \
+        sizeof(layouts) / sizeof(layouts[0])};                                                \
     return &d;                                                                                \
   }

@@ -51,7 +51,8 @@ class TerrainGrid {
   TerrainGrid() = default;
   explicit TerrainGrid(const GridGeometry& g) { reset(g); }
 
-  /// Resets geometry, clears layers, labels and point lists (keeps capacity).
+  /// Resets the geometry and clears the labels and point lists, keeping their capacity for the
+  /// next frame; drops every layer with its memory (the stages add theirs anew each frame).
   void reset(const GridGeometry& g);
 
   const GridGeometry& geometry() const { return geom_; }

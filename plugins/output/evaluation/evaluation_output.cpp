@@ -83,7 +83,8 @@ class EvaluationOutput : public Output {
     std::cout << table << std::flush;
   }
 
-  std::vector<std::string> frameFiles(const std::string& frame_id) const override {
+  std::vector<std::string> frameFiles(const std::string& frame_id,
+                                      const Frame* /*frame*/) const override {
     return {path(frame_id + ".json")};
   }
   std::vector<std::string> summaryFiles() const override {

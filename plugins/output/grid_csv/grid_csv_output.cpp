@@ -51,7 +51,8 @@ class GridCsvOutput : public Output {
     writeFileAtomic((std::filesystem::path(output_dir_) / subdir_ / (id + ".csv")).string(), csv);
   }
 
-  std::vector<std::string> frameFiles(const std::string& frame_id) const override {
+  std::vector<std::string> frameFiles(const std::string& frame_id,
+                                      const Frame* /*frame*/) const override {
     return {(std::filesystem::path(output_dir_) / subdir_ / (safeFileName(frame_id) + ".csv"))
                 .string()};
   }

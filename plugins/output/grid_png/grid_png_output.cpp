@@ -1,5 +1,6 @@
 // Output "grid_png": one bird's-eye PNG of the labelled grid per frame (see grid_render.hpp for
 // the orientation), optionally with the frame's camera images beside it.
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <stdexcept>
@@ -36,6 +37,7 @@ class GridPngOutput : public Output {
   void begin(const RunInfo& info) override {
     if (!info.output_dir.empty()) output_dir_ = info.output_dir;
     if (info.labels) labels_ = *info.labels;
+    for (const std::string& c : info.cameras) noteCamera(c);
   }
 
   void write(const FrameContext& ctx) override {
@@ -57,17 +59,30 @@ class GridPngOutput : public Output {
     for (std::size_t i = 0; i < ctx.frame->cameras.size(); ++i) {
       const CameraImage& cam = ctx.frame->cameras[i];
       if (!cam.image || cam.image->empty()) continue;  // calibration-only camera: nothing to show
-      const std::string name =
-          cam.model.name.empty() ? "camera" + std::to_string(i) : cam.model.name;
+      const std::string name = cameraName(*ctx.frame, i);
+      noteCamera(name);
       writeImageAtomic(path(id + "_" + safeFileName(name) + ".png"), *cam.image);
     }
   }
 
-  std::vector<std::string> frameFiles(const std::string& frame_id) const override {
-    return frameFilesIn(path(""), safeFileName(frame_id), ".png");
+  std::vector<std::string> frameFiles(const std::string& frame_id,
+                                      const Frame* frame) const override {
+    std::vector<std::string> cameras = known_cameras_;
+    if (frame)
+      for (std::size_t i = 0; i < frame->cameras.size(); ++i)
+        cameras.push_back(cameraName(*frame, i));
+    return frameFileNames(path(""), safeFileName(frame_id), drawnCameras(cameras), ".png");
   }
 
  private:
+  std::vector<std::string> drawnCameras(const std::vector<std::string>& cameras) const {
+    return write_camera_images_ ? cameras : std::vector<std::string>{};
+  }
+  // Camera names seen this run name the camera images of a frame that fails before it is read.
+  void noteCamera(const std::string& name) {
+    if (std::find(known_cameras_.begin(), known_cameras_.end(), name) == known_cameras_.end())
+      known_cameras_.push_back(name);
+  }
   std::string path(const std::string& file) const {
     return (std::filesystem::path(output_dir_) / subdir_ / file).string();
   }
@@ -79,6 +94,7 @@ class GridPngOutput : public Output {
   std::string output_dir_ = ".";
   LabelSet labels_ = LabelSet::defaults();
   bool warned_unnamed_ = false;
+  std::vector<std::string> known_cameras_;
 };
 
 }  // namespace

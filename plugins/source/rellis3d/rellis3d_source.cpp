@@ -93,6 +93,11 @@ class Rellis3dSource : public Source {
   std::size_t size() const override { return layout_.frames.size(); }
   std::string frameId(std::size_t i) const override { return layout_.frames.at(i).id; }
 
+  /// rellisCamera names its one camera so.
+  std::vector<std::string> cameraNames() const override {
+    return use_images_ ? std::vector<std::string>{"pylon_camera"} : std::vector<std::string>{};
+  }
+
   Frame read(std::size_t i) override {
     if (i >= size())
       throw std::out_of_range("rellis3d: frame " + std::to_string(i) + " of " +

@@ -134,6 +134,11 @@ class SemanticKittiSource : public Source {
   std::size_t size() const override { return layout_.stems.size(); }
   std::string frameId(std::size_t i) const override { return layout_.stems.at(i); }
 
+  /// The camera models are named after their folders (image_2 …).
+  std::vector<std::string> cameraNames() const override {
+    return use_images_ ? cameras_ : std::vector<std::string>{};
+  }
+
   Frame read(std::size_t i) override {
     if (i >= size())
       throw std::out_of_range("semantickitti: frame " + std::to_string(i) + " of " +

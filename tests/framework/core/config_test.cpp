@@ -248,6 +248,36 @@ TEST(Config, SectionsOfTheWrongShapeAreDiagnosticsNotYamlCppErrors) {
   EXPECT_EQ(errs.size(), 1u) << joined(errs);
 }
 
+// A hand-written descriptor that declares an output a source: refused at the entry's type (before,
+// static_cast to a Source and read as one: garbage or a crash at the first frame).
+TEST(Config, APluginNotOfItsDeclaredKindIsRefusedAtItsType) {
+  test::ConfigFixture f;
+  const std::string text = "plugin_path: [" + std::string(TERRAMRF_TEST_PLUGIN_DIR) +
+                           "/bad_descriptors]\n" +
+                           test::edited(test::ConfigFixture::validPipeline(),
+                                        "type: test_synthetic", "type: test_bad_wrong_kind");
+  const auto errs = errorsOf(f, text);
+  EXPECT_TRUE(contains(errs, "c.yaml:4:16: stage 'test_bad_wrong_kind' (test_bad_wrong_kind): " +
+                                 std::string(TERRAMRF_TEST_PLUGIN_DIR) +
+                                 "/bad_descriptors/wrong_kind.so: 'test_bad_wrong_kind' is "
+                                 "declared a source plugin, but its class does not derive from "
+                                 "terramrf::Source"))
+      << joined(errs);
+}
+
+// A plugin_path folder that is not there is the config's error at its line, and not also a
+// registry warning about the same folder.
+TEST(Config, AMissingPluginPathFolderIsAnErrorAtItsLineOnly) {
+  test::ConfigFixture f;
+  const auto errs =
+      errorsOf(f, "plugin_path: [no_such_folder]\n" + test::ConfigFixture::validPipeline());
+  EXPECT_TRUE(contains(
+      errs, "c.yaml:1:15: plugin_path entry '" + f.dir.str() + "/no_such_folder' is not a folder"))
+      << joined(errs);
+  for (const auto& p : f.registry.problems())
+    EXPECT_EQ(p.find("no_such_folder"), std::string::npos) << p;
+}
+
 TEST(Config, RepeatedKeysAreRejectedAtTheRepeat) {
   // yaml-cpp keeps both entries and lookups return the first: the second would be ignored.
   test::ConfigFixture f;

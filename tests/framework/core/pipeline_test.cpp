@@ -322,6 +322,110 @@ TEST(Pipeline, AFailedFramesFilesGoByWhoWroteThemNotByTheirTimes) {
   EXPECT_TRUE(fs::exists(out + "/evaluation/000002.json"));
 }
 
+namespace {
+struct BeginFails : Output {
+  void begin(const RunInfo&) override { throw std::runtime_error("cannot open the database"); }
+  void write(const FrameContext&) override {}
+};
+}  // namespace
+
+// An output whose begin() throws ends the run before its first frame: the earlier run's summaries
+// must be gone by then, not left beside the new resolved config (before, they were removed only
+// after every begin()).
+TEST(Pipeline, AnOutputFailingToBeginLeavesNoEarlierSummaryBesideTheNewConfig) {
+  namespace fs = std::filesystem;
+  test::ConfigFixture f;
+  std::string text = test::ConfigFixture::validPipeline("{frames: 2}");
+  text.replace(text.find("outputs: []"), 11, "outputs: [{type: evaluation}]");
+  const std::string out = f.dir.str() + "/out";
+  putEarlierRunFiles(
+      out, {"evaluation/summary.md", "evaluation/summary.json", "timing.md", "metrics.csv"});
+  LoadOptions lo;
+  lo.output_dir = out;
+  Pipeline p = loadPipeline(f.write("c.yaml", text), lo, f.registry);
+  p.outputs.push_back(std::make_unique<BeginFails>());
+  RunOptions ro;
+  ro.progress = false;
+  EXPECT_THROW(runPipeline(p, ro), std::runtime_error);
+  EXPECT_TRUE(fs::exists(out + "/resolved_config.yaml"));
+  for (const char* file :
+       {"evaluation/summary.md", "evaluation/summary.json", "timing.md", "metrics.csv"})
+    EXPECT_FALSE(fs::exists(out + "/" + file)) << file;
+}
+
+namespace {
+/// Throws what is not a std::exception from write() for one frame, and a std::exception from
+/// frameFiles(); notes the frame it is handed there.
+struct ThrowsAnything : Output {
+  std::string fail_id;
+  mutable std::vector<std::string> frames_given;  ///< frameFiles()'s frame id, "null" if none
+  void write(const FrameContext& ctx) override {
+    if (ctx.frame->id == fail_id) throw 42;
+  }
+  std::vector<std::string> frameFiles(const std::string&, const Frame* frame) const override {
+    frames_given.push_back(frame ? frame->id : "null");
+    throw std::runtime_error("cannot list the folder");
+  }
+};
+struct CountsEnds : Output {
+  int ends = 0;
+  void write(const FrameContext&) override {}
+  void end(const RunSummary&) override { ++ends; }
+};
+/// The synthetic source, but frameId() throws for one frame.
+struct IdFails : Source {
+  std::unique_ptr<Source> inner;
+  std::size_t bad = 0;
+  std::size_t size() const override { return inner->size(); }
+  std::string frameId(std::size_t i) const override {
+    if (i == bad) throw std::runtime_error("no id for frame " + std::to_string(i));
+    return inner->frameId(i);
+  }
+  Frame read(std::size_t i) override { return inner->read(i); }
+};
+}  // namespace
+
+// A frame that fails with anything — no std::exception, an id that cannot be had, files that
+// cannot be listed while it fails — is reported and skipped; the run goes on and every output
+// ends. Before, each of these escaped the run and lost every output's end().
+TEST(Pipeline, WhateverAFrameThrowsItIsReportedAndTheRunGoesOn) {
+  test::ConfigFixture f;
+  Pipeline p = f.loadSynthetic("{frames: 4}");
+  auto src = std::make_unique<IdFails>();
+  src->inner = std::move(p.source);
+  src->bad = 2;
+  p.source = std::move(src);
+  auto thrower = std::make_unique<ThrowsAnything>();
+  thrower->setIdentity("thrower", "thrower");
+  thrower->fail_id = "000001";
+  ThrowsAnything* t = thrower.get();
+  p.outputs.push_back(std::move(thrower));
+  auto counter = std::make_unique<CountsEnds>();
+  CountsEnds* c = counter.get();
+  p.outputs.push_back(std::move(counter));
+  std::ostringstream log;
+  RunOptions ro;
+  ro.progress = false;
+  ro.log = &log;
+  RunResult r;
+  ASSERT_NO_THROW(r = runPipeline(p, ro)) << log.str();
+  EXPECT_EQ(r.summary.frames_ok, 2u);
+  ASSERT_EQ(r.summary.failed.size(), 2u) << log.str();
+  EXPECT_EQ(r.summary.failed[0].first, "000001");
+  EXPECT_EQ(r.summary.failed[0].second,
+            "[output thrower] unknown exception (not a std::exception)");
+  EXPECT_EQ(r.summary.failed[1].first, "#2");
+  EXPECT_EQ(r.summary.failed[1].second, "[read] no id for frame 2");
+  EXPECT_EQ(c->ends, 1);
+  EXPECT_EQ(t->frames_given, std::vector<std::string>{"000001"});  // read: handed the frame
+  EXPECT_NE(log.str().find("warning: frame 000001: an earlier run's files of this frame may be "
+                           "left, and pass for this run's: removing them failed: cannot list the "
+                           "folder"),
+            std::string::npos)
+      << log.str();
+  EXPECT_EQ(r.exitCode(), 3);
+}
+
 // Two stages sharing their params through a YAML alias: each keeps its own in the resolved
 // config (assigning the first's resolved params through the shared node gave it the second's).
 TEST(Pipeline, TheResolvedConfigKeepsAliasedParamsApart) {
@@ -406,8 +510,11 @@ TEST(Pipeline, EgomotionStagesRunBeforeBinningAndSeeThePreviousFrame) {
   }
   ASSERT_EQ(r.metrics.size(), 3u);
   const double want[] = {-1.0, 0.0, 1.5};  // none, then frame 0's and frame 1's pose
-  for (std::size_t k = 0; k < 3; ++k)
+  for (std::size_t k = 0; k < 3; ++k) {
     EXPECT_DOUBLE_EQ(r.metrics[k].second.at("ego.previous_pose_x_m"), want[k]) << k;
+    // An empty grid, not the one frame k - 2 left in the runner's slot (frame 2 saw frame 0's).
+    EXPECT_DOUBLE_EQ(r.metrics[k].second.at("ego.grid_layers_and_points"), 0.0) << k;
+  }
 
   // After a feature stage it would see a grid binned before it moved the points: refused.
   std::string late = base;

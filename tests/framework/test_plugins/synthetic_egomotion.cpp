@@ -19,6 +19,9 @@ class SyntheticEgomotion final : public Stage {
     const bool prev = ctx.previous && ctx.previous->frame && ctx.previous->frame->pose;
     ctx.metrics[name() + ".previous_pose_x_m"] =
         prev ? ctx.previous->frame->pose->translation().x() : -1.0;
+    // What the grid holds when it runs: it is built after this stage, so nothing of any frame.
+    ctx.metrics[name() + ".grid_layers_and_points"] =
+        ctx.grid ? double(ctx.grid->layerNames().size() + ctx.grid->pointsInside()) : -1.0;
   }
 
  private:

@@ -48,6 +48,15 @@ class SimulatorSource : public Source {
   /// Simulation::frame is const and seeds all noise from the frame index.
   bool concurrentReads() const override { return true; }
 
+  /// As Simulation names them: image_2, image_3 (one per camera_yaws_deg entry).
+  std::vector<std::string> cameraNames() const override {
+    std::vector<std::string> names;
+    if (config_.enable_camera)
+      for (std::size_t k = 0; k < config_.camera_yaws_deg.size(); ++k)
+        names.push_back("image_" + std::to_string(2 + k));
+    return names;
+  }
+
  private:
   /// The simulation's truth is in the default classes' ids; a config's own label set numbers
   /// its classes otherwise, so they are matched by name. Empty: the ids already agree.

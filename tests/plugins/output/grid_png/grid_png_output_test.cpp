@@ -144,6 +144,38 @@ TEST_F(GridPngTest, CameraImagesAreWrittenBesideTheGrid) {
   EXPECT_FALSE(fs::exists(other.str() + "/grid/000042_image_2.png"));
 }
 
+// What a failed frame may have left: its grid image and one image per camera it knows of (the
+// source's, those of frames written, the failed frame's own), named exactly, so frame "a"
+// never claims frame "a_b"'s files.
+TEST_F(GridPngTest, FrameFilesAreExactlyTheFramesGridAndCameraImages) {
+  auto out = test::makeOutput("grid_png", "{}", pctx());
+  RunInfo ri = info();
+  ri.cameras = {"image_2"};
+  out->begin(ri);
+  const std::string grid = dir.str() + "/grid/";
+  using Files = std::vector<std::string>;
+  EXPECT_EQ(out->frameFiles("a", nullptr), (Files{grid + "a.png", grid + "a_image_2.png"}));
+
+  CameraImage cam;
+  cam.model.name = "left cam";  // made safe as a file name
+  cam.image = std::make_shared<Image>(2, 2, 3);
+  frame.cameras.push_back(cam);
+  frame.cameras.push_back(CameraImage{});  // no name: camera1
+  frame.cameras.back().image = std::make_shared<Image>(2, 2, 3);
+  out->write(ctx());
+  EXPECT_EQ(out->frameFiles("a", nullptr),
+            (Files{grid + "a.png", grid + "a_image_2.png", grid + "a_left_cam.png",
+                   grid + "a_camera1.png"}));
+  Frame failed;
+  failed.cameras.resize(1);
+  failed.cameras[0].model.name = "image_3";
+  EXPECT_EQ(out->frameFiles("a/b", &failed).back(), grid + "a_b_image_3.png");
+
+  auto no_cams = test::makeOutput("grid_png", "{write_camera_images: false}", pctx());
+  no_cams->begin(ri);
+  EXPECT_EQ(no_cams->frameFiles("a", &failed), (Files{grid + "a.png"}));
+}
+
 TEST_F(GridPngTest, UnwritableFolderThrowsNamingThePath) {
   // A file where the output folder should be: fails for root too, unlike chmod.
   writeFileAtomic(dir.str() + "/grid", "not a folder");
