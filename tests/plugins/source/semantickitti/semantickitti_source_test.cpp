@@ -377,9 +377,6 @@ std::string resizedKittiObject(const test::TempDir& dir, int w, int h,
   return root;
 }
 
-// KITTI's calib files store no image size and the source takes it from the image, so a resized
-// image used to pass silently with a calibration that no longer fits (halved: 2180 of 20259
-// points still in the image); the principal point check catches it.
 // The source takes the camera's size from the image, so an image with 100 px cut off its left
 // edge (1242 → 1142) was read with the full image's calibration and every pixel lookup shifted
 // by 100 px: its principal point, 3.4 % of the width off the new centre, passed the 10 % bound.
@@ -411,6 +408,9 @@ TEST_F(SemanticKittiSourceTest, CroppedImageIsAnErrorNamingImageCalibrationAndWh
   for (int i = 0; i < 2; ++i) EXPECT_EQ(real->read(i).cameras.size(), 1u) << "frame " << i;
 }
 
+// KITTI's calib files store no image size and the source takes it from the image, so a resized
+// image used to pass silently with a calibration that no longer fits (halved: 2180 of 20259
+// points still in the image); the principal point check catches it.
 TEST_F(SemanticKittiSourceTest, ResizedImageIsAnErrorNamingImageAndCalibration) {
   // Halved, three quarters, doubled (0.75× passed the middle-half rule; the 2.5 % bound on cx
   // catches it).
