@@ -16,6 +16,9 @@
 //                     one stage alone on an already binned grid
 //   BM_Img_*          the image part alone (camera_fusion + the feature) on an already binned grid
 //                     (…HomogeneityLocalMean: homogeneity with definition: local_mean)
+//   BM_Haralick, BM_Haralick256
+//                     haralick alone (levels 16, the default, and 256, the largest allowed) on
+//                     cells fused once before timing: the co-occurrence counting and reading
 //   BM_RoughnessColumnOrder  roughness alone on a simulator scan (seed 1, HDL-64E-like, ~226k
 //                     points) stored in firing order, column after column, as drivers deliver
 //                     them: each ring's points lie 64 apart in the cloud
@@ -50,8 +53,8 @@ struct FeatureFixture {
   std::vector<std::unique_ptr<Plugin>> laser;
   std::vector<std::unique_ptr<Plugin>> ground;  // the G of L+G
   std::unique_ptr<Plugin> intensity;
-  std::unique_ptr<Plugin> fusion, haralick, homogeneity, homogeneity_local_mean, colour_rgb,
-      colour_hsv, colour_lab;
+  std::unique_ptr<Plugin> fusion, haralick, haralick256, homogeneity, homogeneity_local_mean,
+      colour_rgb, colour_hsv, colour_lab;
   /// Energy + ICM per feature set ("L", "L+H", "L+FH", "L+C").
   std::map<std::string, std::vector<std::unique_ptr<Plugin>>> mrf;
   std::filesystem::path model_path;
@@ -75,6 +78,7 @@ struct FeatureFixture {
     intensity = make("intensity", "{std_layer: intensity_std}");
     fusion = make("camera_fusion", "{}");
     haralick = make("haralick", "{}");
+    haralick256 = make("haralick", "{levels: 256}");
     homogeneity = make("homogeneity", "{}");
     homogeneity_local_mean = make("homogeneity", "{definition: local_mean}");
     colour_rgb = make("colour", "{space: rgb}");
@@ -192,6 +196,23 @@ void bench(benchmark::State& state, bool with_laser, Plugin* feature, bool with_
     state.counters["cell_pixels"] = double(f.grid.cellPixels()[0].pixels.size());
 }
 
+/// `stage` alone on cells fused once, untimed.
+void benchFused(benchmark::State& state, Plugin& stage) {
+  FeatureFixture& f = fixture();
+  FrameContext ctx;
+  ctx.frame = &f.frame;
+  ctx.grid = &f.grid;
+  ctx.labels = &f.labels;
+  f.grid.reset(f.geom);
+  f.grid.binPoints(f.frame.points);
+  run(*f.fusion, ctx);
+  for (auto _ : state) {
+    run(stage, ctx);
+    benchmark::ClobberMemory();
+  }
+  state.counters["cell_pixels"] = double(f.grid.cellPixels()[0].pixels.size());
+}
+
 void BM_RoughnessColumnOrder(benchmark::State& state) {
   struct Sim {
     FeatureFixture& f = fixture();
@@ -239,6 +260,8 @@ void BM_L_C_Icm(benchmark::State& s) {
 }
 void BM_Img_Fusion(benchmark::State& s) { bench(s, false, nullptr); }
 void BM_Img_FusionHaralick(benchmark::State& s) { bench(s, false, fixture().haralick.get()); }
+void BM_Haralick(benchmark::State& s) { benchFused(s, *fixture().haralick); }
+void BM_Haralick256(benchmark::State& s) { benchFused(s, *fixture().haralick256); }
 void BM_Img_FusionHomogeneity(benchmark::State& s) { bench(s, false, fixture().homogeneity.get()); }
 void BM_Img_FusionHomogeneityLocalMean(benchmark::State& s) {
   bench(s, false, fixture().homogeneity_local_mean.get());
@@ -267,6 +290,8 @@ TERRAMRF_BENCH(BM_L_FH_Icm);
 TERRAMRF_BENCH(BM_L_C_Icm);
 TERRAMRF_BENCH(BM_Img_Fusion);
 TERRAMRF_BENCH(BM_Img_FusionHaralick);
+TERRAMRF_BENCH(BM_Haralick);
+TERRAMRF_BENCH(BM_Haralick256);
 TERRAMRF_BENCH(BM_Img_FusionHomogeneity);
 TERRAMRF_BENCH(BM_Img_FusionHomogeneityLocalMean);
 TERRAMRF_BENCH(BM_Img_FusionColourRgb);

@@ -19,8 +19,11 @@ struct CameraModel {
   int height = 0;                       ///< [px]
   Eigen::Matrix<double, 3, 4> P = Eigen::Matrix<double, 3, 4>::Zero();
   /// k1, k2, p1, p2, k3 (OpenCV order); all zero = no distortion. Applied in normalised coordinates
-  /// of K = P.leftCols<3>() before the intrinsics. A point beyond the radius where the radial
-  /// polynomial stops growing projects nowhere (it would fold back into the image).
+  /// of K = P.leftCols<3>() before the intrinsics. A point projects nowhere if, on its way out from
+  /// the optical axis, the distortion stops pushing it outward: where the radial polynomial stops
+  /// growing, or where the tangential terms (which grow with r², e.g. p2 = 0.001 turns the −x ray
+  /// back at r = 167, 89.7° off axis) outweigh it. Beyond such a fold a point far outside the
+  /// field of view would land inside the image and take the colour of pixels it never saw.
   std::array<double, 5> distortion{0, 0, 0, 0, 0};
   /// LiDAR → camera (for KITTI: R0_rect · Tr_velo_to_cam).
   Eigen::Isometry3d T_camera_lidar = Eigen::Isometry3d::Identity();

@@ -50,21 +50,24 @@ void checkCalibrationFitsImage(const CameraImage& cam, const std::optional<Image
                                           " has a degenerate projection matrix (no principal "
                                           "point); expected P = K [R | t]");
   const double cx = axis.x() / axis.z(), cy = axis.y() / axis.z();
-  // Without a size to compare, the principal point is all there is: the real calibrations put it
-  // within 4 % of the width and height of the centre (the largest, KITTI object 000001's cy, 3.9
-  // %), so 10 % leaves 2.5× that and catches resizes below ~0.82× or above ~1.26× (0.75× and 1.3×
-  // on every real calibration). With the size checked exactly, only a gross misfit is looked for,
-  // so a camera whose principal point truly lies off-centre can be read by giving image_size.
-  const double band = expected ? kPrincipalPointBandWithSize : kPrincipalPointBand;
-  if (!(std::abs(cx - 0.5 * w) <= band * w && std::abs(cy - 0.5 * h) <= band * h))
+  // Without a size to compare, the principal point is all there is, and cropping or resizing the
+  // image moves it off-centre (the readers take the model's size from the image, so nothing else
+  // notices). The bounds are 2× the real calibrations' largest offsets and no more (numbers in
+  // the header): 100 px cropped off a KITTI image moves cx 50 px, 4 % of the width, and 10 % (the
+  // bound before) let that pass with every pixel lookup shifted by 100 px. With the size checked
+  // exactly, only a gross misfit is looked for, so a camera whose principal point truly lies
+  // off-centre can be read by giving image_size.
+  const double band_u = expected ? kPrincipalPointBandWithSize : kPrincipalPointBandU;
+  const double band_v = expected ? kPrincipalPointBandWithSize : kPrincipalPointBandV;
+  if (!(std::abs(cx - 0.5 * w) <= band_u * w && std::abs(cy - 0.5 * h) <= band_v * h))
     throw InputError(
         cam.source_path,
         "image is " + sizeText(w, h) + " but the calibration's principal point (" + px(cx) + ", " +
             px(cy) + ") px is not near its centre (" + px(0.5 * w) + ", " + px(0.5 * h) + ") px " +
             (expected ? std::string("(expected in the middle half of the image); ")
-                      : std::string("(expected within 10 % of its width and height of the "
-                                    "centre; a camera whose principal point lies further off "
-                                    "needs image_size); ")) +
+                      : std::string("(expected within 2.5 % of its width and 8 % of its height "
+                                    "of the centre; a camera whose principal point lies further "
+                                    "off needs image_size); ")) +
             calibrationOf(m) +
             " was made for another image size (was the image resized or cropped?)");
 }

@@ -6,9 +6,9 @@
 // points), its 4 corners are projected with CameraModel::projectUnbounded and the pixels whose
 // centres fall inside the projected quadrilateral are taken (clipped to the image). The footprint
 // is the natural support of a cell-wise texture feature; the points alone cover only a few
-// pixels per ring crossing. Where the footprint gives nothing (a corner behind the camera, a far
-// cell thinner than a pixel row, every pixel occluded), the points' own pixels are used instead
-// (`point_pixels`).
+// pixels per ring crossing. Where the footprint gives nothing (a corner behind the camera or
+// beyond the distortion's fold, where projectUnbounded gives none; a far cell thinner than a pixel
+// row; every pixel occluded), the points' own pixels are used instead (`point_pixels`).
 //
 // Occlusion (`occlusion: depth_test`): the footprint says where the cell would be in the image,
 // not whether the camera sees it; a ground cell behind a car or a wall would take the car's or

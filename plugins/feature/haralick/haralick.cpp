@@ -110,8 +110,6 @@ class Haralick final : public Stage {
     }
     double s_asm = 0, s_var = 0, s_idm = 0;
     int used = 0;
-    const int stride = glcm_.stride();
-    uint32_t* counts = glcm_.counts();
     for (const auto& [du, dv] : offs_) {
       // Rows/columns of the box whose partner stays inside the box.
       const int ya = std::max(0, -dv), yb = std::min(bh, bh - dv);
@@ -120,7 +118,7 @@ class Haralick final : public Stage {
         const uint16_t* row = &box_[std::size_t(y) * bw];
         const uint16_t* prow = &box_[std::size_t(y + dv) * bw];
         const int x0 = std::max(xa, row_lo_[y]), x1 = std::min(xb, row_hi_[y]);
-        for (int x = x0; x < x1; ++x) ++counts[row[x] * stride + prow[x + du]];
+        if (x1 > x0) glcm_.addRow(row + x0, prow + x0 + du, x1 - x0);
       }
       const GlcmFeatures f = glcm_.finish();
       if (f.pairs == 0) continue;

@@ -27,8 +27,11 @@
 //   `contrast_scale` [grey levels]. Range (0, 1]; exactly 1 on a flat patch and on linear shading.
 //
 // I = 8-bit grey (OpenCV luma 0.299 R + 0.587 G + 0.114 B); at the image border OpenCV's
-// BORDER_REFLECT_101. Both cost a few image filters plus one read per cell pixel, "fast to
-// compute" as the paper describes the feature.
+// BORDER_REFLECT_101. All three are "fast to compute", as the paper describes the feature: one
+// read per cell pixel of a per-pixel map, made by cheng_sun and local_std in one row-by-row
+// ChengSunMap pass over the rows the cells use (window sums and Sobel carried from row to row, no
+// intermediate image; with normalise: image all rows, and a first pass for the maxima), by
+// local_mean with one 3 × 3 box filter of the image.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>

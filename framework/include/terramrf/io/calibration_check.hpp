@@ -21,9 +21,10 @@ std::optional<ImageSize> imageSizeParam(const std::vector<double>& value,
                                         const std::string& param = "image_size");
 
 /// How far from the image centre checkCalibrationFitsImage lets the principal point lie, as a
-/// fraction of the width (cx) and height (cy): without image_size, and with it (then the size
-/// itself is compared exactly).
-constexpr double kPrincipalPointBand = 0.10;
+/// fraction of the width (cx) and of the height (cy): without image_size (then this is the only
+/// check of the size), and with it (then the size itself is compared exactly).
+constexpr double kPrincipalPointBandU = 0.025;
+constexpr double kPrincipalPointBandV = 0.08;
 constexpr double kPrincipalPointBandWithSize = 0.25;
 
 /// Checks `cam.model` (read from the files in `model.calibration`) against `cam.image` (read from
@@ -31,14 +32,15 @@ constexpr double kPrincipalPointBandWithSize = 0.25;
 ///  - `expected` given (a source's image_size): the image must be exactly that size, and the
 ///    principal point (the image of the optical axis; (cx, cy) of K for P = K [R | t]) must lie
 ///    in the middle half of the image, |cx − w/2| ≤ w/4, |cy − h/2| ≤ h/4;
-///  - without it: the principal point must lie within 10 % of the width and height of the
-///    centre, |cx − w/2| ≤ 0.1 w, |cy − h/2| ≤ 0.1 h. Real cameras have it near the centre (KITTI
-///    image_2 and RELLIS-3D within 4 %, at most 3.9 %: KITTI object 000001's cy; the simulator at
-///    it), so the bound leaves 2.5× that against false alarms; an image shrunk below ~0.82× or
-///    grown beyond ~1.26× of the calibrated size fails it (0.75× and 1.3× on every real
-///    calibration). Not caught: a milder resize, or a crop that keeps the principal point
-///    central — give image_size for those, and for a camera whose principal point truly lies
-///    further off-centre.
+///  - without it: the principal point must lie within 2.5 % of the width and 8 % of the height
+///    of the centre, |cx − w/2| ≤ 0.025 w, |cy − h/2| ≤ 0.08 h. Each bound is at least 2× the
+///    largest offset of a real calibration (cx: 1.07 %, KITTI odometry seq 00; cy: 3.9 %, KITTI
+///    object 000001; RELLIS-3D 0.48 % and 2.0 %; the simulator's is at the centre). Cropping moves
+///    the principal point off-centre by half the crop, so 100 px off either side of a KITTI image
+///    (8 % of its width) fails, as does a resize below ~0.93× or above ~1.07× on every real
+///    calibration. Not caught: milder crops and resizes, and a crop that keeps the principal
+///    point central — give image_size for those, and for a camera whose principal point truly
+///    lies further off-centre.
 /// Throws InputError(cam.source_path, ...) naming the image size, the principal point and the
 /// calibration file(s). A camera without an image is left to its consumer.
 void checkCalibrationFitsImage(const CameraImage& cam,

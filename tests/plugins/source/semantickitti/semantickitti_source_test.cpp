@@ -377,11 +377,43 @@ std::string resizedKittiObject(const test::TempDir& dir, int w, int h,
   return root;
 }
 
+// The source takes the camera's size from the image, so an image with 100 px cut off its left
+// edge (1242 → 1142) was read with the full image's calibration and every pixel lookup shifted
+// by 100 px: its principal point, 3.4 % of the width off the new centre, passed the 10 % bound.
+TEST_F(SemanticKittiSourceTest, CroppedImageIsAnErrorNamingImageCalibrationAndWhatWasExpected) {
+  test::TempDir dir;
+  const std::string root = resizedKittiObject(dir, 1242, 375);
+  const cv::Mat img = cv::imread(root + "/image_2/000001.png");
+  cv::imwrite(root + "/image_2/000001.png", img(cv::Rect(100, 0, 1142, 375)).clone());
+  try {
+    make("{path: " + root + ", use_images: true}")->read(0);
+    FAIL() << "expected InputError for the cropped image";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(e.file(), root + "/image_2/000001.png");
+    EXPECT_NE(what.find("image is 1142x375 px"), std::string::npos) << what;
+    EXPECT_NE(what.find("principal point (609.6, 172.9) px is not near its centre (571.0, 187.5)"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("expected within 2.5 % of its width and 8 % of its height of the centre"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find(root + "/calib/000001.txt (P2, R0_rect, Tr_velo_to_cam)"),
+              std::string::npos)
+        << what;
+  }
+  // Both real frames of the shipped KITTI object data still read with their images.
+  auto real = make("{path: " + test::dataPath("kitti_object_fusion/training") +
+                   ", use_images: true, use_labels: false, use_poses: false}");
+  for (int i = 0; i < 2; ++i) EXPECT_EQ(real->read(i).cameras.size(), 1u) << "frame " << i;
+}
+
 // KITTI's calib files store no image size and the source takes it from the image, so a resized
 // image used to pass silently with a calibration that no longer fits (halved: 2180 of 20259
 // points still in the image); the principal point check catches it.
 TEST_F(SemanticKittiSourceTest, ResizedImageIsAnErrorNamingImageAndCalibration) {
-  // Halved, three quarters, doubled (0.75× passed the middle-half rule; 10 % catches it).
+  // Halved, three quarters, doubled (0.75× passed the middle-half rule; the 2.5 % bound on cx
+  // catches it).
   for (const auto& [w, h] : {std::pair{621, 188}, std::pair{931, 281}, std::pair{2484, 750}}) {
     test::TempDir dir;
     const std::string root = resizedKittiObject(dir, w, h);

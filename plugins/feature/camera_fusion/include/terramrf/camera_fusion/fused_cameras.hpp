@@ -31,12 +31,25 @@ struct FusedCamera {
 };
 
 /// The fused cameras a feature reads: `camera` ≥ 0 selects Frame::cameras[camera], −1 takes every
-/// fused camera. Throws InputError naming the frame if none is fused (no camera_fusion stage ran
-/// for it) and naming the image if an image is missing or its size differs from the fusion's.
+/// fused camera. Throws InputError naming the frame if `camera` is not one of its cameras (listing
+/// them) or is not fused (no camera_fusion stage ran for it), and naming the image if an image is
+/// missing or its size differs from the fusion's.
 inline std::vector<FusedCamera> fusedCameras(const FrameContext& ctx, int camera,
                                              const std::string& stage) {
   const Frame& f = *ctx.frame;
   const std::string frame_file = f.source_path.empty() ? "frame " + f.id : f.source_path;
+  // Told apart from "not fused": running camera_fusion first would not help an index the frame
+  // does not have, and the list shows which index is meant.
+  if (camera >= 0 && std::size_t(camera) >= f.cameras.size()) {
+    std::string have;
+    for (std::size_t i = 0; i < f.cameras.size(); ++i)
+      have += (i ? ", " : "") + std::to_string(i) + " '" + f.cameras[i].model.name + "'";
+    throw InputError(frame_file, stage + ": camera " + std::to_string(camera) +
+                                     " is beyond frame " + f.id + "'s cameras; it has " +
+                                     std::to_string(f.cameras.size()) +
+                                     (f.cameras.empty() ? "" : " (" + have + ")") +
+                                     "; expected camera: an index among them, or −1 for all");
+  }
   std::vector<FusedCamera> out;
   for (const CellPixels& cp : ctx.grid->cellPixels()) {
     if (camera >= 0 && cp.camera != camera) continue;
