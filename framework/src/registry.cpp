@@ -140,10 +140,12 @@ Loaded openPlugin(const std::string& path) {
                           ": not a TerraMRF plugin (no terramrf_plugin_abi/terramrf_plugin_descriptor"
                           " symbol; was it built with TERRAMRF_PLUGIN(...)?)");
   }
-  const char* got = abi();
-  if (!got || std::string(got) != TERRAMRF_ABI_STRING) {
+  // Copied before dlclose: the text lives in the library's own memory, unmapped with it.
+  const char* abi_text = abi();
+  const std::string got = abi_text ? abi_text : "(null)";
+  if (!abi_text || got != TERRAMRF_ABI_STRING) {
     ::dlclose(h);
-    throw PluginLoadError(path + ": built against '" + (got ? got : "(null)") + "', but this is '" +
+    throw PluginLoadError(path + ": built against '" + got + "', but this is '" +
                           TERRAMRF_ABI_STRING + "'; rebuild the plugin against this version");
   }
   const PluginDescriptor* d = desc();

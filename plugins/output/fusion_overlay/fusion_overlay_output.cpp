@@ -13,6 +13,7 @@
 
 #include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/known_cameras.hpp"
 #include "terramrf/output_folder.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -50,16 +51,13 @@ class FusionOverlayOutput final : public Output {
   void begin(const RunInfo& info) override {
     if (!info.output_dir.empty()) output_dir_ = info.output_dir;
     if (info.labels) labels_ = *info.labels;
-    for (const std::string& c : info.cameras) noteCamera(c);
+    seen_cameras_.note(info.cameras);
   }
 
   std::vector<std::string> frameFiles(const std::string& frame_id,
                                       const Frame* frame) const override {
-    std::vector<std::string> cameras = known_cameras_;
-    if (frame)
-      for (std::size_t i = 0; i < frame->cameras.size(); ++i)
-        cameras.push_back(cameraName(*frame, i));
-    return frameFileNames(path(""), safeFileName(frame_id), drawnCameras(cameras), ".png");
+    return frameFileNames(path(""), safeFileName(frame_id), drawnCameras(seen_cameras_.with(frame)),
+                          ".png");
   }
 
   void write(const FrameContext& ctx) override {
@@ -80,7 +78,7 @@ class FusionOverlayOutput final : public Output {
       const std::string name = cameraName(f, std::size_t(cp.camera));
       if (!cameras_.empty() && std::find(cameras_.begin(), cameras_.end(), name) == cameras_.end())
         continue;
-      noteCamera(name);
+      seen_cameras_.note(name);
       if (!cam.image || cam.image->empty() || cam.image->width != cp.width ||
           cam.image->height != cp.height)
         throw std::runtime_error("fusion_overlay: frame " + id + ", camera " + name +
@@ -98,11 +96,6 @@ class FusionOverlayOutput final : public Output {
   // Only the configured cameras are drawn, when there are any.
   std::vector<std::string> drawnCameras(const std::vector<std::string>& cameras) const {
     return cameras_.empty() ? cameras : cameras_;
-  }
-  // Camera names seen this run name the images of a frame that fails before it is read.
-  void noteCamera(const std::string& name) {
-    if (std::find(known_cameras_.begin(), known_cameras_.end(), name) == known_cameras_.end())
-      known_cameras_.push_back(name);
   }
 
   Image render(const Frame& f, const TerrainGrid& g, const LabelSet& labels,
@@ -167,7 +160,7 @@ class FusionOverlayOutput final : public Output {
 
   std::string output_dir_ = ".";
   LabelSet labels_ = LabelSet::defaults();
-  std::vector<std::string> known_cameras_;
+  KnownCameras seen_cameras_;  // name a failed frame's camera images
 };
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include "grid_render.hpp"
 #include "terramrf/adapters/opencv_image.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/known_cameras.hpp"
 #include "terramrf/output_folder.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -37,7 +38,7 @@ class GridPngOutput : public Output {
   void begin(const RunInfo& info) override {
     if (!info.output_dir.empty()) output_dir_ = info.output_dir;
     if (info.labels) labels_ = *info.labels;
-    for (const std::string& c : info.cameras) noteCamera(c);
+    seen_cameras_.note(info.cameras);
   }
 
   void write(const FrameContext& ctx) override {
@@ -60,28 +61,20 @@ class GridPngOutput : public Output {
       const CameraImage& cam = ctx.frame->cameras[i];
       if (!cam.image || cam.image->empty()) continue;  // calibration-only camera: nothing to show
       const std::string name = cameraName(*ctx.frame, i);
-      noteCamera(name);
+      seen_cameras_.note(name);
       writeImageAtomic(path(id + "_" + safeFileName(name) + ".png"), *cam.image);
     }
   }
 
   std::vector<std::string> frameFiles(const std::string& frame_id,
                                       const Frame* frame) const override {
-    std::vector<std::string> cameras = known_cameras_;
-    if (frame)
-      for (std::size_t i = 0; i < frame->cameras.size(); ++i)
-        cameras.push_back(cameraName(*frame, i));
-    return frameFileNames(path(""), safeFileName(frame_id), drawnCameras(cameras), ".png");
+    return frameFileNames(path(""), safeFileName(frame_id), drawnCameras(seen_cameras_.with(frame)),
+                          ".png");
   }
 
  private:
   std::vector<std::string> drawnCameras(const std::vector<std::string>& cameras) const {
     return write_camera_images_ ? cameras : std::vector<std::string>{};
-  }
-  // Camera names seen this run name the camera images of a frame that fails before it is read.
-  void noteCamera(const std::string& name) {
-    if (std::find(known_cameras_.begin(), known_cameras_.end(), name) == known_cameras_.end())
-      known_cameras_.push_back(name);
   }
   std::string path(const std::string& file) const {
     return (std::filesystem::path(output_dir_) / subdir_ / file).string();
@@ -94,7 +87,7 @@ class GridPngOutput : public Output {
   std::string output_dir_ = ".";
   LabelSet labels_ = LabelSet::defaults();
   bool warned_unnamed_ = false;
-  std::vector<std::string> known_cameras_;
+  KnownCameras seen_cameras_;  // name a failed frame's camera images
 };
 
 }  // namespace
