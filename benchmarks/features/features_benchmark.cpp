@@ -165,17 +165,23 @@ FeatureFixture& fixture() {
 
 void run(Plugin& p, FrameContext& ctx) { static_cast<Stage&>(p).process(ctx); }
 
-/// Laser part (optional) then fusion and `feature` (optional), per iteration.
-/// With `mrf` (a feature set of FeatureFixture::mrf), then its energy and ICM.
-void bench(benchmark::State& state, bool with_laser, Plugin* feature, bool with_fusion = true,
-           bool with_ground = false, const char* mrf = nullptr) {
-  FeatureFixture& f = fixture();
+/// A context on the fixture's frame with its points binned into a fresh grid.
+FrameContext binnedContext(FeatureFixture& f) {
   FrameContext ctx;
   ctx.frame = &f.frame;
   ctx.grid = &f.grid;
   ctx.labels = &f.labels;
   f.grid.reset(f.geom);
   f.grid.binPoints(f.frame.points);
+  return ctx;
+}
+
+/// Laser part (optional) then fusion and `feature` (optional), per iteration.
+/// With `mrf` (a feature set of FeatureFixture::mrf), then its energy and ICM.
+void bench(benchmark::State& state, bool with_laser, Plugin* feature, bool with_fusion = true,
+           bool with_ground = false, const char* mrf = nullptr) {
+  FeatureFixture& f = fixture();
+  FrameContext ctx = binnedContext(f);
   for (auto _ : state) {
     if (with_laser) {
       f.grid.reset(f.geom);
@@ -199,12 +205,7 @@ void bench(benchmark::State& state, bool with_laser, Plugin* feature, bool with_
 /// `stage` alone on cells fused once, untimed.
 void benchFused(benchmark::State& state, Plugin& stage) {
   FeatureFixture& f = fixture();
-  FrameContext ctx;
-  ctx.frame = &f.frame;
-  ctx.grid = &f.grid;
-  ctx.labels = &f.labels;
-  f.grid.reset(f.geom);
-  f.grid.binPoints(f.frame.points);
+  FrameContext ctx = binnedContext(f);
   run(*f.fusion, ctx);
   for (auto _ : state) {
     run(stage, ctx);
