@@ -103,6 +103,18 @@ void noteDroppedPoints(const Frame& f, RunResult& res, std::ostream& log, bool p
         << f.source_path << "): every cell stays unknown\n";
   }
 }
+
+/// What the exception being handled says; called inside a catch. Plugins may throw anything (a
+/// type of their own, an int): the run goes on all the same.
+std::string currentExceptionText() {
+  try {
+    throw;
+  } catch (const std::exception& e) {
+    return e.what();
+  } catch (...) {
+    return "unknown exception (not a std::exception)";
+  }
+}
 }  // namespace
 
 RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
@@ -150,36 +162,27 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   removeSummaries();
   // A failed frame's files from the outputs that did not write it this run are an earlier run's
   // (outputs before the failure wrote theirs: those are kept). Decided by who wrote, not by
-  // modification times, which a coarse or skewed clock could misorder.
+  // modification times, which a coarse or skewed clock could misorder. Runs inside a frame's
+  // failure: should it fail too (an output's frameFiles()), the run still goes on and every
+  // output still ends.
   auto removeStaleFrameFiles = [&](const std::string& frame_id, const Frame* frame,
                                    std::size_t outputs_done) {
-    for (std::size_t k = outputs_done; k < p.outputs.size(); ++k) {
-      for (const auto& f : p.outputs[k]->frameFiles(frame_id, frame)) {
-        std::error_code ec;
-        const auto path = inOutputDir(f);
-        if (std::filesystem::remove(path, ec))
-          log << "  removed " << path.string() << ": not this run's (frame " << frame_id
-              << " failed before its output wrote it)\n";
-      }
-    }
-  };
-  // Inside a frame's failure: should it fail too (an output's frameFiles(), a folder that cannot
-  // be listed), the run still goes on and every output still ends.
-  auto removeStaleFrameFilesOrSay = [&](const std::string& frame_id, const Frame* frame,
-                                        std::size_t outputs_done) {
-    std::string why;
     try {
-      removeStaleFrameFiles(frame_id, frame, outputs_done);
-    } catch (const std::exception& e) {
-      why = e.what();
+      for (std::size_t k = outputs_done; k < p.outputs.size(); ++k) {
+        for (const auto& f : p.outputs[k]->frameFiles(frame_id, frame)) {
+          std::error_code ec;
+          const auto path = inOutputDir(f);
+          if (std::filesystem::remove(path, ec))
+            log << "  removed " << path.string() << ": not this run's (frame " << frame_id
+                << " failed before its output wrote it)\n";
+        }
+      }
     } catch (...) {
-      why = "unknown exception (not a std::exception)";
-    }
-    if (!why.empty())
       log << "warning: frame " << frame_id
           << ": an earlier run's files of this frame may be left, and pass for this run's: "
              "removing them failed: "
-          << why << "\n";
+          << currentExceptionText() << "\n";
+    }
   };
 
   // Timing slots: read, read wait, egomotion stages, grid, other stages, outputs, total.
@@ -293,14 +296,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       have_prev = true;
       cur = 1 - cur;
     } catch (...) {
-      std::string why = "[" + stage_name + "] ";
-      try {
-        throw;
-      } catch (const std::exception& e) {
-        why += e.what();
-      } catch (...) {  // a plugin's own type, an int: the run goes on all the same
-        why += "unknown exception (not a std::exception)";
-      }
+      const std::string why = "[" + stage_name + "] " + currentExceptionText();
       // The reader hands frames over in order and reads no further than its depth past the
       // last one taken: a frame left with it would stall the run.
       if (reader && !taken) reader->take(k);
@@ -309,23 +305,19 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       res.summary.failed.push_back({id, why});
       if (opt.progress) std::fprintf(stderr, "%s", ::isatty(2) ? "\n" : "");
       log << "frame " << id << " failed and was skipped: " << why << "\n";
-      if (id_known) removeStaleFrameFilesOrSay(id, read_ok ? &frames[cur] : nullptr, outputs_done);
+      if (id_known) removeStaleFrameFiles(id, read_ok ? &frames[cur] : nullptr, outputs_done);
     }
     progress.update(k + 1, id, msSince(t_frame), res.summary.failed.size());
   }
 
   for (auto& o : p.outputs) {
-    std::string why;
     try {
       o->end(res.summary);
-      continue;
-    } catch (const std::exception& e) {
-      why = e.what();
     } catch (...) {
-      why = "unknown exception (not a std::exception)";
+      const std::string why = currentExceptionText();
+      res.output_errors.push_back("output '" + o->name() + "': " + why);
+      log << "output '" << o->name() << "' failed at the end: " << why << "\n";
     }
-    res.output_errors.push_back("output '" + o->name() + "': " + why);
-    log << "output '" << o->name() << "' failed at the end: " << why << "\n";
   }
   return res;
 }
