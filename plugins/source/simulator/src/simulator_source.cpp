@@ -48,12 +48,11 @@ class SimulatorSource : public Source {
   /// Simulation::frame is const and seeds all noise from the frame index.
   bool concurrentReads() const override { return true; }
 
-  /// As Simulation names them: image_2, image_3 (one per camera_yaws_deg entry).
+  /// The simulation's own camera names (image_2, image_3: one per camera_yaws_deg entry).
   std::vector<std::string> cameraNames() const override {
     std::vector<std::string> names;
-    if (config_.enable_camera)
-      for (std::size_t k = 0; k < config_.camera_yaws_deg.size(); ++k)
-        names.push_back("image_" + std::to_string(2 + k));
+    if (sim_)
+      for (const auto& cam : sim_->cameras()) names.push_back(cam->params().name);
     return names;
   }
 

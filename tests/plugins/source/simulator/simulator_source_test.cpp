@@ -339,6 +339,10 @@ TEST(SimulatorSource, RearCameraSeesBehindTheVehicle) {
   ASSERT_EQ(f.cameras.size(), 2u);
   EXPECT_EQ(f.cameras[0].model.name, "image_2");
   EXPECT_EQ(f.cameras[1].model.name, "image_3");
+  // Known before any frame is read (outputs name a failed frame's camera images with them).
+  EXPECT_EQ(static_cast<Source&>(*p).cameraNames(),
+            (std::vector<std::string>{"image_2", "image_3"}));
+  EXPECT_TRUE(static_cast<Source&>(*makeSource("{enable_camera: false}")).cameraNames().empty());
   auto one = makeSource("{frames: 2, camera_width: 320, camera_height: 128, camera_fx: 185}");
   const Frame g = src(one).read(1);
   ASSERT_EQ(g.cameras.size(), 1u);
