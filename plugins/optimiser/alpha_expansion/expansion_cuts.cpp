@@ -26,15 +26,25 @@ ExpansionCuts::~ExpansionCuts() = default;
 void ExpansionCuts::beginFrame(const EnergyModel& em) {
   const int K = em.numLabels();
   fg_.build(em);
+  // A move's unary difference beyond what the node's pairs can outweigh decides the node alone,
+  // and any other value beyond that bound decides it the same way: flipping x_p changes each of
+  // its pair terms by at most V = 2w, so with |Δ| > Σ V the sign of Δ fixes x_p in every minimum
+  // cut, and on those cuts the move energies differ by a constant. Clipping Δ to twice that sum
+  // (plus one energy unit, for cells whose pairs weigh nothing) keeps every cut exact and lets
+  // the capacity scale follow the Potts weights, not the largest unary: one cell with eq. 11's
+  // cap of 1e20 used to round every pair capacity to 0.
+  unary_clip_.assign(fg_.cells.size(), 1.0);
+  for (std::size_t n = 0; n < fg_.cells.size(); ++n)
+    for (int j = fg_.pairs_off[n]; j < fg_.pairs_off[n + 1]; ++j)
+      unary_clip_[n] += 4.0 * std::abs(double(fg_.pair_w[fg_.pairs_of[j]]));
   // Integer capacities: saturated edges become exactly 0 (no floating-point residues sending the
   // max-flow after useless paths) and warm starts are exact. 2^36 units for the largest possible
   // capacity leave room for 2^26 nodes in int64; rounding is ~1e-11 of an energy unit.
   double range = 0;
-  for (std::size_t i = 0; i < em.cells(); ++i) {
-    if (em.fixed[i]) continue;
-    const float* u = &em.unary[i * K];
+  for (std::size_t n = 0; n < fg_.cells.size(); ++n) {
+    const float* u = &em.unary[std::size_t(fg_.cells[n]) * K];
     const auto [lo, hi] = std::minmax_element(u, u + K);
-    range = std::max(range, double(*hi) - *lo);
+    range = std::max(range, std::min(double(*hi) - *lo, unary_clip_[n]));
   }
   const double w_max = std::max({0.f, em.beta, em.beta_diagonal});
   scale_ = std::ldexp(1.0, 36) / (range + 32.0 * w_max + 1e-12);
@@ -108,7 +118,8 @@ int64_t ExpansionCuts::unaryModel(const EnergyModel& em, const std::vector<uint8
                                   int n) {
   const int p = fg_.cells[n];
   const float* u = &em.unary[std::size_t(p) * em.numLabels()];
-  return toUnits(double(u[alpha]) - u[lab[p]]);
+  const double clip = unary_clip_[n];
+  return toUnits(std::clamp(double(u[alpha]) - u[lab[p]], -clip, clip));
 }
 
 int64_t ExpansionCuts::nodeModel(const EnergyModel& em, const std::vector<uint8_t>& lab, int alpha,

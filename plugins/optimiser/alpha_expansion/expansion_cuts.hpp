@@ -27,8 +27,8 @@ class ExpansionCuts {
   ~ExpansionCuts();  // the max-flow graph is a complete type only in the .cpp
 
   /// Starts a frame: builds the graph of the non-fixed cells, chooses the capacity scale from the
-  /// range of the unaries and the Potts weights, and sets every label's network to be built by its
-  /// first cut.
+  /// range of the (clipped) unary differences and the Potts weights, and sets every label's network
+  /// to be built by its first cut.
   void beginFrame(const EnergyModel& em);
 
   /// Logs that cell `cell` changed label; every label's next cut reads the log.
@@ -97,7 +97,8 @@ class ExpansionCuts {
   /// the sink) into α's residual network.
   void updateNode(WarmStart& w, int n, int64_t model);
 
-  /// Node n's unary difference cost(α) − cost(its label), in capacity units.
+  /// Node n's unary difference cost(α) − cost(its label), clipped to ±unary_clip_[n] (which
+  /// changes no cut, beginFrame), in capacity units.
   int64_t unaryModel(const EnergyModel& em, const std::vector<uint8_t>& lab, int alpha, int n);
 
   /// Node n's model t-link: its unary difference plus its share of its pairs' terms.
@@ -132,6 +133,8 @@ class ExpansionCuts {
 
   FrameGraph fg_;
   double scale_ = 1;  ///< capacity units per energy unit
+  /// Per node: the bound its unary differences are clipped to, in energy units (beginFrame).
+  std::vector<double> unary_clip_;
   std::vector<WarmStart> warm_;
   std::vector<int64_t> shift_t_;  ///< per node: deficits moved off n-links, not yet written
   /// Depth of a cut's region, in arcs back from the nodes sending to the sink (cutResidual).

@@ -794,6 +794,44 @@ TEST(AlphaExpansion, InitChoicesAndReuseOfOneInstanceAcrossFrames) {
 // With init: unary_argmin the run can end above a good given initial labelling; the optimiser
 // then returns that labelling, and its report must not describe the discarded run as a converged
 // local minimum of the moves (the premise of the factor-2 bound).
+TEST(AlphaExpansion, AUnaryAtEq11sCapLeavesEveryCutAsItWas) {
+  // Eq. 11's energy is capped at 1e20 so unaries stay finite. One such unary used to set the
+  // integer capacity scale by itself and round every Potts capacity to 0, so the cuts ignored the
+  // neighbours. Any unary far beyond what a cell's pairs can outweigh decides the same cuts: the
+  // run with 1e20 must be the run with 1e3 (both far above 16·β here) in every label.
+  for (uint32_t seed = 0; seed < 6; ++seed) {
+    RandomModelSpec s;
+    s.size = 14;
+    s.labels = 4;
+    s.beta_lo = 0.3;
+    s.beta_hi = 1.0;
+    EnergyModel tall = test::randomModel(90 + seed, s);
+    EnergyModel capped = tall;
+    std::mt19937 rng(seed);
+    int set = 0;
+    for (std::size_t i = 0; i < tall.cells() && set < 5; i += 1 + rng() % 40) {
+      if (tall.fixed[i]) continue;
+      const int k = static_cast<int>(rng() % 4);
+      tall.unary[i * 4 + k] = 1e3f;
+      capped.unary[i * 4 + k] = 1e20f;
+      ++set;
+    }
+    ASSERT_GT(set, 0);
+    OptimiserHarness h;
+    for (const char* params :
+         {"{}", "{pre_icm: false, block_moves: false, strip_moves: false, max_cycles: 50}"}) {
+      const auto want = h.run("alpha_expansion", params, tall);
+      const auto got = h.run("alpha_expansion", params, capped);
+      test::expectValidResult(got, capped, params);
+      EXPECT_EQ(OptimiserHarness::labelling(got, capped), OptimiserHarness::labelling(want, tall))
+          << params << " seed " << seed;
+      EXPECT_NEAR(got.report.final_energy, want.report.final_energy, 1e-6)
+          << params << " seed " << seed;
+      EXPECT_LT(got.report.final_energy, 1e3) << params << " seed " << seed;
+    }
+  }
+}
+
 TEST(AlphaExpansion, FallbackToTheInitialLabellingIsReported) {
   // Textbook expansions from the argmin against a given labelling that the full optimiser (blocks
   // and strips) found: on strongly coupled grids the textbook run often ends higher.
