@@ -23,53 +23,28 @@
 
 #include "terramrf/plugin.hpp"
 #include "terramrf/simd.hpp"
+#include "window_pick.hpp"
 
 namespace terramrf {
 namespace {
 
-constexpr float kInf = std::numeric_limits<float>::infinity();
+using hag::morph;
+using hag::morphBlocks;
 
-// Separable min (erode) or max (dilate) over a (2w+1)² window. Cells without data hold the
-// neutral element (+inf for min, −inf for max) so the inner loops have no branches.
-template <bool kMin>
-[[gnu::always_inline]] inline void morph(const std::vector<float>& in, std::vector<float>& tmp,
-                                         std::vector<float>& out, int R, int C, int w) {
-  auto pick = [](float a, float b) { return kMin ? std::min(a, b) : std::max(a, b); };
-  const float neutral = kMin ? kInf : -kInf;
-  tmp.resize(in.size());
-  out.resize(in.size());
-  // Along rows, offset by offset: each cell still meets its window from left to right (the same
-  // picks in the same order as a loop over the window, which matters only for ±0), and the
-  // inner loop runs along contiguous cells, which vectorises (half the stage's time otherwise).
-  for (int r = 0; r < R; ++r) {
-    const float* row = &in[r * C];
-    float* t = &tmp[r * C];
-    for (int c = 0; c < C; ++c) t[c] = neutral;
-    for (int d = -w; d <= w; ++d)
-      for (int c = std::max(0, -d), ce = std::min(C, C - d); c < ce; ++c)
-        t[c] = pick(t[c], row[c + d]);
-  }
-  for (int r = 0; r < R; ++r) {
-    const int r0 = std::max(0, r - w), r1 = std::min(R - 1, r + w);
-    float* o = &out[r * C];
-    for (int c = 0; c < C; ++c) o[c] = neutral;
-    for (int rr = r0; rr <= r1; ++rr) {
-      const float* t = &tmp[rr * C];
-      for (int c = 0; c < C; ++c) o[c] = pick(o[c], t[c]);
-    }
-  }
-}
+constexpr float kInf = std::numeric_limits<float>::infinity();
 
 /// The filter's settings, as HeightAboveGround declares them.
 struct OpeningParams {
   int w_max;     ///< half-width of the largest window [cells]
   float cell_m;  ///< [m]
   double dh0_m, slope, dh_max_m;
+  int block_morph_from = hag::kBlockMorphMinHalfWidth;  ///< half-width from which morphBlocks runs
 };
 
 /// Scratch and result of progressiveOpening; `nonground` is 1 for cells an opening removed.
 struct OpeningBuffers {
   std::vector<float> surface, tmp, eroded, opened;
+  std::vector<float> prefix, suffix, line;  ///< morphBlocks' scratch
   std::vector<char> nonground;
 };
 
@@ -87,9 +62,15 @@ struct OpeningBuffers {
   // larger one adds slope × its growth in width.
   int prev_full = 3;
   for (int w = 1;; w = std::min(2 * w, p.w_max)) {
-    morph<true>(b.surface, b.tmp, b.eroded, R, C, w);
-    for (float& v : b.eroded) v = v == kInf ? -kInf : v;  // no data stays neutral for the dilation
-    morph<false>(b.eroded, b.tmp, b.opened, R, C, w);
+    if (w >= p.block_morph_from) {
+      morphBlocks<true>(b.surface, b.tmp, b.eroded, R, C, w, b.prefix, b.suffix, b.line);
+      for (float& v : b.eroded) v = v == kInf ? -kInf : v;  // no data stays neutral (dilation)
+      morphBlocks<false>(b.eroded, b.tmp, b.opened, R, C, w, b.prefix, b.suffix, b.line);
+    } else {
+      morph<true>(b.surface, b.tmp, b.eroded, R, C, w);
+      for (float& v : b.eroded) v = v == kInf ? -kInf : v;  // no data stays neutral (dilation)
+      morph<false>(b.eroded, b.tmp, b.opened, R, C, w);
+    }
     const int full = 2 * w + 1;
     const float dh = std::min(p.dh_max_m, p.dh0_m + p.slope * (full - prev_full) * p.cell_m);
     const float* opened = b.opened.data();

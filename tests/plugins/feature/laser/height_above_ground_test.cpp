@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include "../../../../plugins/feature/height_above_ground/window_pick.hpp"
 #include "plugin_harness.hpp"
 #include "test_support.hpp"
 
@@ -177,13 +178,11 @@ std::vector<float> referenceHag(const TerrainGrid& g, const std::vector<float>& 
 }
 }  // namespace
 
-// Rough ground with random boxes (cars, hedges, walls) and holes, on the default 40 m grid
-// (windows up to 15 cells): the stage equals the brute-force filter above, and its AVX2 copy
-// (where the CPU has it) gives the same bits as the SSE2 one.
-TEST(HeightAboveGround, EqualsBruteForceFilterOnBothVectorPaths) {
+// Rough ground with random boxes (cars, hedges, walls; buildings `big_m` wide and deep when set)
+// and a hole without returns, over a 40 m grid of 0.5 m cells.
+void boxesScene(test::StageHarness& h, float big_m) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> u(0.f, 1.f);
-  test::StageHarness h(40, 0.5);
   struct Box {
     float x0, y0, w, d, h;
   };
@@ -191,26 +190,37 @@ TEST(HeightAboveGround, EqualsBruteForceFilterOnBothVectorPaths) {
   for (int b = 0; b < 25; ++b)
     boxes.push_back({-20 + 38 * u(rng), -20 + 38 * u(rng), 0.5f + 6 * u(rng), 0.5f + 3 * u(rng),
                      0.1f + 2 * u(rng)});
+  if (big_m > 0)
+    for (int b = 0; b < 4; ++b)
+      boxes.push_back({-20 + 30 * u(rng), -20 + 30 * u(rng), big_m * (0.5f + u(rng)),
+                       big_m * (0.5f + u(rng)), 3 + 2 * u(rng)});
   for (int i = 0; i < 60000; ++i) {
     const float x = -20 + 40 * u(rng), y = -20 + 40 * u(rng);
     if (std::hypot(x - 5.f, y + 5.f) < 3.f) continue;  // a hole without returns
     float z = -1.7f + 0.02f * x + 0.05f * u(rng);
+    if (big_m > 0) z += 0.8f * u(rng) * u(rng);  // rougher: each window's opening differs
     for (const Box& b : boxes)
       if (x >= b.x0 && x < b.x0 + b.w && y >= b.y0 && y < b.y0 + b.d)
         z = -1.7f + b.h * u(rng) + b.h;
     h.frame.points.push_back(x, y, z, 0);
   }
   h.bin();
+}
+
+// The stage with `params` against the brute-force filter with windows up to `w_max` cells (half
+// width), on the widest vectors of this CPU and on SSE2 (the same bits).
+void expectBruteForce(const char* params, int w_max, float big_m) {
+  test::StageHarness h(40, 0.5);
+  boxesScene(h, big_m);
   const auto& zr = h.grid.zRange(h.frame.points);
   const std::vector<float> ref =
-      referenceHag(h.grid, zr.min, zr.max, 8, 0.5, 0.1, 0.05, 2.5, 1);  // the plugin's defaults:
-                                                                        // 8 m = 17 cells
+      referenceHag(h.grid, zr.min, zr.max, w_max, 0.5, 0.1, 0.05, 2.5, 1);
   std::vector<float> got[2];
   for (const bool sse2 : {false, true}) {
     SCOPED_TRACE(sse2 ? "SSE2" : "widest vectors of this CPU");
     std::optional<test::ScopedEnv> env;
     if (sse2) env.emplace("TERRAMRF_SIMD", "sse2");
-    h.make("height_above_ground", "{}")->process(h.ctx);
+    h.make("height_above_ground", params)->process(h.ctx);
     got[sse2] = h.grid.layer("height_above_ground");
     int valid = 0, raised = 0;
     for (std::size_t i = 0; i < ref.size(); ++i) {
@@ -224,6 +234,42 @@ TEST(HeightAboveGround, EqualsBruteForceFilterOnBothVectorPaths) {
     EXPECT_GT(raised, 200);  // the boxes stand out
   }
   EXPECT_EQ(0, std::memcmp(got[0].data(), got[1].data(), got[0].size() * sizeof(float)));
+}
+
+// The plugin's defaults: windows up to 8 m = 17 cells, each cell's window scanned in full.
+TEST(HeightAboveGround, EqualsBruteForceFilterOnBothVectorPaths) { expectBruteForce("{}", 8, 0); }
+
+// Van Herk's block algorithm against scanning every window, bit for bit: grids wider and taller
+// than the window and narrower, sizes that are and are not multiples of the block, cells without
+// data (the neutral element), erosion and dilation.
+TEST(HeightAboveGround, BlockWindowPicksEqualScanningEachWindow) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-3.f, 3.f);
+  const float inf = std::numeric_limits<float>::infinity();
+  int cases = 0;
+  for (const auto& [R, C] : {std::pair{1, 1}, {7, 40}, {40, 7}, {33, 33}, {66, 65}, {100, 90}})
+    for (const int w : {1, 2, 3, 16, 17, 32, 50, 120}) {
+      std::vector<float> in(std::size_t(R) * C);
+      for (float& v : in) v = u(rng) < -2.f ? inf : u(rng);
+      std::vector<float> tmp, want, got, g, h, line;
+      std::vector<float> neg = in;
+      for (float& v : neg) v = v == inf ? -inf : v;
+      hag::morph<true>(in, tmp, want, R, C, w);
+      hag::morphBlocks<true>(in, tmp, got, R, C, w, g, h, line);
+      ASSERT_EQ(want, got) << "min, " << R << " x " << C << ", w " << w;
+      hag::morph<false>(neg, tmp, want, R, C, w);
+      hag::morphBlocks<false>(neg, tmp, got, R, C, w, g, h, line);
+      ASSERT_EQ(want, got) << "max, " << R << " x " << C << ", w " << w;
+      ++cases;
+    }
+  EXPECT_EQ(cases, 48);
+}
+
+// Windows of 33, 65 and 81 cells (40 m over the whole grid and beyond its edges) take van Herk's
+// block algorithm, which must give what scanning each window does; buildings 6–18 m wide are
+// what only those windows remove.
+TEST(HeightAboveGround, LargeWindowsEqualBruteForceFilter) {
+  expectBruteForce("{max_window_m: 40}", 40, 12);
 }
 
 }  // namespace terramrf
