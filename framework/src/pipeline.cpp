@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <numeric>
 #include <sstream>
@@ -104,6 +105,35 @@ void noteDroppedPoints(const Frame& f, RunResult& res, std::ostream& log, bool p
   }
 }
 
+/// Frames whose ids name the same files (after safeFileName) would write over each other's
+/// outputs, and a failed one would remove the other's as an earlier run's: refused before any
+/// frame runs. A frame whose id cannot be had fails in the run itself, named there.
+void requireDistinctFrameIds(const Source& src, std::size_t first, std::size_t n) {
+  std::map<std::string, std::pair<std::size_t, std::string>> seen;  // file name → frame, id
+  std::size_t clashes = 0;
+  std::ostringstream first_clashes;
+  for (std::size_t i = first; i < first + n; ++i) {
+    std::string id;
+    try {
+      id = src.frameId(i);
+    } catch (...) {
+      continue;
+    }
+    const auto [it, fresh] = seen.emplace(safeFileName(id), std::pair{i, id});
+    if (fresh || ++clashes > 5) continue;
+    first_clashes << "\n  frames " << it->second.first << " ('" << it->second.second << "') and "
+                  << i << " ('" << id << "') both write '" << it->first << "'";
+  }
+  if (clashes == 0) return;
+  throw std::runtime_error(
+      "source '" + src.type() + "': " + std::to_string(clashes) +
+      " frame(s) share a file name with an earlier frame, so their outputs would write over each "
+      "other's:" +
+      first_clashes.str() + (clashes > 5 ? "\n  …" : "") +
+      "\ngive every frame a distinct name (file names differ in more than their extension and "
+      "in more than '/', ':' and spaces)");
+}
+
 /// What the exception being handled says; called inside a catch. Plugins may throw anything (a
 /// type of their own, an int): the run goes on all the same.
 std::string currentExceptionText() {
@@ -158,6 +188,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   info.labels = p.labels.get();
   info.grid = p.grid;
   info.cameras = p.source->cameraNames();
+  requireDistinctFrameIds(*p.source, first, n);
   for (auto& o : p.outputs) o->begin(info);
   removeSummaries();
   // A failed frame's files from the outputs that did not write it this run are an earlier run's

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -424,6 +425,62 @@ TEST(Pipeline, WhateverAFrameThrowsItIsReportedAndTheRunGoesOn) {
             std::string::npos)
       << log.str();
   EXPECT_EQ(r.exitCode(), 3);
+}
+
+namespace {
+/// The inner source's frames under ids of its own.
+struct RenamedIds : Source {
+  std::unique_ptr<Source> inner;
+  std::vector<std::string> ids;
+  std::atomic<int> reads{0};
+  std::size_t size() const override { return inner->size(); }
+  std::string frameId(std::size_t i) const override { return ids.at(i); }
+  Frame read(std::size_t i) override {
+    ++reads;
+    Frame fr = inner->read(i);
+    fr.id = ids.at(i);
+    return fr;
+  }
+};
+}  // namespace
+
+// Frames whose ids name the same files ('scan' from scan.pcd and scan.ply; 'a b' and 'a_b') used
+// to write over each other's outputs, and a failed one removed the other's as an earlier run's.
+// Refused before any frame runs, naming the frames; distinct ids run as before.
+TEST(Pipeline, FramesWhoseIdsNameTheSameFilesAreRefusedBeforeAnyRuns) {
+  test::ConfigFixture f;
+  for (const auto& [ids, clash] :
+       {std::pair<std::vector<std::string>, std::string>{{"scan", "x", "scan"},
+                                                         "frames 0 ('scan') and 2 ('scan') both "
+                                                         "write 'scan'"},
+        {{"a b", "a_b", "c"}, "frames 0 ('a b') and 1 ('a_b') both write 'a_b'"},
+        {{"a", "b", "c"}, ""}}) {
+    Pipeline p = f.loadSynthetic("{frames: 3}");
+    auto src = std::make_unique<RenamedIds>();
+    src->inner = std::move(p.source);
+    src->ids = ids;
+    const RenamedIds* renamed = src.get();
+    p.source = std::move(src);
+    std::ostringstream log;
+    RunOptions ro;
+    ro.progress = false;
+    ro.log = &log;
+    if (clash.empty()) {
+      RunResult r;
+      ASSERT_NO_THROW(r = runPipeline(p, ro)) << log.str();
+      EXPECT_EQ(r.summary.frames_ok, 3u);
+      continue;
+    }
+    try {
+      runPipeline(p, ro);
+      ADD_FAILURE() << "ran with clashing ids " << clash;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(clash), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("1 frame(s) share a file name"), std::string::npos)
+          << e.what();
+    }
+    EXPECT_EQ(renamed->reads, 0);
+  }
 }
 
 // Two stages sharing their params through a YAML alias: each keeps its own in the resolved
