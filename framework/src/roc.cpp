@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <sstream>
 
@@ -152,15 +153,76 @@ std::vector<Layer> localEnergyScores(const EnergyModel& em, const std::vector<La
 
 // ---- RocAccumulator ----------------------------------------------------------------------------
 
-RocAccumulator::RocAccumulator(const LabelSet& labels) : labels_(labels), samples_(labels.size()) {}
+RocAccumulator::RocAccumulator(const LabelSet& labels)
+    : labels_(labels), per_class_(labels.size()) {}
 
 void RocAccumulator::add(LabelId c, float score, bool positive, bool predicted) {
-  if (c >= samples_.size()) return;
-  samples_[c].push_back({score, static_cast<uint8_t>((positive ? 1 : 0) | (predicted ? 2 : 0))});
+  if (c >= per_class_.size()) return;
+  PerClass& pc = per_class_[c];
+  ++pc.count;
+  if (predicted) ++(positive ? pc.predicted_pos : pc.predicted_neg);
+  pc.recent.push_back({score, positive});
+  if (pc.recent.size() >= kCompactAt) compact(pc);
 }
 
 uint64_t RocAccumulator::samples(LabelId c) const {
-  return c < samples_.size() ? samples_[c].size() : 0;
+  return c < per_class_.size() ? per_class_[c].count : 0;
+}
+
+namespace {
+
+/// `s` with its `bits` lowest mantissa bits cleared: a monotone (non-decreasing) map, so groups
+/// stay in score order when they are coarsened.
+float dropBits(float s, int bits) {
+  if (bits == 0) return s;
+  uint32_t u;
+  std::memcpy(&u, &s, 4);
+  u &= ~((uint32_t(1) << bits) - 1);
+  std::memcpy(&s, &u, 4);
+  return s;
+}
+
+}  // namespace
+
+std::vector<RocAccumulator::Group> RocAccumulator::allGroups(const PerClass& pc) {
+  std::vector<Sample> recent = pc.recent;
+  for (Sample& x : recent) x.score = dropBits(x.score, pc.bits_dropped);
+  std::sort(recent.begin(), recent.end(),
+            [](const Sample& a, const Sample& b) { return a.score > b.score; });
+  std::vector<Group> out;
+  out.reserve(pc.groups.size() + recent.size());
+  auto put = [&](float score, uint64_t pos, uint64_t neg) {
+    if (out.empty() || out.back().score != score) out.push_back({score, 0, 0});
+    out.back().pos += pos;
+    out.back().neg += neg;
+  };
+  std::size_t i = 0;
+  for (const Group& g : pc.groups) {
+    for (; i < recent.size() && recent[i].score > g.score; ++i)
+      put(recent[i].score, recent[i].positive, !recent[i].positive);
+    put(g.score, g.pos, g.neg);
+  }
+  for (; i < recent.size(); ++i) put(recent[i].score, recent[i].positive, !recent[i].positive);
+  return out;
+}
+
+void RocAccumulator::compact(PerClass& pc) {
+  pc.groups = allGroups(pc);
+  pc.recent.clear();
+  // Exact while the groups fit; beyond, coarsened to half as many, so this runs rarely.
+  if (pc.groups.size() <= kMaxGroups) return;
+  while (pc.groups.size() > kMaxGroups / 2 && pc.bits_dropped < 23) {
+    ++pc.bits_dropped;
+    std::vector<Group> coarse;
+    coarse.reserve(pc.groups.size());
+    for (const Group& g : pc.groups) {
+      const float s = dropBits(g.score, pc.bits_dropped);
+      if (coarse.empty() || coarse.back().score != s) coarse.push_back({s, 0, 0});
+      coarse.back().pos += g.pos;
+      coarse.back().neg += g.neg;
+    }
+    pc.groups.swap(coarse);
+  }
 }
 
 RocFrameStats RocAccumulator::addFrame(const TerrainGrid& grid, const Frame& frame,
@@ -238,18 +300,18 @@ RocFrameStats RocAccumulator::addFrame(const TerrainGrid& grid, const Frame& fra
 
 namespace {
 
-struct Group {
+struct ScoreGroup {
   float score;
   uint64_t pos, neg;
 };
 
 /// Groups of equal score, highest first.
 template <class Get>
-std::vector<Group> groupByScore(std::size_t n, Get get) {
+std::vector<ScoreGroup> groupByScore(std::size_t n, Get get) {
   std::vector<std::pair<float, bool>> v(n);
   for (std::size_t i = 0; i < n; ++i) v[i] = get(i);
   std::sort(v.begin(), v.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-  std::vector<Group> g;
+  std::vector<ScoreGroup> g;
   for (const auto& [s, p] : v) {
     if (g.empty() || g.back().score != s) g.push_back({s, 0, 0});
     (p ? g.back().pos : g.back().neg) += 1;
@@ -257,7 +319,7 @@ std::vector<Group> groupByScore(std::size_t n, Get get) {
   return g;
 }
 
-double aucOf(const std::vector<Group>& groups) {
+double aucOf(const std::vector<ScoreGroup>& groups) {
   uint64_t P = 0, N = 0;
   for (const auto& g : groups) P += g.pos, N += g.neg;
   if (P == 0 || N == 0) return kNaN;
@@ -284,17 +346,17 @@ RocCurve RocAccumulator::curve(LabelId c, std::size_t max_points) const {
   r.class_name = c < labels_.size() ? labels_.name(c) : std::to_string(c);
   r.auc = kNaN;
   r.operating_fpr = r.operating_tpr = kNaN;
-  if (c >= samples_.size()) return r;
-  const auto& s = samples_[c];
-  uint64_t op_tp = 0, op_fp = 0;
-  for (const auto& x : s) {
-    const bool pos = x.flags & 1, pred = x.flags & 2;
-    (pos ? r.positives : r.negatives) += 1;
-    if (pred) (pos ? op_tp : op_fp) += 1;
+  if (c >= per_class_.size()) return r;
+  const PerClass& pc = per_class_[c];
+  std::vector<ScoreGroup> groups;
+  for (const Group& g : allGroups(pc)) {
+    groups.push_back({g.score, g.pos, g.neg});
+    r.positives += g.pos;
+    r.negatives += g.neg;
   }
-  const auto groups = groupByScore(
-      s.size(), [&](std::size_t i) { return std::make_pair(s[i].score, bool(s[i].flags & 1)); });
+  r.score_bits_dropped = pc.bits_dropped;
   r.auc = aucOf(groups);
+  const uint64_t op_tp = pc.predicted_pos, op_fp = pc.predicted_neg;
   if (r.positives) r.operating_tpr = double(op_tp) / r.positives;
   if (r.negatives) r.operating_fpr = double(op_fp) / r.negatives;
   // Without positives (or negatives) the rate is undefined: NaN, an empty CSV field, not 0.
@@ -329,8 +391,8 @@ RocCurve RocAccumulator::curve(LabelId c, std::size_t max_points) const {
 
 std::vector<RocCurve> RocAccumulator::curves(std::size_t max_points) const {
   std::vector<RocCurve> out;
-  for (std::size_t c = 1; c < samples_.size(); ++c)
-    if (!samples_[c].empty()) out.push_back(curve(static_cast<LabelId>(c), max_points));
+  for (std::size_t c = 1; c < per_class_.size(); ++c)
+    if (per_class_[c].count > 0) out.push_back(curve(static_cast<LabelId>(c), max_points));
   return out;
 }
 
@@ -360,7 +422,10 @@ std::string rocSummaryJson(const std::vector<RocCurve>& curves) {
     o << (i ? ", " : "") << "{\"class\": " << jsonQuote(c.class_name)
       << ", \"positives\": " << c.positives << ", \"negatives\": " << c.negatives
       << ", \"auc\": " << jsonNum(c.auc) << ", \"operating_fpr\": " << jsonNum(c.operating_fpr)
-      << ", \"operating_tpr\": " << jsonNum(c.operating_tpr) << "}";
+      << ", \"operating_tpr\": " << jsonNum(c.operating_tpr);
+    // Only where it happened (a very long run): exact curves keep their record unchanged.
+    if (c.score_bits_dropped > 0) o << ", \"score_bits_dropped\": " << c.score_bits_dropped;
+    o << "}";
   }
   o << "]";
   return o.str();

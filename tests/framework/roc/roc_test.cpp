@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <map>
 #include <random>
 
 #include "terramrf/evaluation.hpp"
@@ -104,6 +106,81 @@ struct Scene {
     grid.labels().assign(grid.cells(), labels::kUnknown);
   }
 };
+
+// Long runs: samples are merged into groups of equal score every kCompactAt samples. With few
+// distinct scores (Gibbs marginals are counts over the sweeps) nothing is lost: the curve and
+// the AUC are those of every sample.
+TEST(RocAccumulator, MergingSamplesIntoGroupsChangesNothing) {
+  RocAccumulator acc(LabelSet::defaults());
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> level(0, 999);
+  std::vector<float> scores;
+  std::vector<bool> positive;
+  std::map<float, std::pair<uint64_t, uint64_t>, std::greater<float>> groups;  // score → pos, neg
+  uint64_t op_tp = 0, op_fp = 0;
+  const std::size_t n = 2 * RocAccumulator::kCompactAt + 12345;
+  for (std::size_t i = 0; i < n; ++i) {
+    const int l = level(rng);
+    const float s = l / 999.f;
+    const bool pos = (rng() % 1000)<static_cast<unsigned>(l), pred = s> 0.5f;
+    acc.add(labels::kRoad, s, pos, pred);
+    scores.push_back(s);
+    positive.push_back(pos);
+    ++(pos ? groups[s].first : groups[s].second);
+    if (pred) ++(pos ? op_tp : op_fp);
+  }
+  const RocCurve c = acc.curve(labels::kRoad);
+  EXPECT_EQ(c.score_bits_dropped, 0);
+  EXPECT_EQ(acc.samples(labels::kRoad), n);
+  EXPECT_EQ(c.auc, rocAuc(scores, positive));
+  ASSERT_EQ(c.points.size(), groups.size() + 1);
+  uint64_t tp = 0, fp = 0;
+  std::size_t k = 1;
+  for (const auto& [s, pn] : groups) {
+    tp += pn.first;
+    fp += pn.second;
+    EXPECT_EQ(c.points[k].threshold, s);
+    EXPECT_EQ(c.points[k].tp, tp);
+    EXPECT_EQ(c.points[k].fp, fp);
+    ++k;
+  }
+  EXPECT_EQ(c.positives, tp);
+  EXPECT_EQ(c.negatives, fp);
+  EXPECT_DOUBLE_EQ(c.operating_tpr, double(op_tp) / tp);
+  EXPECT_DOUBLE_EQ(c.operating_fpr, double(op_fp) / fp);
+}
+
+// Continuous scores (energy margins) all differ: kept one by one, a long run took 8 bytes per
+// scored cell and class without bound. Beyond kMaxGroups groups the scores are coarsened (low
+// mantissa bits cleared), so the memory stays bounded; counts stay exact, the AUC moves only by
+// the pairs that become ties, and the summary says so.
+TEST(RocAccumulator, ContinuousScoresOfALongRunAreCoarsenedNotKeptWithoutBound) {
+  RocAccumulator acc(LabelSet::defaults());
+  std::mt19937 rng(4);
+  std::normal_distribution<float> noise(0.f, 1.f);
+  std::vector<float> scores;
+  std::vector<bool> positive;
+  const std::size_t n = 2 * RocAccumulator::kCompactAt;
+  uint64_t pos_n = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const bool pos = rng() % 3 == 0;
+    const float s = noise(rng) + (pos ? 1.5f : 0.f);
+    acc.add(labels::kObstacle, s, pos, s > 0.75f);
+    scores.push_back(s);
+    positive.push_back(pos);
+    pos_n += pos;
+  }
+  const RocCurve c = acc.curve(labels::kObstacle);
+  EXPECT_GT(c.score_bits_dropped, 0);
+  EXPECT_LE(c.points.size(), RocAccumulator::kMaxGroups + 1);
+  EXPECT_EQ(c.positives, pos_n);
+  EXPECT_EQ(c.negatives, n - pos_n);
+  EXPECT_NEAR(c.auc, rocAuc(scores, positive), 1e-4);
+  EXPECT_GT(c.auc, 0.8);
+  EXPECT_NE(
+      rocSummaryJson({c}).find("\"score_bits_dropped\": " + std::to_string(c.score_bits_dropped)),
+      std::string::npos);
+}
 
 TEST(RocAccumulator, CellTruthFollowsPaper001AndScoresComeFromLayers) {
   Scene s;
