@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "reservoir_sample.hpp"
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -49,6 +50,12 @@ class FeatureStats final : public Output {
           "a cell holding at least one ground-truth obstacle point is an obstacle sample whatever "
           "its purity, as in the cell-wise evaluation of paper 001 §VI-B (the class the "
           "classifier is scored against)");
+    d.add("max_sample_cells", max_cells_,
+          "cells per class (and per feature) kept for the robust estimates and the mixtures; "
+          "beyond, a uniform sample of the run's cells (reservoir sampling, the same on every run) "
+          "is kept, so memory stays bounded. Means and σ of `moments` use every cell")
+        .unit("cells")
+        .range(1000, 100000000);
   }
   void configure(const PluginContext& ctx) override {
     if (features_.empty()) throw ParamError("features", "is empty; name at least one grid layer");
@@ -93,8 +100,8 @@ class FeatureStats final : public Output {
     n_.assign(K * F, 0);
     mean_.assign(K * F, 0);
     m2_.assign(K * F, 0);
-    samples_.assign(K * F, {});
-    cells_.assign(K, {});
+    samples_.assign(K * F, ReservoirSample(1, max_cells_));
+    cells_.assign(K, ReservoirSample(F, max_cells_));
     robust_ = estimator_ == "robust";
     obstacle_ = static_cast<std::size_t>(std::max(0, info.labels->obstacle()));
     frames_ = 0;
@@ -136,14 +143,17 @@ class FeatureStats final : public Output {
       bool any_value = false;
       for (std::size_t f = 0; f < F; ++f) any_value |= !std::isnan(layers[f][c]);
       if (!any_value) continue;  // no feature measured here: nothing to learn, no mixture weight
-      if (components_ > 1)
-        for (std::size_t f = 0; f < F; ++f) cells_[best].push_back(layers[f][c]);
+      if (components_ > 1) {
+        record_.resize(F);
+        for (std::size_t f = 0; f < F; ++f) record_[f] = layers[f][c];
+        cells_[best].push(record_.data());
+      }
       for (std::size_t f = 0; f < F; ++f) {
         const float v = layers[f][c];
         if (std::isnan(v)) continue;
         // Welford's update: stable for millions of cells.
         const std::size_t i = best * F + f;
-        if (robust_) samples_[i].push_back(v);
+        if (robust_) samples_[i].push(v);
         ++n_[i];
         const double d = v - mean_[i];
         mean_[i] += d / n_[i];
@@ -184,7 +194,7 @@ class FeatureStats final : public Output {
         if (n_[i] < 2) continue;
         any = learnt[f] = true;
         double mean = mean_[i], sigma = std::sqrt(m2_[i] / (n_[i] - 1));
-        if (robust_) robustEstimate(samples_[i], mean, sigma);
+        if (robust_) robustEstimate(samples_[i].values(), mean, sigma);
         single[f] = {mean, std::max(sigmaFloor(f), sigma)};
         cls << "    " << features_[f] << ": {mean: " << numberText(single[f].mean)
             << ", sigma: " << numberText(single[f].sigma) << "}  # " << n_[i] << " cells\n";
@@ -192,16 +202,19 @@ class FeatureStats final : public Output {
       if (!any) continue;
       o << "  " << info_.labels->name(static_cast<LabelId>(k)) << ":\n";
       bool converged = true;
-      const std::vector<Component> mix = components_ > 1
-                                             ? mixture(cells_[k], single, learnt, &converged)
-                                             : std::vector<Component>{};
+      const std::vector<Component> mix =
+          components_ > 1 ? mixture(cells_[k].values(), single, learnt, &converged)
+                          : std::vector<Component>{};
       if (mix.size() < 2) {
         o << cls.str();
         continue;
       }
       if (!converged)
         unsettled += (unsettled.empty() ? "" : ", ") + info_.labels->name(static_cast<LabelId>(k));
-      o << "    components:  # " << cells_[k].size() / F << " cells, classification EM"
+      o << "    components:  # " << cells_[k].size() << " cells"
+        << (cells_[k].thinned() ? " (a uniform sample of " + std::to_string(cells_[k].seen()) + ")"
+                                : std::string())
+        << ", classification EM"
         << (converged ? "" : " (unsettled after 100 rounds: the assignment of lowest energy)")
         << "\n";
       for (const Component& m : mix) {
@@ -223,6 +236,9 @@ class FeatureStats final : public Output {
          << estimator_ << " estimates, sigma floors " << floorsText()
          << (components_ > 1 ? ", up to " + std::to_string(components_) + " Gaussians per class"
                              : "")
+         << (thinned() ? ", robust estimates and mixtures from a uniform sample of at most " +
+                             std::to_string(max_cells_) + " cells per class"
+                       : std::string())
          << (unsettled.empty() ? ""
                                : ", mixture EM did not settle in 100 rounds for " + unsettled +
                                      " (the assignment of lowest energy seen is kept)")
@@ -278,6 +294,15 @@ class FeatureStats final : public Output {
           "e.g. the intensity of scans that store none (Open3D-ML's SemanticKITTI) or a camera "
           "feature of a class never seen by a camera. Train on data that has it, or drop it "
           "from the feature list");
+  }
+
+  /// Whether a class had more cells than max_sample_cells, so that some estimate saw a sample.
+  bool thinned() const {
+    for (const ReservoirSample& x : samples_)
+      if (x.thinned()) return true;
+    for (const ReservoirSample& x : cells_)
+      if (x.thinned()) return true;
+    return false;
   }
 
   /// "height_diff 0.02, roughness 0.005": the floors as applied, for the provenance.
@@ -432,9 +457,11 @@ class FeatureStats final : public Output {
   bool obstacle_rule_ = false;
   bool robust_ = false;
   std::size_t obstacle_ = 0;
-  std::vector<std::vector<float>> samples_;
+  std::vector<ReservoirSample> samples_;
   int components_ = 1;
-  std::vector<std::vector<float>> cells_;  ///< per class: cells × features (components > 1)
+  std::vector<ReservoirSample> cells_;  ///< per class: cells × features (components > 1)
+  std::vector<float> record_;           ///< one cell's features, on its way into cells_
+  int max_cells_ = 1 << 20;
   std::size_t frames_ = 0;
 };
 

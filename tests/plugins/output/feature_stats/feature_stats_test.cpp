@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "../../../../plugins/output/feature_stats/reservoir_sample.hpp"
 #include "output_test_support.hpp"
 
 namespace terramrf {
@@ -48,7 +49,7 @@ struct Scene {
     return YAML::LoadFile(dir.str() + "/model.yaml");
   }
   void run(const std::string& params, const std::string& dir,
-           const std::map<std::string, std::string>* origins = nullptr) {
+           const std::map<std::string, std::string>* origins = nullptr, int frames = 1) {
     PluginContext pc;
     pc.grid = geom;
     pc.labels = &labels;
@@ -64,9 +65,9 @@ struct Scene {
     ctx.frame = &frame;
     ctx.grid = &grid;
     ctx.labels = &labels;
-    out->write(ctx);
+    for (int k = 0; k < frames; ++k) out->write(ctx);
     RunSummary summary;
-    summary.frames_ok = 1;
+    summary.frames_ok = frames;
     out->end(summary);
   }
 };
@@ -274,6 +275,62 @@ TEST(FeatureStats, TwoComponentsFindBothKindsOfAClass) {
   EXPECT_NEAR(comps[1]["features"]["f"]["mean"].as<double>(), 2.0, 0.011);
   // σ floors apply per component (the default 1e-4 is below the 0.01 jitter).
   EXPECT_GT(comps[1]["features"]["f"]["sigma"].as<double>(), 0.005);
+}
+
+// The sample kept for robust estimates and mixtures: every record while few; then a uniform
+// sample of the stream (each record held equally often over many streams), never more than the
+// cap, the same on every run.
+TEST(FeatureStats, TheSampleOfALongStreamIsUniformBoundedAndRepeatable) {
+  ReservoirSample few(2, 8);
+  for (int i = 0; i < 7; ++i) {
+    const float r[2] = {float(i), -float(i)};
+    few.push(r);
+  }
+  EXPECT_FALSE(few.thinned());
+  EXPECT_EQ(few.values(), (std::vector<float>{0, -0, 1, -1, 2, -2, 3, -3, 4, -4, 5, -5, 6, -6}));
+  // 1000 records into 100 places: each record index's share of the held records, over streams
+  // whose records are their indices, is 1/10 (checked in ten bands of 100 records).
+  ReservoirSample x(1, 100), again(1, 100);
+  for (int i = 0; i < 1000; ++i) x.push(float(i)), again.push(float(i));
+  EXPECT_TRUE(x.thinned());
+  EXPECT_EQ(x.seen(), 1000u);
+  EXPECT_EQ(x.size(), 100u);
+  EXPECT_EQ(x.values(), again.values());
+  std::vector<int> band(10);
+  for (float v : x.values()) ++band[static_cast<int>(v) / 100];
+  for (int b = 0; b < 10; ++b) EXPECT_NEAR(band[b], 10, 7) << "band " << b;
+}
+
+// A long training run kept every cell for the robust estimate (170 KB per SemanticKITTI frame,
+// without bound); beyond max_sample_cells a uniform sample is kept and the provenance says so.
+// Here 30 frames of one scene whose road cells read 0.01 (40 %), 0.02 (20 %), 0.03 (40 %) with a
+// few outliers: the sample's median and MAD are the whole run's.
+TEST(FeatureStats, ALongRunLearnsFromABoundedSample) {
+  std::vector<LabelId> truth(100, kRoad);
+  std::vector<float> f(100);
+  for (int i = 0; i < 100; ++i)
+    f[i] = (i % 5 < 2 ? 0.01f : i % 5 == 2 ? 0.02f : 0.03f) + (i % 37 == 0 ? 3.f : 0.f);
+  Scene s(truth, f, kRoad, 100);
+  auto learn = [&](const std::string& params) {
+    test::TempDir dir;
+    s.run(params, dir.str(), nullptr, 30);
+    return YAML::LoadFile(dir.str() + "/model.yaml");
+  };
+  const YAML::Node whole =
+      learn("{features: [f], min_labelled_points: 1, estimator: robust, max_sample_cells: 4000}");
+  const YAML::Node sample =
+      learn("{features: [f], min_labelled_points: 1, estimator: robust, max_sample_cells: 1000}");
+  EXPECT_EQ(whole["provenance"].as<std::string>().find("sample"), std::string::npos);
+  EXPECT_NE(sample["provenance"].as<std::string>().find(
+                "robust estimates and mixtures from a uniform sample of at most 1000 cells per "
+                "class"),
+            std::string::npos)
+      << sample["provenance"];
+  EXPECT_NEAR(whole["classes"]["road"]["f"]["mean"].as<double>(), 0.02, 1e-6);
+  EXPECT_EQ(sample["classes"]["road"]["f"]["mean"].as<double>(),
+            whole["classes"]["road"]["f"]["mean"].as<double>());
+  EXPECT_EQ(sample["classes"]["road"]["f"]["sigma"].as<double>(),
+            whole["classes"]["road"]["f"]["sigma"].as<double>());
 }
 
 // At min_purity 0.5 a cell of one road and one rough point reaches it for both: it is a sample
