@@ -68,7 +68,7 @@ double fieldValue(const pcl::PCLPointCloud2& c, const pcl::PCLPointField& f, std
 /// acquisition viewpoint, sensor origin + orientation; default 0 0 0 1 0 0 0). Points in the
 /// sensor frame are p_s = Rᵀ (p − t).
 struct PcdViewpoint {
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();  ///< sensor position in the file's frame [m]
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   std::string text = "0 0 0 1 0 0 0";  ///< as written, for messages
   bool identity() const { return t.isZero(0) && q.w() == 1 && q.vec().isZero(0); }
@@ -332,19 +332,30 @@ class PointCloudFileSource : public Source {
       o << "point " << k << " has " << field << ' ' << v << "; expected " << expected;
       throw InputError(file, o.str());
     };
+    // The VIEWPOINT is applied in double, before a point is stored in single precision: at a
+    // UTM northing (~5.8e6 m) floats are 0.5 m apart, so points stored first and moved after
+    // kept their offsets from the sensor only to 0.5 m (flat ground read as rough).
+    const bool move = !viewpoint.identity();
+    const Eigen::Matrix3d Rt = viewpoint.q.toRotationMatrix().transpose();
     for (std::size_t k = 0; k < n; ++k) {
       // Every field is read by its stored type. PCL's fromPCLPointCloud2 left x, y, z and
       // intensity at 0 when they were not float32 (only a "Failed to find match" warning), so a
       // cloud of float64 coordinates read as points at the origin, dropped as no-returns.
-      const float x = float(fieldValue(c2, *f_x, k)), y = float(fieldValue(c2, *f_y, k)),
-                  z = float(fieldValue(c2, *f_z, k));
+      Eigen::Vector3d p(fieldValue(c2, *f_x, k), fieldValue(c2, *f_y, k), fieldValue(c2, *f_z, k));
       const float in = f_int ? float(fieldValue(c2, *f_int, k)) : 0.f;
-      if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(in)) {
+      if (!p.allFinite() || !std::isfinite(in)) {
         ++nonfinite;
         continue;
       }
-      if (drop_no_return_ && x == 0.f && y == 0.f && z == 0.f) {
+      // A no-return is the (0, 0, 0) the file stores, whatever the viewpoint.
+      if (drop_no_return_ && p.isZero(0)) {
         ++origin;
+        continue;
+      }
+      if (move) p = Rt * (p - viewpoint.t);  // p_s = Rᵀ (p − t), into the sensor frame
+      const float x = float(p.x()), y = float(p.y()), z = float(p.z());
+      if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {  // beyond float's range
+        ++nonfinite;
         continue;
       }
       f.points.x.push_back(x);
@@ -368,7 +379,7 @@ class PointCloudFileSource : public Source {
     }
     f.dropped_nonfinite_points = nonfinite;
     f.dropped_no_return_points = origin;
-    if (!viewpoint.identity()) toSensorFrame(f.points, viewpoint, file);
+    if (move) tellViewpoint(viewpoint, file);
     if (f_label) {
       if (map_) {
         map_->mapAll(f.truth.raw, f.truth.label, file);
@@ -393,18 +404,10 @@ class PointCloudFileSource : public Source {
   }
 
  private:
-  /// Moves the points from the file's frame into the sensor's, p_s = Rᵀ (p − t): the grid, ring
-  /// recovery and every feature take the sensor at the origin, x forward, z up. No-returns were
-  /// dropped before, by the (0, 0, 0) the file stores.
-  void toSensorFrame(PointCloud& c, const PcdViewpoint& vp, const std::string& file) {
-    const Eigen::Matrix3d Rt = vp.q.toRotationMatrix().transpose();
-    for (std::size_t k = 0; k < c.size(); ++k) {
-      const Eigen::Vector3d p = Rt * (Eigen::Vector3d(c.x[k], c.y[k], c.z[k]) - vp.t);
-      c.x[k] = float(p.x());
-      c.y[k] = float(p.y());
-      c.z[k] = float(p.z());
-    }
-    if (!told_viewpoint_) {  // once a source: a folder of one recording shares its viewpoint
+  /// Says on stderr, once a source (a folder of one recording shares its viewpoint), that the
+  /// VIEWPOINT was applied.
+  void tellViewpoint(const PcdViewpoint& vp, const std::string& file) {
+    if (!told_viewpoint_) {
       told_viewpoint_ = true;
       std::fprintf(stderr,
                    "pointcloud_file: %s: VIEWPOINT %s applied: points moved from the file's frame "

@@ -4,7 +4,9 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -198,6 +200,66 @@ TEST_F(PointCloudFileTest, PcdViewpointMovesThePointsIntoTheSensorFrame) {
                        << viewpoint << "\nPOINTS 1\nDATA ascii\n1 2 3\n";
     expectRefused(bad, "bad PCD header: " + expect);
   }
+}
+
+/// A ground ring and a 1 m box in the sensor frame, as a rotating LiDAR 1.8 m above flat ground
+/// sees them (the reviewer's scene, smaller).
+std::vector<Eigen::Vector3d> sensorFrameScene() {
+  std::vector<Eigen::Vector3d> pts;
+  for (int ring = 0; ring < 8; ++ring) {
+    const double r = 3.0 + 1.5 * ring;
+    for (int k = 0; k < 360; ++k) {
+      const double az = 2 * M_PI * k / 360;
+      const double x = r * std::cos(az), y = r * std::sin(az);
+      pts.emplace_back(x, y, (x >= 6 && x <= 7 && std::abs(y) < 1) ? -0.8 : -1.8);
+    }
+  }
+  return pts;
+}
+
+/// Writes `pts` as an ASCII PCD of float64 x, y, z with the given VIEWPOINT line text.
+void writeDoublePcd(const std::string& path, const std::vector<Eigen::Vector3d>& pts,
+                    const std::string& viewpoint) {
+  std::ofstream o(path);
+  o << "VERSION 0.7\nFIELDS x y z\nSIZE 8 8 8\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " << pts.size()
+    << "\nHEIGHT 1\nVIEWPOINT " << viewpoint << "\nPOINTS " << pts.size() << "\nDATA ascii\n";
+  char line[128];
+  for (const auto& p : pts) {
+    std::snprintf(line, sizeof line, "%.6f %.6f %.6f\n", p.x(), p.y(), p.z());
+    o << line;
+  }
+}
+
+// A cloud stored at UTM coordinates with its VIEWPOINT reads as the same sensor-frame points as
+// the cloud stored in the sensor frame, to the millimetre. The coordinates were cast to float
+// before the viewpoint was subtracted: at y ≈ 5.8e6 m floats are 0.5 m apart, so the points came
+// out on a 0.5 m lattice (40 of 200 cell columns occupied, flat ground labelled rough).
+TEST_F(PointCloudFileTest, PcdViewpointAtUtmCoordinatesKeepsMillimetres) {
+  test::TempDir dir;
+  const auto scene = sensorFrameScene();
+  const Eigen::Vector3d t(512345.678, 5812345.678, 312.3);  // [m], UTM zone 33 easting, northing
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()));
+  std::vector<Eigen::Vector3d> utm;
+  for (const auto& p : scene) utm.push_back(q * p + t);
+  writeDoublePcd(dir.str() + "/sensor.pcd", scene, "0 0 0 1 0 0 0");
+  char vp[256];
+  std::snprintf(vp, sizeof vp, "%.3f %.3f %.3f %.17g %.17g %.17g %.17g", t.x(), t.y(), t.z(), q.w(),
+                q.x(), q.y(), q.z());
+  writeDoublePcd(dir.str() + "/utm.pcd", utm, vp);
+  const Frame a = make("{path: " + dir.str() + "/sensor.pcd}")->read(0);
+  testing::internal::CaptureStderr();
+  const Frame b = make("{path: " + dir.str() + "/utm.pcd}")->read(0);
+  const std::string err = testing::internal::GetCapturedStderr();
+  ASSERT_EQ(a.points.size(), scene.size());
+  ASSERT_EQ(b.points.size(), scene.size());
+  double worst_m = 0;
+  for (std::size_t k = 0; k < scene.size(); ++k)
+    worst_m = std::max({worst_m, double(std::abs(b.points.x[k] - a.points.x[k])),
+                        double(std::abs(b.points.y[k] - a.points.y[k])),
+                        double(std::abs(b.points.z[k] - a.points.z[k]))});
+  EXPECT_LT(worst_m, 1e-3);
+  // Written to the millimetre: nothing to warn about.
+  EXPECT_EQ(err.find("warning"), std::string::npos) << err;
 }
 
 // A PLY camera element (view_px … z_axisz, as PCL's PLYWriter writes by default) is not applied:
