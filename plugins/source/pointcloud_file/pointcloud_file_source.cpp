@@ -4,6 +4,7 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -72,6 +73,13 @@ struct PcdViewpoint {
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   std::string text = "0 0 0 1 0 0 0";  ///< as written, for messages
   bool identity() const { return t.isZero(0) && q.w() == 1 && q.vec().isZero(0); }
+  /// The sensor's pose in the file's frame, T_file_sensor.
+  Eigen::Isometry3d pose() const {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = q.toRotationMatrix();
+    T.translation() = t;
+    return T;
+  }
 };
 
 /// Reads the VIEWPOINT tokens into `vp`; what is wrong with them, or "". PCL reads it with
@@ -112,10 +120,12 @@ std::string readViewpoint(const std::vector<std::string>& tok, PcdViewpoint& vp)
 /// WIDTH × HEIGHT = POINTS; a DATA kind; and a body big enough for POINTS — SIZE × COUNT bytes a
 /// point in binary, two characters ("0 ") a value in ASCII. Compressed bodies carry their own
 /// sizes, which PCL checks.
-std::string pcdHeaderProblem(const std::string& file, PcdViewpoint& viewpoint) {
-  std::ifstream in(file, std::ios::binary);
-  std::string line, data;
-  std::map<std::string, std::vector<std::string>> keys;
+using PcdHeaderKeys = std::map<std::string, std::vector<std::string>>;
+
+/// The header lines of a PCD, key → tokens, up to DATA or the 64th line; `in` is left at the body.
+PcdHeaderKeys readPcdHeaderKeys(std::istream& in) {
+  std::string line;
+  PcdHeaderKeys keys;
   for (int k = 0; k < 64 && std::getline(in, line); ++k) {
     std::istringstream ss(line);
     std::string key, tok;
@@ -124,6 +134,22 @@ std::string pcdHeaderProblem(const std::string& file, PcdViewpoint& viewpoint) {
     while (ss >> tok) v.push_back(tok);
     if (key == "DATA") break;
   }
+  return keys;
+}
+
+/// Whether a PCD's header has a VIEWPOINT that reads as a pose other than the identity. A header
+/// that cannot be read counts as none: reading the frame says what is wrong with it.
+bool hasMovedViewpoint(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  const PcdHeaderKeys keys = readPcdHeaderKeys(in);
+  const auto it = keys.find("VIEWPOINT");
+  PcdViewpoint vp;
+  return it != keys.end() && readViewpoint(it->second, vp).empty() && !vp.identity();
+}
+
+std::string pcdHeaderProblem(const std::string& file, PcdViewpoint& viewpoint) {
+  std::ifstream in(file, std::ios::binary);
+  PcdHeaderKeys keys = readPcdHeaderKeys(in);
   auto count = [](const std::string& tok, unsigned long long& out) {
     if (tok.empty() || tok[0] == '-' || tok[0] == '+') return false;
     char* end = nullptr;
@@ -252,6 +278,16 @@ class PointCloudFileSource : public Source {
     ring_options_.z_offset_m = ring_z_offset_m_;
     ring_options_.measure_consistency = false;  // the rings are all a reader needs
     told_viewpoint_ = false;
+    // Decided for the whole source before its first frame, so that every frame of a map saved
+    // per scan has a pose, the one whose VIEWPOINT is the map's origin included: a frame without
+    // one among frames with one is refused by outputs that keep a trajectory. Only the headers
+    // are read (≤ 64 lines each).
+    poses_from_viewpoints_ = false;
+    for (const auto& file : files_)
+      if (lowerExt(file) == ".pcd" && hasMovedViewpoint(file)) {
+        poses_from_viewpoints_ = true;
+        break;
+      }
   }
 
   std::size_t size() const override { return files_.size(); }
@@ -380,6 +416,11 @@ class PointCloudFileSource : public Source {
     f.dropped_nonfinite_points = nonfinite;
     f.dropped_no_return_points = origin;
     if (move) tellViewpoint(viewpoint, file);
+    // The viewpoint is the sensor's pose in the file's frame: for a folder of scans stored in one
+    // map frame, the frame's pose in that map. Set for every PCD of a source in which any file
+    // has a viewpoint other than the identity (one at the map's origin included), never for one
+    // whose files all have the default: "no pose" then still says so.
+    if (!ply && poses_from_viewpoints_) f.pose = viewpoint.pose();
     if (f_label) {
       if (map_) {
         map_->mapAll(f.truth.raw, f.truth.label, file);
@@ -411,8 +452,9 @@ class PointCloudFileSource : public Source {
       told_viewpoint_ = true;
       std::fprintf(stderr,
                    "pointcloud_file: %s: VIEWPOINT %s applied: points moved from the file's frame "
-                   "into the sensor's (p_s = R^T (p - t))\n",
-                   file.c_str(), vp.text.c_str());
+                   "into the sensor's (p_s = R^T (p - t))%s\n",
+                   file.c_str(), vp.text.c_str(),
+                   poses_from_viewpoints_ ? "; the frames' poses are their VIEWPOINTs" : "");
     }
   }
 
@@ -428,6 +470,7 @@ class PointCloudFileSource : public Source {
   LabelSet labels_;
   std::unique_ptr<LabelMap> map_;
   RingRecoveryOptions ring_options_;
+  bool poses_from_viewpoints_ = false;  ///< some file of the source has a moved VIEWPOINT
   bool told_viewpoint_ = false;
 };
 

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 
@@ -260,6 +261,50 @@ TEST_F(PointCloudFileTest, PcdViewpointAtUtmCoordinatesKeepsMillimetres) {
   EXPECT_LT(worst_m, 1e-3);
   // Written to the millimetre: nothing to warn about.
   EXPECT_EQ(err.find("warning"), std::string::npos) << err;
+}
+
+// The VIEWPOINT is the sensor's pose in the file's frame: for a folder of scans stored in one map
+// frame it is each frame's pose in the map. It was applied to the points but not kept, so every
+// frame had no pose and the textured mesh stacked them all at the origin ("no pose: the LiDAR
+// frame is used as the world frame").
+TEST_F(PointCloudFileTest, PcdViewpointIsTheFramesPose) {
+  test::TempDir dir;
+  const std::vector<Eigen::Vector3d> pts{{1, 2, -1.5}, {3, -1, -1.7}};
+  std::filesystem::create_directories(dir.str() + "/map");
+  // The first scan of a map is at the map's origin: its pose is the identity, not "none".
+  writeDoublePcd(dir.str() + "/map/scan0.pcd", pts, "0 0 0 1 0 0 0");
+  // The second half a turn about z (qw 0, qz 1) and far out.
+  const Eigen::Vector3d t(512345.678, 5812345.678, 312.3);
+  std::vector<Eigen::Vector3d> in_map;
+  for (const auto& p : pts) in_map.push_back(Eigen::Vector3d(-p.x(), -p.y(), p.z()) + t);
+  writeDoublePcd(dir.str() + "/map/scan1.pcd", in_map, "512345.678 5812345.678 312.3 0 0 0 1");
+  auto src = make("{path: " + dir.str() + "/map}");
+  testing::internal::CaptureStderr();
+  const Frame f0 = src->read(0), f1 = src->read(1);
+  const std::string err = testing::internal::GetCapturedStderr();
+  ASSERT_TRUE(f0.pose.has_value());
+  EXPECT_TRUE(f0.pose->isApprox(Eigen::Isometry3d::Identity())) << f0.pose->matrix();
+  ASSERT_TRUE(f1.pose.has_value());
+  EXPECT_EQ(f1.pose->translation(), t);
+  EXPECT_TRUE(f1.pose->linear().isApprox(Eigen::Vector3d(-1, -1, 1).asDiagonal().toDenseMatrix()))
+      << f1.pose->linear();
+  // The points in the sensor frame, where the pose takes them back into the map.
+  ASSERT_EQ(f1.points.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_NEAR(f1.points.x[k], pts[k].x(), 1e-3) << k;
+    EXPECT_NEAR(f1.points.y[k], pts[k].y(), 1e-3) << k;
+    EXPECT_NEAR(f1.points.z[k], pts[k].z(), 1e-3) << k;
+  }
+  EXPECT_NE(err.find("the frames' poses are their VIEWPOINTs"), std::string::npos) << err;
+  // A source whose files all have the default VIEWPOINT gives no pose: the files say nothing
+  // about one.
+  EXPECT_FALSE(make("{path: " + dir.str() + "/map/scan0.pcd}")->read(0).pose.has_value());
+  // Nor does a PLY (no viewpoint is read from it).
+  const std::string ply = dir.str() + "/map/scan2.ply";
+  ASSERT_EQ(pcl::io::savePLYFile(ply, makeCloud(kPoints, false, false)), 0);
+  auto mixed = make("{path: " + dir.str() + "/map}");
+  ASSERT_EQ(mixed->size(), 3u);
+  EXPECT_FALSE(mixed->read(2).pose.has_value());
 }
 
 // A PLY camera element (view_px … z_axisz, as PCL's PLYWriter writes by default) is not applied:
