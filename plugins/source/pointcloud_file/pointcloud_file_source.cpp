@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -22,6 +23,7 @@
 #include "terramrf/io/label_map.hpp"
 #include "terramrf/io/natural_order.hpp"
 #include "terramrf/io/ring_recovery.hpp"
+#include "terramrf/params.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -72,6 +74,9 @@ struct PcdViewpoint {
   Eigen::Vector3d t = Eigen::Vector3d::Zero();  ///< sensor position in the file's frame [m]
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   std::string text = "0 0 0 1 0 0 0";  ///< as written, for messages
+  /// What the written digits of t leave uncertain, when that is metres far from the origin
+  /// (writtenPrecisionNote); "" when t is written precisely enough.
+  std::string precision_note;
   bool identity() const { return t.isZero(0) && q.w() == 1 && q.vec().isZero(0); }
   /// The sensor's pose in the file's frame, T_file_sensor.
   Eigen::Isometry3d pose() const {
@@ -81,6 +86,53 @@ struct PcdViewpoint {
     return T;
   }
 };
+
+/// Significant digits of a decimal number as written and the place value of its last digit
+/// ("5.81235e+06": 6 and 10; "512346": 6 and 1; "0.00120": 3 and 1e-5). False if `tok` is not
+/// plain decimal text.
+bool writtenDigits(const std::string& tok, int& digits, double& last_place) {
+  std::size_t k = (!tok.empty() && (tok[0] == '-' || tok[0] == '+')) ? 1 : 0;
+  std::string mantissa_digits;
+  int decimals = 0;
+  bool point = false;
+  for (; k < tok.size() && tok[k] != 'e' && tok[k] != 'E'; ++k) {
+    if (tok[k] == '.' && !point) {
+      point = true;
+    } else if (std::isdigit(static_cast<unsigned char>(tok[k]))) {
+      mantissa_digits += tok[k];
+      decimals += point ? 1 : 0;
+    } else {
+      return false;
+    }
+  }
+  long exponent = 0;
+  if (k < tok.size()) {
+    char* end = nullptr;
+    exponent = std::strtol(tok.c_str() + k + 1, &end, 10);
+    if (k + 1 == tok.size() || *end != 0) return false;
+  }
+  const std::size_t first = mantissa_digits.find_first_not_of('0');
+  digits = first == std::string::npos ? 0 : int(mantissa_digits.size() - first);
+  last_place = std::pow(10.0, double(exponent - decimals));
+  return !mantissa_digits.empty();
+}
+
+/// PCL writes VIEWPOINT through a stream at its default 6 significant digits (pcd_io.hpp), so a
+/// UTM northing 5812345.68 comes back as 5.81235e+06, 4.3 m off, and every point moved into the
+/// sensor frame with it. A coordinate beyond 1e5 m written with 6 digits or fewer is named with
+/// what it may be off by (half its last digit's place); "" when none is.
+std::string writtenPrecisionNote(const std::vector<std::string>& tok, const Eigen::Vector3d& t) {
+  constexpr double kFarM = 1e5;  // from here on 6 digits leave ≥ 0.5 m uncertain
+  std::string note;
+  for (int i = 0; i < 3; ++i) {
+    int digits = 0;
+    double place = 0;
+    if (std::abs(t[i]) <= kFarM || !writtenDigits(tok[i], digits, place) || digits > 6) continue;
+    note += std::string(note.empty() ? "" : ", ") + "t" + "xyz"[i] + " " + tok[i] + " only to ±" +
+            numberText(place / 2) + " m";
+  }
+  return note;
+}
 
 /// Reads the VIEWPOINT tokens into `vp`; what is wrong with them, or "". PCL reads it with
 /// stream extraction, so a NaN, a missing number or a zero quaternion went through.
@@ -109,6 +161,7 @@ std::string readViewpoint(const std::vector<std::string>& tok, PcdViewpoint& vp)
   vp.t = Eigen::Vector3d(v[0], v[1], v[2]);
   vp.q = q.normalized();
   vp.text = text;
+  vp.precision_note = writtenPrecisionNote(tok, vp.t);
   return "";
 }
 
@@ -277,7 +330,7 @@ class PointCloudFileSource : public Source {
     ring_options_.use_scan_order = ring_method_ == "auto";
     ring_options_.z_offset_m = ring_z_offset_m_;
     ring_options_.measure_consistency = false;  // the rings are all a reader needs
-    told_viewpoint_ = false;
+    told_viewpoint_ = told_precision_ = false;
     // Decided for the whole source before its first frame, so that every frame of a map saved
     // per scan has a pose, the one whose VIEWPOINT is the map's origin included: a frame without
     // one among frames with one is refused by outputs that keep a trajectory. Only the headers
@@ -445,8 +498,9 @@ class PointCloudFileSource : public Source {
   }
 
  private:
-  /// Says on stderr, once a source (a folder of one recording shares its viewpoint), that the
-  /// VIEWPOINT was applied.
+  /// Says on stderr, once a source (a folder of one recording shares its viewpoint's form), that
+  /// the VIEWPOINT was applied, and when its written digits leave the sensor's position metres
+  /// uncertain (PCL's 6 significant digits), by how much.
   void tellViewpoint(const PcdViewpoint& vp, const std::string& file) {
     if (!told_viewpoint_) {
       told_viewpoint_ = true;
@@ -455,6 +509,15 @@ class PointCloudFileSource : public Source {
                    "into the sensor's (p_s = R^T (p - t))%s\n",
                    file.c_str(), vp.text.c_str(),
                    poses_from_viewpoints_ ? "; the frames' poses are their VIEWPOINTs" : "");
+    }
+    if (!vp.precision_note.empty() && !told_precision_) {
+      told_precision_ = true;
+      std::fprintf(stderr,
+                   "pointcloud_file: %s: warning: VIEWPOINT %s gives %s (6 or fewer significant "
+                   "digits, as PCL writes it): the sensor's position, and every point moved into "
+                   "its frame, may be off by as much; write the VIEWPOINT to the millimetre "
+                   "(e.g. printf's %%.3f) rather than through PCL's writer\n",
+                   file.c_str(), vp.text.c_str(), vp.precision_note.c_str());
     }
   }
 
@@ -472,6 +535,7 @@ class PointCloudFileSource : public Source {
   RingRecoveryOptions ring_options_;
   bool poses_from_viewpoints_ = false;  ///< some file of the source has a moved VIEWPOINT
   bool told_viewpoint_ = false;
+  bool told_precision_ = false;
 };
 
 }  // namespace

@@ -307,6 +307,45 @@ TEST_F(PointCloudFileTest, PcdViewpointIsTheFramesPose) {
   EXPECT_FALSE(mixed->read(2).pose.has_value());
 }
 
+// PCL writes VIEWPOINT with 6 significant digits, so a UTM northing 5812345.68 is stored as
+// 5.81235e+06, 4.3 m off, and every point moved by it too: said, naming the file and the
+// coordinates' possible error. Coordinates written to the millimetre, or near the origin, are
+// not.
+TEST_F(PointCloudFileTest, AViewpointFarOutWithSixDigitsIsWarnedAbout) {
+  test::TempDir dir;
+  const std::vector<Eigen::Vector3d> pts{{512346, 5812350, 312}};
+  const std::string file = dir.str() + "/pcl.pcd";
+  writeDoublePcd(file, pts, "512346 5.81235e+06 312.3 1 0 0 0");
+  testing::internal::CaptureStderr();
+  make("{path: " + file + "}")->read(0);
+  std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("pointcloud_file: " + file +
+                     ": warning: VIEWPOINT 512346 5.81235e+06 312.3 1 0 0 0 gives tx 512346 only "
+                     "to ±0.5 m, ty 5.81235e+06 only to ±5 m (6 or fewer significant digits, as "
+                     "PCL writes it)"),
+            std::string::npos)
+      << err;
+  for (const char* precise : {"512345.678 5812345.678 312.3 1 0 0 0", "10 -5 2 1 0 0 0",
+                              "5.812345678e+06 0 0 1 0 0 0", "99999 0 0 1 0 0 0"}) {
+    writeDoublePcd(file, pts, precise);
+    testing::internal::CaptureStderr();
+    make("{path: " + file + "}")->read(0);
+    err = testing::internal::GetCapturedStderr();
+    EXPECT_EQ(err.find("warning"), std::string::npos) << precise << "\n" << err;
+  }
+  // Once a source: a folder of such scans is one warning, not one a scan.
+  writeDoublePcd(dir.str() + "/pcl2.pcd", pts, "512346 5.81235e+06 312.3 1 0 0 0");
+  writeDoublePcd(file, pts, "512346 5.81235e+06 312.3 1 0 0 0");
+  auto src = make("{path: " + dir.str() + "}");
+  testing::internal::CaptureStderr();
+  src->read(0);
+  src->read(1);
+  err = testing::internal::GetCapturedStderr();
+  const auto first = err.find("warning: VIEWPOINT");
+  ASSERT_NE(first, std::string::npos) << err;
+  EXPECT_EQ(err.find("warning: VIEWPOINT", first + 1), std::string::npos) << err;
+}
+
 // A PLY camera element (view_px … z_axisz, as PCL's PLYWriter writes by default) is not applied:
 // PCL 1.13's PLYReader hands back origin 0 and the identity for it even from its own writer's
 // file, so the reader has no pose to apply (docs/plugins/readers.md). Pinned here so that a PCL
