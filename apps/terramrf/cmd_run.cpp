@@ -146,6 +146,10 @@ int cmdRun(const Args& args) {
               << " no-returns at the origin\n";
   if (!r.empty_frames.empty())
     std::cout << r.empty_frames.size() << " frame(s) had no usable point (all cells unknown)\n";
+  if (!r.frames_outside_grid.empty())
+    std::cout << r.frames_outside_grid.size()
+              << " frame(s) had under 1 % of their points inside the grid (nearly all cells "
+                 "unknown; is the cloud in the sensor frame?)\n";
   std::cout << "outputs: " << p.output_dir << "\n";
   return r.exitCode();
 }

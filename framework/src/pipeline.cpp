@@ -17,6 +17,7 @@
 
 #include "frame_reader.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/params.hpp"
 #include "terramrf/text_format.hpp"
 
 namespace terramrf {
@@ -132,6 +133,38 @@ void requireDistinctFrameIds(const Source& src, std::size_t first, std::size_t n
       first_clashes.str() + (clashes > 5 ? "\n  …" : "") +
       "\ngive every frame a distinct name (file names differ in more than their extension and "
       "in more than '/', ':' and spaces)");
+
+/// Warns about a frame whose points nearly all miss the grid, which is centred on the sensor: a
+/// cloud stored in a map frame (a UTM PLY, a PCD without its VIEWPOINT) lies kilometres away, and
+/// it gave an all-unknown grid and exit 0 without a word. Under 1 % of the points inside is named,
+/// with where the cloud and the grid lie, so that the frame the points are in can be seen.
+void noteCloudOutsideGrid(const Frame& f, const TerrainGrid& g, RunResult& res, std::ostream& log,
+                          bool progress_bar) {
+  const std::size_t n = f.points.size(), inside = g.pointsInside();
+  if (n == 0 || inside * 100 >= n) return;  // no points: noteDroppedPoints said so
+  res.frames_outside_grid.push_back(f.id);
+  const PointCloud& c = f.points;
+  const auto [x_lo, x_hi] = std::minmax_element(c.x.begin(), c.x.end());
+  const auto [y_lo, y_hi] = std::minmax_element(c.y.begin(), c.y.end());
+  const auto [z_lo, z_hi] = std::minmax_element(c.z.begin(), c.z.end());
+  const GridGeometry& geo = g.geometry();
+  const Eigen::Vector2d lo = geo.origin();
+  const Eigen::Vector2d hi = lo + Eigen::Vector2d::Constant(geo.cols() * geo.cell_m);
+  auto span = [](double a, double b) {  // [m]; a tenth is enough to see where a cloud lies
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "[%.1f, %.1f]", a, b);
+    return std::string(buf);
+  };
+  if (progress_bar && ::isatty(2)) std::fprintf(stderr, "\n");  // off the progress bar's line
+  log << "warning: frame " << f.id << ": " << inside << " of " << n << " point(s) inside the grid, "
+      << (n - inside) << " outside (" << f.source_path << "): the cloud spans x "
+      << span(*x_lo, *x_hi) << ", y " << span(*y_lo, *y_hi) << ", z " << span(*z_lo, *z_hi)
+      << " m, the grid x [" << numberText(lo.x()) << ", " << numberText(hi.x()) << "], y ["
+      << numberText(lo.y()) << ", " << numberText(hi.y()) << "] m around the sensor, so "
+      << (inside ? "nearly " : "")
+      << "every cell stays unknown. Is the cloud in a map frame (e.g. UTM)? The grid needs it in "
+         "the sensor frame: give a PCD the sensor's pose as its VIEWPOINT, use recentre: auto of "
+         "semantickitti, or store the points relative to the sensor\n";
 }
 
 /// What the exception being handled says; called inside a catch. Plugins may throw anything (a
@@ -303,6 +336,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       t = Clock::now();
       grids[cur].reset(p.grid);
       grids[cur].binPoints(frames[cur].points);
+      noteCloudOutsideGrid(frames[cur], grids[cur], res, log, opt.progress);
       slot_ms[slot++] = msSince(t);
       for (std::size_t s = first_non_ego; s < p.stages.size(); ++s) {
         stage_name = p.stages[s]->name();

@@ -50,6 +50,9 @@ struct RunResult {
   /// Frames read with no usable point (an empty file, or every point dropped): classified as
   /// all-unknown, not failed, and listed here so that it is not mistaken for a clear road.
   std::vector<std::string> empty_frames;
+  /// Frames with points of which under 1 % fall inside the grid (a cloud in a map frame, far from
+  /// the sensor-centred grid): all or nearly all cells unknown, warned about and listed here.
+  std::vector<std::string> frames_outside_grid;
   /// What the stages measured (FrameContext::metrics, e.g. "rough.sorted_rings"), per frame that
   /// completed, in run order; frames whose stages measured nothing are left out.
   std::vector<std::pair<std::string, std::map<std::string, double>>> metrics;

@@ -4,6 +4,8 @@
 
 #include <set>
 
+#include "terramrf/params.hpp"
+
 namespace terramrf {
 namespace {
 
@@ -40,10 +42,13 @@ void compare(const YAML::Node& learnt, const YAML::Node& here, const std::string
     return;
   }
   // One grid for every layer of a run: said once, for the feature itself.
-  if (prefix.empty() && learnt["cell_m"] && here["cell_m"] &&
-      learnt["cell_m"].as<double>() != here["cell_m"].as<double>())
-    out.push_back("cells of " + text(here["cell_m"]) + " m here, " + text(learnt["cell_m"]) +
-                  " m in the model");
+  // The sizes as numberText writes them: yaml-cpp's emitter records 0.1 as 0.10000000000000001.
+  if (prefix.empty() && learnt["cell_m"] && here["cell_m"]) {
+    const double learnt_m = learnt["cell_m"].as<double>(), here_m = here["cell_m"].as<double>();
+    if (learnt_m != here_m)
+      out.push_back("cells of " + numberText(here_m) + " m here, " + numberText(learnt_m) +
+                    " m in the model");
+  }
   for (const auto& k : keysOf(learnt, here, "params")) {
     const std::string l = text(child(learnt, "params", k)), h = text(child(here, "params", k));
     if (l != h) out.push_back(prefix + k + ": " + h + " here, " + l + " in the model");

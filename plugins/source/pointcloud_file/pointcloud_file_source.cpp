@@ -4,7 +4,9 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -21,6 +23,7 @@
 #include "terramrf/io/label_map.hpp"
 #include "terramrf/io/natural_order.hpp"
 #include "terramrf/io/ring_recovery.hpp"
+#include "terramrf/params.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -68,11 +71,68 @@ double fieldValue(const pcl::PCLPointCloud2& c, const pcl::PCLPointField& f, std
 /// acquisition viewpoint, sensor origin + orientation; default 0 0 0 1 0 0 0). Points in the
 /// sensor frame are p_s = Rᵀ (p − t).
 struct PcdViewpoint {
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();  ///< sensor position in the file's frame [m]
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   std::string text = "0 0 0 1 0 0 0";  ///< as written, for messages
+  /// What the written digits of t leave uncertain, when that is metres far from the origin
+  /// (writtenPrecisionNote); "" when t is written precisely enough.
+  std::string precision_note;
   bool identity() const { return t.isZero(0) && q.w() == 1 && q.vec().isZero(0); }
+  /// The sensor's pose in the file's frame, T_file_sensor.
+  Eigen::Isometry3d pose() const {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = q.toRotationMatrix();
+    T.translation() = t;
+    return T;
+  }
 };
+
+/// Significant digits of a decimal number as written and the place value of its last digit
+/// ("5.81235e+06": 6 and 10; "512346": 6 and 1; "0.00120": 3 and 1e-5). False if `tok` is not
+/// plain decimal text.
+bool writtenDigits(const std::string& tok, int& digits, double& last_place) {
+  std::size_t k = (!tok.empty() && (tok[0] == '-' || tok[0] == '+')) ? 1 : 0;
+  std::string mantissa_digits;
+  int decimals = 0;
+  bool point = false;
+  for (; k < tok.size() && tok[k] != 'e' && tok[k] != 'E'; ++k) {
+    if (tok[k] == '.' && !point) {
+      point = true;
+    } else if (std::isdigit(static_cast<unsigned char>(tok[k]))) {
+      mantissa_digits += tok[k];
+      decimals += point ? 1 : 0;
+    } else {
+      return false;
+    }
+  }
+  long exponent = 0;
+  if (k < tok.size()) {
+    char* end = nullptr;
+    exponent = std::strtol(tok.c_str() + k + 1, &end, 10);
+    if (k + 1 == tok.size() || *end != 0) return false;
+  }
+  const std::size_t first = mantissa_digits.find_first_not_of('0');
+  digits = first == std::string::npos ? 0 : int(mantissa_digits.size() - first);
+  last_place = std::pow(10.0, double(exponent - decimals));
+  return !mantissa_digits.empty();
+}
+
+/// PCL writes VIEWPOINT through a stream at its default 6 significant digits (pcd_io.hpp), so a
+/// UTM northing 5812345.68 comes back as 5.81235e+06, 4.3 m off, and every point moved into the
+/// sensor frame with it. A coordinate beyond 1e5 m written with 6 digits or fewer is named with
+/// what it may be off by (half its last digit's place); "" when none is.
+std::string writtenPrecisionNote(const std::vector<std::string>& tok, const Eigen::Vector3d& t) {
+  constexpr double kFarM = 1e5;  // from here on 6 digits leave ≥ 0.5 m uncertain
+  std::string note;
+  for (int i = 0; i < 3; ++i) {
+    int digits = 0;
+    double place = 0;
+    if (std::abs(t[i]) <= kFarM || !writtenDigits(tok[i], digits, place) || digits > 6) continue;
+    note += std::string(note.empty() ? "" : ", ") + "t" + "xyz"[i] + " " + tok[i] + " only to ±" +
+            numberText(place / 2) + " m";
+  }
+  return note;
+}
 
 /// Reads the VIEWPOINT tokens into `vp`; what is wrong with them, or "". PCL reads it with
 /// stream extraction, so a NaN, a missing number or a zero quaternion went through.
@@ -101,6 +161,7 @@ std::string readViewpoint(const std::vector<std::string>& tok, PcdViewpoint& vp)
   vp.t = Eigen::Vector3d(v[0], v[1], v[2]);
   vp.q = q.normalized();
   vp.text = text;
+  vp.precision_note = writtenPrecisionNote(tok, vp.t);
   return "";
 }
 
@@ -112,10 +173,12 @@ std::string readViewpoint(const std::vector<std::string>& tok, PcdViewpoint& vp)
 /// WIDTH × HEIGHT = POINTS; a DATA kind; and a body big enough for POINTS — SIZE × COUNT bytes a
 /// point in binary, two characters ("0 ") a value in ASCII. Compressed bodies carry their own
 /// sizes, which PCL checks.
-std::string pcdHeaderProblem(const std::string& file, PcdViewpoint& viewpoint) {
-  std::ifstream in(file, std::ios::binary);
-  std::string line, data;
-  std::map<std::string, std::vector<std::string>> keys;
+using PcdHeaderKeys = std::map<std::string, std::vector<std::string>>;
+
+/// The header lines of a PCD, key → tokens, up to DATA or the 64th line; `in` is left at the body.
+PcdHeaderKeys readPcdHeaderKeys(std::istream& in) {
+  std::string line;
+  PcdHeaderKeys keys;
   for (int k = 0; k < 64 && std::getline(in, line); ++k) {
     std::istringstream ss(line);
     std::string key, tok;
@@ -124,6 +187,22 @@ std::string pcdHeaderProblem(const std::string& file, PcdViewpoint& viewpoint) {
     while (ss >> tok) v.push_back(tok);
     if (key == "DATA") break;
   }
+  return keys;
+}
+
+/// Whether a PCD's header has a VIEWPOINT that reads as a pose other than the identity. A header
+/// that cannot be read counts as none: reading the frame says what is wrong with it.
+bool hasMovedViewpoint(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  const PcdHeaderKeys keys = readPcdHeaderKeys(in);
+  const auto it = keys.find("VIEWPOINT");
+  PcdViewpoint vp;
+  return it != keys.end() && readViewpoint(it->second, vp).empty() && !vp.identity();
+}
+
+std::string pcdHeaderProblem(const std::string& file, PcdViewpoint& viewpoint) {
+  std::ifstream in(file, std::ios::binary);
+  PcdHeaderKeys keys = readPcdHeaderKeys(in);
   auto count = [](const std::string& tok, unsigned long long& out) {
     if (tok.empty() || tok[0] == '-' || tok[0] == '+') return false;
     char* end = nullptr;
@@ -251,7 +330,17 @@ class PointCloudFileSource : public Source {
     ring_options_.use_scan_order = ring_method_ == "auto";
     ring_options_.z_offset_m = ring_z_offset_m_;
     ring_options_.measure_consistency = false;  // the rings are all a reader needs
-    told_viewpoint_ = false;
+    told_viewpoint_ = told_precision_ = false;
+    // Decided for the whole source before its first frame, so that every frame of a map saved
+    // per scan has a pose, the one whose VIEWPOINT is the map's origin included: a frame without
+    // one among frames with one is refused by outputs that keep a trajectory. Only the headers
+    // are read (≤ 64 lines each).
+    poses_from_viewpoints_ = false;
+    for (const auto& file : files_)
+      if (lowerExt(file) == ".pcd" && hasMovedViewpoint(file)) {
+        poses_from_viewpoints_ = true;
+        break;
+      }
   }
 
   std::size_t size() const override { return files_.size(); }
@@ -332,19 +421,30 @@ class PointCloudFileSource : public Source {
       o << "point " << k << " has " << field << ' ' << v << "; expected " << expected;
       throw InputError(file, o.str());
     };
+    // The VIEWPOINT is applied in double, before a point is stored in single precision: at a
+    // UTM northing (~5.8e6 m) floats are 0.5 m apart, so points stored first and moved after
+    // kept their offsets from the sensor only to 0.5 m (flat ground read as rough).
+    const bool move = !viewpoint.identity();
+    const Eigen::Matrix3d Rt = viewpoint.q.toRotationMatrix().transpose();
     for (std::size_t k = 0; k < n; ++k) {
       // Every field is read by its stored type. PCL's fromPCLPointCloud2 left x, y, z and
       // intensity at 0 when they were not float32 (only a "Failed to find match" warning), so a
       // cloud of float64 coordinates read as points at the origin, dropped as no-returns.
-      const float x = float(fieldValue(c2, *f_x, k)), y = float(fieldValue(c2, *f_y, k)),
-                  z = float(fieldValue(c2, *f_z, k));
+      Eigen::Vector3d p(fieldValue(c2, *f_x, k), fieldValue(c2, *f_y, k), fieldValue(c2, *f_z, k));
       const float in = f_int ? float(fieldValue(c2, *f_int, k)) : 0.f;
-      if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(in)) {
+      if (!p.allFinite() || !std::isfinite(in)) {
         ++nonfinite;
         continue;
       }
-      if (drop_no_return_ && x == 0.f && y == 0.f && z == 0.f) {
+      // A no-return is the (0, 0, 0) the file stores, whatever the viewpoint.
+      if (drop_no_return_ && p.isZero(0)) {
         ++origin;
+        continue;
+      }
+      if (move) p = Rt * (p - viewpoint.t);  // p_s = Rᵀ (p − t), into the sensor frame
+      const float x = float(p.x()), y = float(p.y()), z = float(p.z());
+      if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {  // beyond float's range
+        ++nonfinite;
         continue;
       }
       f.points.x.push_back(x);
@@ -368,7 +468,12 @@ class PointCloudFileSource : public Source {
     }
     f.dropped_nonfinite_points = nonfinite;
     f.dropped_no_return_points = origin;
-    if (!viewpoint.identity()) toSensorFrame(f.points, viewpoint, file);
+    if (move) tellViewpoint(viewpoint, file);
+    // The viewpoint is the sensor's pose in the file's frame: for a folder of scans stored in one
+    // map frame, the frame's pose in that map. Set for every PCD of a source in which any file
+    // has a viewpoint other than the identity (one at the map's origin included), never for one
+    // whose files all have the default: "no pose" then still says so.
+    if (!ply && poses_from_viewpoints_) f.pose = viewpoint.pose();
     if (f_label) {
       if (map_) {
         map_->mapAll(f.truth.raw, f.truth.label, file);
@@ -393,23 +498,26 @@ class PointCloudFileSource : public Source {
   }
 
  private:
-  /// Moves the points from the file's frame into the sensor's, p_s = Rᵀ (p − t): the grid, ring
-  /// recovery and every feature take the sensor at the origin, x forward, z up. No-returns were
-  /// dropped before, by the (0, 0, 0) the file stores.
-  void toSensorFrame(PointCloud& c, const PcdViewpoint& vp, const std::string& file) {
-    const Eigen::Matrix3d Rt = vp.q.toRotationMatrix().transpose();
-    for (std::size_t k = 0; k < c.size(); ++k) {
-      const Eigen::Vector3d p = Rt * (Eigen::Vector3d(c.x[k], c.y[k], c.z[k]) - vp.t);
-      c.x[k] = float(p.x());
-      c.y[k] = float(p.y());
-      c.z[k] = float(p.z());
-    }
-    if (!told_viewpoint_) {  // once a source: a folder of one recording shares its viewpoint
+  /// Says on stderr, once a source (a folder of one recording shares its viewpoint's form), that
+  /// the VIEWPOINT was applied, and when its written digits leave the sensor's position metres
+  /// uncertain (PCL's 6 significant digits), by how much.
+  void tellViewpoint(const PcdViewpoint& vp, const std::string& file) {
+    if (!told_viewpoint_) {
       told_viewpoint_ = true;
       std::fprintf(stderr,
                    "pointcloud_file: %s: VIEWPOINT %s applied: points moved from the file's frame "
-                   "into the sensor's (p_s = R^T (p - t))\n",
-                   file.c_str(), vp.text.c_str());
+                   "into the sensor's (p_s = R^T (p - t))%s\n",
+                   file.c_str(), vp.text.c_str(),
+                   poses_from_viewpoints_ ? "; the frames' poses are their VIEWPOINTs" : "");
+    }
+    if (!vp.precision_note.empty() && !told_precision_) {
+      told_precision_ = true;
+      std::fprintf(stderr,
+                   "pointcloud_file: %s: warning: VIEWPOINT %s gives %s (6 or fewer significant "
+                   "digits, as PCL writes it): the sensor's position, and every point moved into "
+                   "its frame, may be off by as much; write the VIEWPOINT to the millimetre "
+                   "(e.g. printf's %%.3f) rather than through PCL's writer\n",
+                   file.c_str(), vp.text.c_str(), vp.precision_note.c_str());
     }
   }
 
@@ -425,7 +533,9 @@ class PointCloudFileSource : public Source {
   LabelSet labels_;
   std::unique_ptr<LabelMap> map_;
   RingRecoveryOptions ring_options_;
+  bool poses_from_viewpoints_ = false;  ///< some file of the source has a moved VIEWPOINT
   bool told_viewpoint_ = false;
+  bool told_precision_ = false;
 };
 
 }  // namespace

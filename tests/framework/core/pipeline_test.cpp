@@ -176,6 +176,39 @@ TEST(Pipeline, PointsDroppedWhileReadingAreCountedAndNonFiniteOnesWarned) {
   EXPECT_EQ(quiet.str(), "");
 }
 
+// A cloud far from the sensor-centred grid (a UTM PLY, a PCD without its VIEWPOINT) left every
+// cell unknown with exit 0 and no word: now each such frame is named, with the counts inside and
+// outside, where the cloud and the grid lie and what to do.
+TEST(Pipeline, ACloudOutsideTheGridIsWarnedAboutWithBothExtents) {
+  test::ConfigFixture f;
+  std::ostringstream log;
+  RunResult r = runSynthetic(f, "{frames: 2, offset_m: [512345, 5812345]}", log);
+  EXPECT_EQ(r.exitCode(), 0);  // a frame in the wrong place is not a broken frame
+  EXPECT_EQ(r.frames_outside_grid, (std::vector<std::string>{"000000", "000001"}));
+  EXPECT_TRUE(r.empty_frames.empty());
+  const std::string text = log.str();
+  for (const char* want :
+       {"warning: frame 000000: 0 of 40516 point(s) inside the grid, 40516 outside "
+        "(synthetic/000000.bin): the cloud spans x [512335.0, 512355.0], y [5812335.0, "
+        "5812355.0], z [-1.7, -0.3] m, the grid x [-20, 20], y [-20, 20] m around the sensor, so "
+        "every cell stays unknown. Is the cloud in a map frame (e.g. UTM)?",
+        "give a PCD the sensor's pose as its VIEWPOINT, use recentre: auto of semantickitti, or "
+        "store the points relative to the sensor",
+        "warning: frame 000001: 0 of "})
+    EXPECT_NE(text.find(want), std::string::npos) << want << "\n" << text;
+  // One row of points inside (0.1 m of a 20 m plane over the grid's edge): still under 1 %.
+  std::ostringstream edge;
+  r = runSynthetic(f, "{frames: 1, offset_m: [29.95, 0]}", edge);
+  EXPECT_EQ(r.frames_outside_grid, (std::vector<std::string>{"000000"}));
+  EXPECT_NE(edge.str().find("inside the grid"), std::string::npos) << edge.str();
+  EXPECT_NE(edge.str().find("so nearly every cell stays unknown"), std::string::npos) << edge.str();
+  // Half the cloud inside: nothing said.
+  std::ostringstream quiet;
+  r = runSynthetic(f, "{frames: 1, offset_m: [20, 0]}", quiet);
+  EXPECT_TRUE(r.frames_outside_grid.empty());
+  EXPECT_EQ(quiet.str(), "");
+}
+
 // What the stages measure is kept per completed frame and written next to timing.md.
 TEST(Pipeline, StageMetricsOfCompletedFramesAreWrittenAsCsv) {
   test::ConfigFixture f;

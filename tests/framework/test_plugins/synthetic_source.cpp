@@ -22,6 +22,9 @@ class SyntheticSource final : public Source {
           "frames from this index on have no ground points in 5 ≤ x < 7 m, 3 ≤ y < 5 m (an "
           "occlusion); negative = never")
         .range(-1, 1000);
+    d.add("offset_m", offset_m_,
+          "[dx, dy] added to every point, as a cloud stored in a map frame would be; empty: none")
+        .unit("m");
   }
   std::size_t size() const override { return static_cast<std::size_t>(frames_); }
   std::string frameId(std::size_t i) const override {
@@ -58,6 +61,11 @@ class SyntheticSource final : public Source {
         f.truth.label.push_back(labels::kObstacle);
         f.truth.raw.push_back(3);
       }
+    if (offset_m_.size() == 2)
+      for (std::size_t k = 0; k < f.points.size(); ++k) {
+        f.points.x[k] += static_cast<float>(offset_m_[0]);
+        f.points.y[k] += static_cast<float>(offset_m_[1]);
+      }
     return f;
   }
 
@@ -69,6 +77,7 @@ class SyntheticSource final : public Source {
   std::string mode_ = "plane";
   int nonfinite_ = 0, no_return_ = 0;
   int hole_from_ = -1;
+  std::vector<double> offset_m_;
 };
 
 }  // namespace terramrf

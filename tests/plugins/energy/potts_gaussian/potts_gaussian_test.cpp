@@ -482,6 +482,33 @@ TEST(PottsGaussian, AModelLearntOnFeaturesComputedOtherwiseIsRefused) {
   EXPECT_NO_THROW(h.make("potts_gaussian", "{model: " + writeModel(d) + ", features: [f]}"));
 }
 
+// Cell sizes are named as a config gives them. The record holds yaml-cpp's emission of the
+// double, 0.10000000000000001 for 0.1, and that was repeated: "cells of 0.10000000000000001 m
+// here".
+TEST(PottsGaussian, ACellSizeDifferenceNamesBothSizesAsWritten) {
+  test::TempDir d;
+  const std::string m = d.str() + "/m.yaml";
+  std::ofstream(m) << "feature_origins:\n  f: {stage: height_difference, cell_m: 0.5, params: "
+                      "{min_points: 1}}\n"
+                   << "classes:\n"
+                      "  road:     {f: {mean: 0.0, sigma: 0.1}}\n"
+                      "  rough:    {f: {mean: 1.0, sigma: 0.5}}\n"
+                      "  obstacle: {f: {mean: 5.0, sigma: 2.0}}\n";
+  test::StageHarness h;
+  // As the loader records a layer's origin on cells of 0.1 m (yaml-cpp's emitter).
+  std::map<std::string, std::string> here{
+      {"f", "{stage: height_difference, cell_m: 0.10000000000000001, params: {min_points: 1}}"}};
+  h.layer_origins = &here;
+  try {
+    h.make("potts_gaussian", "{model: " + m + ", features: [f]}");
+    FAIL() << "a model of 0.5 m cells was used on 0.1 m cells";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("feature 'f': cells of 0.1 m here, 0.5 m in the model"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 }  // namespace terramrf
 
 namespace terramrf {
