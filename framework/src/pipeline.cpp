@@ -133,6 +133,7 @@ void requireDistinctFrameIds(const Source& src, std::size_t first, std::size_t n
       first_clashes.str() + (clashes > 5 ? "\n  …" : "") +
       "\ngive every frame a distinct name (file names differ in more than their extension and "
       "in more than '/', ':' and spaces)");
+}
 
 /// Warns about a frame whose points nearly all miss the grid, which is centred on the sensor: a
 /// cloud stored in a map frame (a UTM PLY, a PCD without its VIEWPOINT) lies kilometres away, and
