@@ -61,12 +61,12 @@ Tile& TerrainMesh::ensureTile(int ti, int tj) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   t.z_max.assign(nv, nan);
   t.z_min.assign(nv, nan);
-  t.z_sum.assign(nv, 0.f);
+  t.z_sum.assign(nv, 0.0);
   t.count.assign(nv, 0);
   t.ground_votes.assign(nv, 0);
   t.object_votes.assign(nv, 0);
-  t.rec_sum.assign(nv, 0.f);
-  t.rec_weight.assign(nv, 0.f);
+  t.rec_sum.assign(nv, 0.0);
+  t.rec_weight.assign(nv, 0.0);
   t.rec_lower.assign(nv, nan);
   t.cls.assign(nv, VertexClass::kUnknown);
   t.mask_response.assign(nv, nan);
@@ -137,8 +137,15 @@ void TerrainMesh::addPoint(const Eigen::Vector3d& p) {
       t.z_max[k] = std::max(t.z_max[k], z);
       t.z_min[k] = std::min(t.z_min[k], z);
     }
-    t.z_sum[k] += z;
+    t.z_sum[k] += p.z();  // the point's own height, not its float rounding (~3e-5 m at 300 m)
     ++t.count[k];
+  });
+}
+
+void TerrainMesh::addHeightEstimate(const VertexKey& key, double z_m, double weight) {
+  forEachCopy(key, [&](Tile& t, int k) {
+    t.rec_sum[k] += weight * z_m;
+    t.rec_weight[k] += weight;
   });
 }
 
@@ -160,9 +167,10 @@ std::size_t TerrainMesh::addCloud(const PointCloud& cloud, const Eigen::Isometry
 float TerrainMesh::displayHeight(const Tile& t, int k) const {
   if (t.count[k] == 0) return std::numeric_limits<float>::quiet_NaN();
   const VertexClass c = t.cls[k];
-  if (c == VertexClass::kGround || c == VertexClass::kUnknown) return t.z_sum[k] / t.count[k];
+  if (c == VertexClass::kGround || c == VertexClass::kUnknown)
+    return float(t.z_sum[k] / t.count[k]);
   float h = t.z_max[k];
-  if (t.rec_weight[k] > 0) h = std::max(h, t.rec_sum[k] / t.rec_weight[k]);
+  if (t.rec_weight[k] > 0) h = std::max(h, float(t.rec_sum[k] / t.rec_weight[k]));
   // The lower bound is measured (the object reaches at least there), so an estimate below it
   // from another view is wrong and must not win.
   if (std::isfinite(t.rec_lower[k])) h = std::max(h, t.rec_lower[k]);

@@ -50,10 +50,14 @@ struct Tile {
   // Per vertex, row-major (i·n + j).
   std::vector<float> z_max;      ///< highest registered point [m], NaN = no data
   std::vector<float> z_min;      ///< lowest registered point [m]
-  std::vector<float> z_sum;      ///< sum of heights (mean = z_sum / count) [m]
+  // The sums are double: with world-frame heights (z ≈ 300 m) a float sum of 60 000 points on one
+  // vertex (a vehicle standing still) rounded its mean 0.17 m low. 12 bytes more per vertex than
+  // float (49 instead of 37; 1.67 instead of 1.41 MiB per tile of 151² vertices, 2 texels/cell).
+  std::vector<double> z_sum;     ///< sum of heights (mean = z_sum / count) [m]
   std::vector<uint32_t> count;   ///< registered points
   std::vector<uint16_t> ground_votes, object_votes;  ///< per-frame image segmentation votes
-  std::vector<float> rec_sum, rec_weight;  ///< recovered-height estimates (weighted) [m]
+  std::vector<double> rec_sum;     ///< Σ weight·height of the recovered-height estimates [m]
+  std::vector<double> rec_weight;  ///< Σ weight of those estimates (1/range⁴) [m⁻⁴]
   std::vector<float> rec_lower;            ///< lower bound when the top left the image [m]
   std::vector<VertexClass> cls;
   std::vector<float> mask_response;        ///< U of eq. 13 (normalised if configured), NaN = none
@@ -84,6 +88,9 @@ class TerrainMesh {
   /// max_range_m from the sensor (horizontally) are skipped and counted in the return value.
   std::size_t addCloud(const PointCloud& cloud, const Eigen::Isometry3d& T_world_lidar,
                        double max_range_m);
+  /// Adds one recovered-height estimate z_m [m] with weight `weight` (> 0) to every copy of the
+  /// vertex `key` (§3.3); displayHeight uses their weighted mean.
+  void addHeightEstimate(const VertexKey& key, double z_m, double weight);
 
   const std::map<std::pair<int, int>, std::unique_ptr<Tile>>& tiles() const { return tiles_; }
   std::map<std::pair<int, int>, std::unique_ptr<Tile>>& tiles() { return tiles_; }
