@@ -1,8 +1,11 @@
 #include "terramrf/meshing/terrain_mesh.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
+
+#include "terramrf/text_format.hpp"
 
 namespace terramrf::meshing {
 
@@ -17,11 +20,52 @@ const char* toString(VertexClass c) {
   return "invalid";
 }
 
+namespace {
+/// Bytes of one vertex across the Tile's per-vertex arrays (taken from their types, so a new or
+/// wider field counts without this being edited; a new array must be added here).
+constexpr std::size_t kVertexBytes =
+    sizeof(decltype(Tile::z_max)::value_type) + sizeof(decltype(Tile::z_min)::value_type) +
+    sizeof(decltype(Tile::z_sum)::value_type) + sizeof(decltype(Tile::count)::value_type) +
+    sizeof(decltype(Tile::ground_votes)::value_type) +
+    sizeof(decltype(Tile::object_votes)::value_type) + sizeof(decltype(Tile::rec_sum)::value_type) +
+    sizeof(decltype(Tile::rec_weight)::value_type) + sizeof(decltype(Tile::rec_lower)::value_type) +
+    sizeof(decltype(Tile::cls)::value_type) + sizeof(decltype(Tile::mask_response)::value_type);
+/// Bytes of one texel: RGB plus its camera distance.
+constexpr std::size_t kTexelBytes = 3 + sizeof(decltype(Tile::texel_range)::value_type);
+
+double textureSide(const TerrainMeshParams& p) {
+  return double(p.tile_vertices - 1) * p.texels_per_cell + 1;
+}
+}  // namespace
+
+double tileBytes(const TerrainMeshParams& p) {
+  const double n = p.tile_vertices, T = textureSide(p);
+  return n * n * kVertexBytes + T * T * kTexelBytes;
+}
+
+std::string tileBudgetProblem(const TerrainMeshParams& p) {
+  const double bytes = tileBytes(p);
+  if (bytes <= kMaxTileBytes) return "";
+  const double n = p.tile_vertices, T = textureSide(p);
+  char sizes[160];
+  std::snprintf(sizes, sizeof sizes, "%.0f x %.0f vertices: %s, a %.0f x %.0f texel texture: %s", n,
+                n, byteSize(n * n * kVertexBytes).c_str(), T, T,
+                byteSize(T * T * kTexelBytes).c_str());
+  return "tile_vertices " + std::to_string(p.tile_vertices) + " with texels_per_cell " +
+         std::to_string(p.texels_per_cell) + " makes tiles of " + byteSize(bytes) + " each (" +
+         sizes + "); expected at most " + byteSize(kMaxTileBytes) +
+         " per tile: every tile is allocated whole as soon as a point falls in it. Lower "
+         "texels_per_cell or tile_vertices (the defaults, 151 and 2: " +
+         byteSize(tileBytes(TerrainMeshParams{})) + " per tile)";
+}
+
 TerrainMesh::TerrainMesh(const TerrainMeshParams& p) : p_(p) {
   if (p_.tile_vertices < 2)
     throw std::invalid_argument("tile_vertices must be >= 2, got " + std::to_string(p_.tile_vertices));
   if (!(p_.cell_m > 0)) throw std::invalid_argument("cell_m must be > 0");
   if (p_.texels_per_cell < 1) throw std::invalid_argument("texels_per_cell must be >= 1");
+  // Refused here, not at the first point: a run would otherwise fail (or be killed) mid-drive.
+  if (const std::string why = tileBudgetProblem(p_); !why.empty()) throw std::invalid_argument(why);
 }
 
 void TerrainMesh::tileOf(int64_t gi, int64_t gj, int& ti, int& tj) const {

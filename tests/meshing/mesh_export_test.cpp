@@ -157,6 +157,50 @@ TEST(TerrainMesh, RecoveredHeightOfManyEstimatesIsExact) {
   EXPECT_NEAR(m.displayHeight(t, k), 300.37, 1e-4);
 }
 
+// Every tile is allocated whole as soon as a point falls in it; at the textured_mesh output's
+// parameter bounds (2001 vertices, 8 texels per cell) one took 1.7 GiB (2.0 GB RSS for one tile).
+TEST(TerrainMesh, TilesAboveTheMemoryBudgetAreRefused) {
+  TerrainMeshParams p;
+  p.tile_vertices = 2001;
+  p.texels_per_cell = 8;
+  try {
+    TerrainMesh m(p);
+    FAIL() << "accepted tiles of " << tileBytes(p) << " bytes";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "tile_vertices 2001 with texels_per_cell 8 makes tiles of 1.85 GiB each (2001 x 2001 "
+              "vertices: 187 MiB, a 16001 x 16001 texel texture: 1.67 GiB); expected at most "
+              "256 MiB per tile: every tile is allocated whole as soon as a point falls in it. "
+              "Lower texels_per_cell or tile_vertices (the defaults, 151 and 2: 1.67 MiB per "
+              "tile)");
+  }
+  p.texels_per_cell = 2;  // 294 MiB: still too large
+  EXPECT_THROW(TerrainMesh{p}, std::invalid_argument);
+  p.texels_per_cell = 1;  // 214 MiB: the largest within the bounds that fits
+  EXPECT_NO_THROW(TerrainMesh{p});
+  EXPECT_LE(tileBytes(p), kMaxTileBytes);
+  // Parameters far outside any bound cannot overflow the estimate into "fits".
+  p.tile_vertices = 1 << 30;
+  p.texels_per_cell = 1 << 30;
+  EXPECT_THROW(TerrainMesh{p}, std::invalid_argument);
+}
+
+// The estimate is what a tile really allocates (its arrays and texture), so the budget holds.
+TEST(TerrainMesh, TileBytesIsWhatATileAllocates) {
+  TerrainMeshParams p;
+  p.tile_vertices = 31;
+  p.texels_per_cell = 3;
+  TerrainMesh m(p);
+  m.addPoint({0.1, 0.1, 0});
+  const Tile& t = *m.tile(0, 0);
+  auto bytes = [](const auto& v) { return double(v.size() * sizeof(v[0])); };
+  const double allocated = bytes(t.z_max) + bytes(t.z_min) + bytes(t.z_sum) + bytes(t.count) +
+                           bytes(t.ground_votes) + bytes(t.object_votes) + bytes(t.rec_sum) +
+                           bytes(t.rec_weight) + bytes(t.rec_lower) + bytes(t.cls) +
+                           bytes(t.mask_response) + bytes(t.texture.data) + bytes(t.texel_range);
+  EXPECT_DOUBLE_EQ(tileBytes(p), allocated);
+}
+
 TEST(TerrainMesh, PaperDefaults) {
   TerrainMesh m;
   EXPECT_EQ(m.params().tile_vertices, 151);

@@ -16,6 +16,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -42,6 +43,20 @@ struct TerrainMeshParams {
   double cell_m = 0.125;    ///< vertex spacing [m] (paper: 0.125)
   int texels_per_cell = 2;  ///< texture resolution: texels per cell side [1]
 };
+
+/// Largest tile a TerrainMesh accepts [bytes]: 256 MiB. Every tile is allocated whole (vertex
+/// arrays and texture) as soon as a point falls in it, and a drive makes many; at the parameter
+/// bounds of the textured_mesh output (2001 vertices, 8 texels per cell) one tile took 1.7 GiB.
+inline constexpr double kMaxTileBytes = 256.0 * 1024 * 1024;
+
+/// Memory one tile of these parameters takes [bytes]: n² vertices of the Tile's per-vertex
+/// arrays plus the T × T texture (RGB) and its texel ranges, T = (n − 1)·texels_per_cell + 1.
+/// In double, so parameters far out of range cannot overflow it.
+double tileBytes(const TerrainMeshParams& p);
+
+/// Why tiles of these parameters are too large (above kMaxTileBytes), naming tile_vertices,
+/// texels_per_cell and the estimate; empty when they fit.
+std::string tileBudgetProblem(const TerrainMeshParams& p);
 
 /// One tile: n × n vertices, row index along world x, column index along world y.
 struct Tile {
