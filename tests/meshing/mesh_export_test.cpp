@@ -602,6 +602,71 @@ TEST(MeshExport, FailedExportKeepsThePreviousOne) {
     EXPECT_EQ(e.path().filename(), "mesh") << "left behind: " << e.path();
 }
 
+// A .glb's total length and chunk lengths are uint32, and tinygltf truncates larger sizes without
+// a word: a mesh above 4 GiB was written as a corrupt file. The size rule, without writing 4 GiB.
+TEST(MeshExport, GlbSizeIsCheckedAgainstItsThirtyTwoBitLengths) {
+  EXPECT_EQ(glbFileBytes(0, 0), 20u);                  // header + empty JSON chunk
+  EXPECT_EQ(glbFileBytes(5, 7), 12u + 8 + 8 + 8 + 8);  // chunks padded to 4 bytes
+  // A binary chunk that fits alone no longer fits with the JSON and headers.
+  const std::uint64_t bin = kMaxGlbBytes - 100;
+  EXPECT_GT(glbFileBytes(80, bin), kMaxGlbBytes);
+  EXPECT_NO_THROW(checkGlbSize(kMaxGlbBytes, 7));
+  try {
+    checkGlbSize(glbFileBytes(80, bin), 1234);
+    FAIL() << "accepted a .glb above 4 GiB";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "glTF: 1234 tile(s) make a .glb of 4 GiB (4294967304 bytes) or more, meshes and PNG "
+              "textures together; expected at most 4294967295 bytes (4 GiB - 1: a .glb's lengths "
+              "are 32-bit). Export formats: [obj, ply] instead (separate files per tile "
+              "texture), or a smaller mesh (lower texels_per_cell, decimate: true, or fewer "
+              "frames per run)");
+  }
+}
+
+// writeGlb applies the rule to the whole file, the PNG textures in its binary chunk included,
+// and writes nothing when it fails (tested with a small limit in place of 4 GiB).
+TEST(MeshExport, GlbAboveTheLimitIsRefusedTexturesIncluded) {
+  Scene s;
+  std::vector<TileMesh> tiles = extractTileMeshes(s.mesh);
+  ASSERT_FALSE(tiles.empty());
+  test::TempDir dir;
+  const std::string textured = (dir.path() / "textured.glb").string();
+  writeGlb(tiles, textured);
+  const std::uint64_t with_textures = fs::file_size(textured);
+  std::vector<TileMesh> bare = tiles;
+  for (auto& m : bare) m.texture = nullptr;
+  const std::string untextured = (dir.path() / "untextured.glb").string();
+  writeGlb(bare, untextured);
+  const std::uint64_t without = fs::file_size(untextured);
+  ASSERT_LT(without, with_textures);
+
+  // Exactly the file's size passes (and writes the same file); one byte less does not.
+  const std::string at_limit = (dir.path() / "at_limit.glb").string();
+  writeGlb(tiles, at_limit, with_textures);
+  EXPECT_EQ(readFile(at_limit), readFile(textured));
+  const std::string over = (dir.path() / "over.glb").string();
+  EXPECT_THROW(writeGlb(tiles, over, with_textures - 1), std::runtime_error);
+  // A limit the meshes fit but not their textures: the textures count.
+  try {
+    writeGlb(tiles, over, without + (with_textures - without) / 2);
+    FAIL() << "textures not counted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("Export formats: [obj, ply] instead"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(over));
+  // A limit below the first tile's geometry stops at that tile, before encoding the others.
+  try {
+    writeGlb(tiles, over, 100);
+    FAIL() << "accepted a .glb above 100 bytes";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("glTF: 1 tile(s) make a .glb of"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(over));
+}
+
 // Decimation of flat regions (decimation.hpp). Heights are given exactly at the vertices (one
 // point each) so the original surface is known.
 struct HeightField {
