@@ -1,6 +1,7 @@
 #include "terramrf/text_format.hpp"
 
 #include <cstdio>
+#include <iterator>
 
 namespace terramrf {
 
@@ -32,6 +33,24 @@ std::string csvField(const std::string& s) {
     q += ch;
   }
   return q + "\"";
+}
+
+std::string byteSize(double bytes) {
+  static const char* const kUnits[] = {"KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
+  char buf[32];
+  if (!(bytes >= 1024)) {
+    std::snprintf(buf, sizeof buf, "%.0f bytes", bytes);
+    return buf;
+  }
+  int u = 0;
+  bytes /= 1024;
+  // %.3g would print 1000 and above as 1e+03: those go one unit up (0.977 MiB).
+  while (bytes >= 999.5 && u + 1 < int(std::size(kUnits))) {
+    bytes /= 1024;
+    ++u;
+  }
+  std::snprintf(buf, sizeof buf, "%.3g %s", bytes, kUnits[u]);
+  return buf;
 }
 
 }  // namespace terramrf

@@ -5,6 +5,7 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <opencv2/core.hpp>
@@ -15,6 +16,7 @@
 
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/meshing/mesh_export.hpp"
+#include "terramrf/text_format.hpp"
 
 namespace terramrf::meshing {
 
@@ -61,9 +63,27 @@ struct BufferBuilder {
   }
 };
 
+std::uint64_t pad4(std::uint64_t n) { return (n + 3) & ~std::uint64_t(3); }
+
 }  // namespace
 
-void writeGlb(const std::vector<TileMesh>& tiles, const std::string& path) {
+std::uint64_t glbFileBytes(std::uint64_t json_bytes, std::uint64_t bin_bytes) {
+  return 12 + 8 + pad4(json_bytes) + (bin_bytes ? 8 + pad4(bin_bytes) : 0);
+}
+
+void checkGlbSize(std::uint64_t file_bytes, std::size_t tiles, std::uint64_t max_bytes) {
+  if (file_bytes <= max_bytes) return;
+  throw std::runtime_error(
+      "glTF: " + std::to_string(tiles) + " tile(s) make a .glb of " + byteSize(double(file_bytes)) +
+      " (" + std::to_string(file_bytes) + " bytes) or more, meshes and PNG textures together; " +
+      "expected at most " + std::to_string(max_bytes) + " bytes" +
+      (max_bytes == kMaxGlbBytes ? " (4 GiB - 1: a .glb's lengths are 32-bit)" : "") +
+      ". Export formats: [obj, ply] instead (separate files per tile texture), or a smaller "
+      "mesh (lower texels_per_cell, decimate: true, or fewer frames per run)");
+}
+
+void writeGlb(const std::vector<TileMesh>& tiles, const std::string& path,
+              std::uint64_t max_bytes) {
   tinygltf::Model model;
   model.asset.version = "2.0";
   model.asset.generator = "TerraMRF textured terrain mesh (paper 004)";
@@ -163,6 +183,9 @@ void writeGlb(const std::vector<TileMesh>& tiles, const std::string& path) {
     node.mesh = int(model.meshes.size()) - 1;
     model.nodes.push_back(node);
     root.children.push_back(int(model.nodes.size()) - 1);
+    // Stop as soon as the binary chunk alone (geometry and this tile's PNG) is too large, before
+    // encoding the rest and before tinygltf's copies of a buffer of several GiB.
+    checkGlbSize(glbFileBytes(0, bb.data.size()), model.meshes.size(), max_bytes);
   }
   model.nodes.push_back(root);
   scene.nodes.push_back(int(model.nodes.size()) - 1);
@@ -174,6 +197,9 @@ void writeGlb(const std::vector<TileMesh>& tiles, const std::string& path) {
   tinygltf::TinyGLTF writer;
   if (!writer.WriteGltfSceneToStream(&model, os, false, true))
     throw std::runtime_error("tinygltf could not encode the glTF model");
+  // The stream holds every byte (tinygltf truncates only the length fields it writes), so its
+  // size is the file's, JSON included: above the limit the header would lie about it.
+  checkGlbSize(std::uint64_t(os.tellp()), tiles.size(), max_bytes);
   writeFileAtomic(path, os.str());
 }
 

@@ -201,11 +201,8 @@ SceneRecoveryStats recoverHeights(TerrainMesh& mesh, const CameraView& view, con
     ++st.estimates;
     if (z <= t.z_max[c.k]) continue;  // the LiDAR already saw the top
     ++st.raised;
-    const float w = float(1.0 / (range * range * range * range));  // close views are sharper
-    mesh.forEachCopy(key, [&](Tile& tt, int kk) {
-      tt.rec_sum[kk] += w * float(z);
-      tt.rec_weight[kk] += w;
-    });
+    // Weight 1/range⁴: close views are sharper.
+    mesh.addHeightEstimate(key, z, 1.0 / (range * range * range * range));
   }
   st.object_mask = obj;
   return st;

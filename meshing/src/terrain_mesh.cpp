@@ -1,8 +1,11 @@
 #include "terramrf/meshing/terrain_mesh.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
+
+#include "terramrf/text_format.hpp"
 
 namespace terramrf::meshing {
 
@@ -17,11 +20,52 @@ const char* toString(VertexClass c) {
   return "invalid";
 }
 
+namespace {
+/// Bytes of one vertex across the Tile's per-vertex arrays (taken from their types, so a new or
+/// wider field counts without this being edited; a new array must be added here).
+constexpr std::size_t kVertexBytes =
+    sizeof(decltype(Tile::z_max)::value_type) + sizeof(decltype(Tile::z_min)::value_type) +
+    sizeof(decltype(Tile::z_sum)::value_type) + sizeof(decltype(Tile::count)::value_type) +
+    sizeof(decltype(Tile::ground_votes)::value_type) +
+    sizeof(decltype(Tile::object_votes)::value_type) + sizeof(decltype(Tile::rec_sum)::value_type) +
+    sizeof(decltype(Tile::rec_weight)::value_type) + sizeof(decltype(Tile::rec_lower)::value_type) +
+    sizeof(decltype(Tile::cls)::value_type) + sizeof(decltype(Tile::mask_response)::value_type);
+/// Bytes of one texel: RGB plus its camera distance.
+constexpr std::size_t kTexelBytes = 3 + sizeof(decltype(Tile::texel_range)::value_type);
+
+double textureSide(const TerrainMeshParams& p) {
+  return double(p.tile_vertices - 1) * p.texels_per_cell + 1;
+}
+}  // namespace
+
+double tileBytes(const TerrainMeshParams& p) {
+  const double n = p.tile_vertices, T = textureSide(p);
+  return n * n * kVertexBytes + T * T * kTexelBytes;
+}
+
+std::string tileBudgetProblem(const TerrainMeshParams& p) {
+  const double bytes = tileBytes(p);
+  if (bytes <= kMaxTileBytes) return "";
+  const double n = p.tile_vertices, T = textureSide(p);
+  char sizes[160];
+  std::snprintf(sizes, sizeof sizes, "%.0f x %.0f vertices: %s, a %.0f x %.0f texel texture: %s", n,
+                n, byteSize(n * n * kVertexBytes).c_str(), T, T,
+                byteSize(T * T * kTexelBytes).c_str());
+  return "tile_vertices " + std::to_string(p.tile_vertices) + " with texels_per_cell " +
+         std::to_string(p.texels_per_cell) + " makes tiles of " + byteSize(bytes) + " each (" +
+         sizes + "); expected at most " + byteSize(kMaxTileBytes) +
+         " per tile: every tile is allocated whole as soon as a point falls in it. Lower "
+         "texels_per_cell or tile_vertices (the defaults, 151 and 2: " +
+         byteSize(tileBytes(TerrainMeshParams{})) + " per tile)";
+}
+
 TerrainMesh::TerrainMesh(const TerrainMeshParams& p) : p_(p) {
   if (p_.tile_vertices < 2)
     throw std::invalid_argument("tile_vertices must be >= 2, got " + std::to_string(p_.tile_vertices));
   if (!(p_.cell_m > 0)) throw std::invalid_argument("cell_m must be > 0");
   if (p_.texels_per_cell < 1) throw std::invalid_argument("texels_per_cell must be >= 1");
+  // Refused here, not at the first point: a run would otherwise fail (or be killed) mid-drive.
+  if (const std::string why = tileBudgetProblem(p_); !why.empty()) throw std::invalid_argument(why);
 }
 
 void TerrainMesh::tileOf(int64_t gi, int64_t gj, int& ti, int& tj) const {
@@ -61,12 +105,12 @@ Tile& TerrainMesh::ensureTile(int ti, int tj) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   t.z_max.assign(nv, nan);
   t.z_min.assign(nv, nan);
-  t.z_sum.assign(nv, 0.f);
+  t.z_sum.assign(nv, 0.0);
   t.count.assign(nv, 0);
   t.ground_votes.assign(nv, 0);
   t.object_votes.assign(nv, 0);
-  t.rec_sum.assign(nv, 0.f);
-  t.rec_weight.assign(nv, 0.f);
+  t.rec_sum.assign(nv, 0.0);
+  t.rec_weight.assign(nv, 0.0);
   t.rec_lower.assign(nv, nan);
   t.cls.assign(nv, VertexClass::kUnknown);
   t.mask_response.assign(nv, nan);
@@ -137,8 +181,15 @@ void TerrainMesh::addPoint(const Eigen::Vector3d& p) {
       t.z_max[k] = std::max(t.z_max[k], z);
       t.z_min[k] = std::min(t.z_min[k], z);
     }
-    t.z_sum[k] += z;
+    t.z_sum[k] += p.z();  // the point's own height, not its float rounding (~3e-5 m at 300 m)
     ++t.count[k];
+  });
+}
+
+void TerrainMesh::addHeightEstimate(const VertexKey& key, double z_m, double weight) {
+  forEachCopy(key, [&](Tile& t, int k) {
+    t.rec_sum[k] += weight * z_m;
+    t.rec_weight[k] += weight;
   });
 }
 
@@ -160,9 +211,10 @@ std::size_t TerrainMesh::addCloud(const PointCloud& cloud, const Eigen::Isometry
 float TerrainMesh::displayHeight(const Tile& t, int k) const {
   if (t.count[k] == 0) return std::numeric_limits<float>::quiet_NaN();
   const VertexClass c = t.cls[k];
-  if (c == VertexClass::kGround || c == VertexClass::kUnknown) return t.z_sum[k] / t.count[k];
+  if (c == VertexClass::kGround || c == VertexClass::kUnknown)
+    return float(t.z_sum[k] / t.count[k]);
   float h = t.z_max[k];
-  if (t.rec_weight[k] > 0) h = std::max(h, t.rec_sum[k] / t.rec_weight[k]);
+  if (t.rec_weight[k] > 0) h = std::max(h, float(t.rec_sum[k] / t.rec_weight[k]));
   // The lower bound is measured (the object reaches at least there), so an estimate below it
   // from another view is wrong and must not win.
   if (std::isfinite(t.rec_lower[k])) h = std::max(h, t.rec_lower[k]);

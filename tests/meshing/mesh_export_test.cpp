@@ -120,6 +120,87 @@ TEST(TerrainMesh, LowerBoundWinsOverALowerEstimate) {
   EXPECT_FLOAT_EQ(m.displayHeight(t, k), 2.f);
 }
 
+// A vehicle standing still in a georeferenced world frame (z ≈ 300 m) puts tens of thousands of
+// points on one vertex. Their mean was summed in float: 60 000 points with a true mean of
+// 300.37 m came out 300.1976 m in the OBJ.
+TEST(TerrainMesh, MeanOfManyPointsHighInTheWorldFrameIsExact) {
+  TerrainMeshParams p;
+  p.tile_vertices = 11;
+  p.cell_m = 0.5;
+  TerrainMesh m(p);
+  // Pairs 300.00 / 300.74 m: mean 300.37 m exactly.
+  for (int i = 0; i < 60000; ++i) m.addPoint({1.0, 1.0, i % 2 ? 300.74 : 300.0});
+  const Tile& t = *m.tile(0, 0);
+  const int k = 2 * 11 + 2;
+  ASSERT_EQ(t.count[k], 60000u);
+  EXPECT_NEAR(m.displayHeight(t, k), 300.37, 1e-4);
+  EXPECT_NEAR(m.vertexPosition(t, 2, 2).z(), 300.37, 1e-4);
+  EXPECT_FLOAT_EQ(t.z_min[k], 300.f);
+  EXPECT_FLOAT_EQ(t.z_max[k], 300.74f);
+}
+
+// The recovered height is a weighted mean too (weight 1/range⁴), one estimate per view: a vehicle
+// parked for half an hour gives a wall vertex some 20 000. In float it was 6 mm high at 300 m.
+TEST(TerrainMesh, RecoveredHeightOfManyEstimatesIsExact) {
+  TerrainMeshParams p;
+  p.tile_vertices = 11;
+  p.cell_m = 0.5;
+  TerrainMesh m(p);
+  m.addPoint({1.0, 1.0, 299.0});  // LiDAR top below the estimates
+  Tile& t = *m.tiles().begin()->second;
+  const int k = 2 * 11 + 2;
+  t.cls[k] = VertexClass::kBuilding;
+  for (int i = 0; i < 20000; ++i) {
+    const double r = 5 + (i / 2) % 40;  // ranges 5..44 m, each pair the same weight
+    m.addHeightEstimate({2, 2}, 300.37 + (i % 2 ? 0.2 : -0.2), 1 / (r * r * r * r));
+  }
+  EXPECT_NEAR(m.displayHeight(t, k), 300.37, 1e-4);
+}
+
+// Every tile is allocated whole as soon as a point falls in it; at the textured_mesh output's
+// parameter bounds (2001 vertices, 8 texels per cell) one took 1.7 GiB (2.0 GB RSS for one tile).
+TEST(TerrainMesh, TilesAboveTheMemoryBudgetAreRefused) {
+  TerrainMeshParams p;
+  p.tile_vertices = 2001;
+  p.texels_per_cell = 8;
+  try {
+    TerrainMesh m(p);
+    FAIL() << "accepted tiles of " << tileBytes(p) << " bytes";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "tile_vertices 2001 with texels_per_cell 8 makes tiles of 1.85 GiB each (2001 x 2001 "
+              "vertices: 187 MiB, a 16001 x 16001 texel texture: 1.67 GiB); expected at most "
+              "256 MiB per tile: every tile is allocated whole as soon as a point falls in it. "
+              "Lower texels_per_cell or tile_vertices (the defaults, 151 and 2: 1.67 MiB per "
+              "tile)");
+  }
+  p.texels_per_cell = 2;  // 294 MiB: still too large
+  EXPECT_THROW(TerrainMesh{p}, std::invalid_argument);
+  p.texels_per_cell = 1;  // 214 MiB: the largest within the bounds that fits
+  EXPECT_NO_THROW(TerrainMesh{p});
+  EXPECT_LE(tileBytes(p), kMaxTileBytes);
+  // Parameters far outside any bound cannot overflow the estimate into "fits".
+  p.tile_vertices = 1 << 30;
+  p.texels_per_cell = 1 << 30;
+  EXPECT_THROW(TerrainMesh{p}, std::invalid_argument);
+}
+
+// The estimate is what a tile really allocates (its arrays and texture), so the budget holds.
+TEST(TerrainMesh, TileBytesIsWhatATileAllocates) {
+  TerrainMeshParams p;
+  p.tile_vertices = 31;
+  p.texels_per_cell = 3;
+  TerrainMesh m(p);
+  m.addPoint({0.1, 0.1, 0});
+  const Tile& t = *m.tile(0, 0);
+  auto bytes = [](const auto& v) { return double(v.size() * sizeof(v[0])); };
+  const double allocated = bytes(t.z_max) + bytes(t.z_min) + bytes(t.z_sum) + bytes(t.count) +
+                           bytes(t.ground_votes) + bytes(t.object_votes) + bytes(t.rec_sum) +
+                           bytes(t.rec_weight) + bytes(t.rec_lower) + bytes(t.cls) +
+                           bytes(t.mask_response) + bytes(t.texture.data) + bytes(t.texel_range);
+  EXPECT_DOUBLE_EQ(tileBytes(p), allocated);
+}
+
 TEST(TerrainMesh, PaperDefaults) {
   TerrainMesh m;
   EXPECT_EQ(m.params().tile_vertices, 151);
@@ -521,6 +602,70 @@ TEST(MeshExport, FailedExportKeepsThePreviousOne) {
     EXPECT_EQ(e.path().filename(), "mesh") << "left behind: " << e.path();
 }
 
+// A .glb's total length and chunk lengths are uint32, and tinygltf truncates larger sizes without
+// a word: a mesh above 4 GiB was written as a corrupt file. The size rule, without writing 4 GiB.
+TEST(MeshExport, GlbSizeIsCheckedAgainstItsThirtyTwoBitLengths) {
+  EXPECT_EQ(glbFileBytes(0, 0), 20u);                  // header + empty JSON chunk
+  EXPECT_EQ(glbFileBytes(5, 7), 12u + 8 + 8 + 8 + 8);  // chunks padded to 4 bytes
+  // A binary chunk that fits alone no longer fits with the JSON and headers.
+  const std::uint64_t bin = kMaxGlbBytes - 100;
+  EXPECT_GT(glbFileBytes(80, bin), kMaxGlbBytes);
+  EXPECT_NO_THROW(checkGlbSize(kMaxGlbBytes, 7));
+  try {
+    checkGlbSize(glbFileBytes(80, bin), 1234);
+    FAIL() << "accepted a .glb above 4 GiB";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "glTF: 1234 tile(s) make a .glb of 4 GiB (4294967304 bytes) or more, meshes and PNG "
+              "textures together; expected at most 4294967295 bytes (4 GiB - 1: a .glb's lengths "
+              "are 32-bit). Export formats: [obj, ply] instead (separate files per tile "
+              "texture), or a smaller mesh (lower texels_per_cell, decimate: true, or fewer "
+              "frames per run)");
+  }
+}
+
+// writeGlb applies the rule to the whole file, the PNG textures in its binary chunk included,
+// and writes nothing when it fails (tested with a small limit in place of 4 GiB).
+TEST(MeshExport, GlbAboveTheLimitIsRefusedTexturesIncluded) {
+  Scene s;
+  std::vector<TileMesh> tiles = extractTileMeshes(s.mesh);
+  ASSERT_FALSE(tiles.empty());
+  test::TempDir dir;
+  const std::string textured = (dir.path() / "textured.glb").string();
+  writeGlb(tiles, textured);
+  const std::uint64_t with_textures = fs::file_size(textured);
+  std::vector<TileMesh> bare = tiles;
+  for (auto& m : bare) m.texture = nullptr;
+  const std::string untextured = (dir.path() / "untextured.glb").string();
+  writeGlb(bare, untextured);
+  const std::uint64_t without = fs::file_size(untextured);
+  ASSERT_LT(without, with_textures);
+
+  // Exactly the file's size passes (and writes the same file); one byte less does not.
+  const std::string at_limit = (dir.path() / "at_limit.glb").string();
+  writeGlb(tiles, at_limit, with_textures);
+  EXPECT_EQ(readFile(at_limit), readFile(textured));
+  const std::string over = (dir.path() / "over.glb").string();
+  EXPECT_THROW(writeGlb(tiles, over, with_textures - 1), std::runtime_error);
+  // A limit the meshes fit but not their textures: the textures count.
+  try {
+    writeGlb(tiles, over, without + (with_textures - without) / 2);
+    FAIL() << "textures not counted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("Export formats: [obj, ply] instead"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(over));
+  // A limit below the first tile's geometry stops at that tile, before encoding the others.
+  try {
+    writeGlb(tiles, over, 100);
+    FAIL() << "accepted a .glb above 100 bytes";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("glTF: 1 tile(s) make a .glb of"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(over));
+}
 
 // Decimation of flat regions (decimation.hpp). Heights are given exactly at the vertices (one
 // point each) so the original surface is known.

@@ -1,6 +1,6 @@
 #pragma once
 // Quoting for the text formats the outputs and reports write (JSON, CSV), in one place so every
-// file escapes names the same way.
+// file escapes names the same way; sizes in messages.
 #include <string>
 
 namespace terramrf {
@@ -12,5 +12,9 @@ std::string jsonQuote(const std::string& s);
 /// An RFC 4180 CSV field: `s` as is, or in double quotes with inner quotes doubled if it holds a
 /// comma, a quote or a line break (\n or \r).
 std::string csvField(const std::string& s);
+
+/// A memory or file size for messages, in binary units with three significant digits:
+/// "512 bytes", "1.5 KiB", "256 MiB", "45.8 GiB", "1.2 TiB" (`bytes` [bytes], may exceed 2^64).
+std::string byteSize(double bytes);
 
 }  // namespace terramrf

@@ -22,13 +22,18 @@ class GridPngOutput : public Output {
     d.add("subdir", subdir_, "folder for the PNGs, relative to the run's output folder");
     d.add("pixels_per_cell", pixels_per_cell_, "side of the square pixel block drawn per cell")
         .unit("px")
-        .range(1, 64);
+        .range(1, 64);  // and at most 16384 px per image side (configure)
     d.add("write_camera_images", write_camera_images_,
           "also write each camera image of the frame as <frame_id>_<camera>.png");
   }
 
   void configure(const PluginContext& ctx) override {
     checkOutputSubdir(subdir_, "grid");
+    // The grid's size is known here: an image too large to draw is a config error, not a
+    // std::bad_alloc in every frame.
+    const std::string why =
+        gridImageSizeProblem(ctx.grid.cols(), ctx.grid.rows(), pixels_per_cell_);
+    if (!why.empty()) throw ParamError("pixels_per_cell", why);
     output_dir_ = ctx.output_dir;
     if (ctx.labels) labels_ = *ctx.labels;
   }

@@ -3,12 +3,31 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
+
+#include "terramrf/text_format.hpp"
 
 namespace terramrf {
+
+std::string gridImageSizeProblem(int cols, int rows, int ppc) {
+  // In 64 bits: renderGrid takes any pixels_per_cell, and cols · ppc can overflow int.
+  const int64_t w = int64_t(cols) * ppc, h = int64_t(rows) * ppc;
+  if (w <= kMaxGridImageSidePx && h <= kMaxGridImageSidePx) return "";
+  const int largest = kMaxGridImageSidePx / std::max({cols, rows, 1});
+  return "pixels_per_cell " + std::to_string(ppc) + " on the grid's " + std::to_string(cols) +
+         " x " + std::to_string(rows) + " cells makes a " + std::to_string(w) + " x " +
+         std::to_string(h) + " px image (" + byteSize(double(w) * double(h) * 3) +
+         " RGB per frame); expected at most " + std::to_string(kMaxGridImageSidePx) +
+         " px per side" +
+         (largest >= 1 ? ": pixels_per_cell <= " + std::to_string(largest) + " for this grid"
+                       : ": this grid has more cells per side than that; write it with grid_csv");
+}
 
 Image renderGrid(const TerrainGrid& grid, const LabelSet& labels, int ppc, GridRenderStats* stats) {
   if (ppc < 1) throw std::invalid_argument("renderGrid: pixels_per_cell must be >= 1");
   const int rows = grid.rows(), cols = grid.cols();
+  if (const std::string why = gridImageSizeProblem(cols, rows, ppc); !why.empty())
+    throw std::invalid_argument("renderGrid: " + why);
   Image img(cols * ppc, rows * ppc, 3);
   GridRenderStats st;
   const auto& lab = grid.labels();

@@ -79,6 +79,11 @@ class TexturedMeshOutput : public Output {
       else if (f == "gltf" || f == "glb") ex_.gltf = true;
       else throw ParamError("formats", "unknown format '" + f + "'; expected obj, ply or gltf");
     }
+    // Tiles are allocated whole, each as soon as a point falls in it: refuse at the config what
+    // would exhaust the memory mid-drive (at the bounds, 2001 and 8, one tile took 1.7 GiB).
+    // With one texel per cell no tile within the bounds is too large, so the texels are named.
+    if (const std::string why = tileBudgetProblem(p_.mesh); !why.empty())
+      throw ParamError(p_.mesh.texels_per_cell > 1 ? "texels_per_cell" : "tile_vertices", why);
     p_.ground.mrf.mode = parseMrfMode(mode_);
     output_dir_ = ctx.output_dir;
   }

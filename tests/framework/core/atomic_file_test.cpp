@@ -86,6 +86,16 @@ TEST(TextFormat, JsonAndCsvQuoting) {
   EXPECT_EQ(csvField("two\r\nlines"), "\"two\r\nlines\"");
 }
 
+TEST(TextFormat, ByteSizesForMessages) {
+  EXPECT_EQ(byteSize(0), "0 bytes");
+  EXPECT_EQ(byteSize(1023), "1023 bytes");
+  EXPECT_EQ(byteSize(1536), "1.5 KiB");
+  EXPECT_EQ(byteSize(256.0 * 1024 * 1024), "256 MiB");
+  EXPECT_EQ(byteSize(1000.0 * 1024), "0.977 MiB");  // never "1e+03 KiB"
+  EXPECT_EQ(byteSize(128000.0 * 128000 * 3), "45.8 GiB");
+  EXPECT_EQ(byteSize(1e30), "8.67e+11 EiB");  // beyond the units: still a number
+}
+
 TEST(SafeFileName, KeepsANameInsideItsFolder) {
   EXPECT_EQ(safeFileName("000042"), "000042");
   EXPECT_EQ(safeFileName("../etc/passwd"), ".._etc_passwd");

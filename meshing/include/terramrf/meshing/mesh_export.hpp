@@ -52,6 +52,21 @@ struct ExportOptions {
   std::function<void(const std::string& folder, const ExportStats&)> add_files;
 };
 
+/// Largest .glb [bytes]: 2^32 − 1. The container's total length and chunk lengths are uint32;
+/// tinygltf truncates larger sizes without a word, so such a file would be written corrupt.
+inline constexpr std::uint64_t kMaxGlbBytes = 0xFFFFFFFFull;
+
+/// Size of a .glb with a JSON chunk of `json_bytes` and a binary chunk of `bin_bytes` [bytes]:
+/// 12 bytes of header, each chunk with 8 bytes of its own and padded to 4 bytes (no binary
+/// chunk when bin_bytes is 0).
+std::uint64_t glbFileBytes(std::uint64_t json_bytes, std::uint64_t bin_bytes);
+
+/// Throws std::runtime_error when a .glb of `file_bytes` [bytes] for `tiles` tiles exceeds
+/// `max_bytes` (kMaxGlbBytes: what the format can describe), suggesting OBJ/PLY or smaller
+/// tiles.
+void checkGlbSize(std::uint64_t file_bytes, std::size_t tiles,
+                  std::uint64_t max_bytes = kMaxGlbBytes);
+
 /// Writes the selected formats into `dir` (created; its previous content is replaced only when
 /// every file was written). Throws std::runtime_error naming the folder and the cause.
 ExportStats exportMesh(const TerrainMesh& mesh, const std::string& dir, const ExportOptions& options);
@@ -62,6 +77,9 @@ void checkWritableFolder(const std::string& dir);
 // Writers for one format each (used by exportMesh; `dir` must exist).
 void writeObj(const std::vector<TileMesh>& tiles, const std::string& dir, const std::string& base);
 void writePly(const std::vector<TileMesh>& tiles, const std::string& path);
-void writeGlb(const std::vector<TileMesh>& tiles, const std::string& path);
+/// Writes a .glb; throws std::runtime_error (nothing written) when it would exceed `max_bytes`,
+/// JSON, binary chunk and headers together, the embedded PNG textures included.
+void writeGlb(const std::vector<TileMesh>& tiles, const std::string& path,
+              std::uint64_t max_bytes = kMaxGlbBytes);
 
 }  // namespace terramrf::meshing

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
+#include "grid_render.hpp"
 #include "output_test_support.hpp"
 #include "terramrf/atomic_file.hpp"
 
@@ -96,6 +97,43 @@ TEST_F(GridPngTest, PixelsPerCellScalesTheImage) {
   EXPECT_EQ(rgbAt(m, 10, 1), (Rgb{220, 30, 30}));
   EXPECT_THROW(test::makeOutput("grid_png", "{pixels_per_cell: 0}", pctx()), std::exception);
   EXPECT_THROW(test::makeOutput("grid_png", "{subdir: ''}", pctx()), std::exception);
+}
+
+// pixels_per_cell allowed 1–64 whatever the grid: a 2000-cell grid at 64 px per cell asked for a
+// 128000² px image (45.8 GiB) and every frame failed with a bare std::bad_alloc. Refused at the
+// config, where the grid's size is known, naming the parameter, the grid and the image.
+TEST_F(GridPngTest, ImageTooLargeForTheGridIsRefusedAtTheConfig) {
+  PluginContext c = pctx();
+  c.grid.size_m = 100;
+  c.grid.cell_m = 0.05;  // 2000 x 2000 cells
+  try {
+    test::makeOutput("grid_png", "{pixels_per_cell: 64}", c);
+    FAIL() << "accepted a 128000 px image";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "parameter 'pixels_per_cell': pixels_per_cell 64 on the grid's 2000 x 2000 "
+                  "cells makes a 128000 x 128000 px image (45.8 GiB RGB per frame); expected at "
+                  "most 16384 px per side: pixels_per_cell <= 8 for this grid"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_NO_THROW(test::makeOutput("grid_png", "{pixels_per_cell: 8}", c));  // 16000 px
+  // A grid with more cells per side than any image may have: no pixels_per_cell helps.
+  EXPECT_NE(gridImageSizeProblem(20000, 20000, 1).find("write it with grid_csv"),
+            std::string::npos);
+  // The limit itself, and renderGrid refusing (not allocating) for callers of the C++ API.
+  EXPECT_EQ(gridImageSizeProblem(4, 4, 4096), "");
+  EXPECT_NE(gridImageSizeProblem(4, 4, 4097), "");
+  EXPECT_NE(gridImageSizeProblem(2000, 2000, 1 << 30), "");  // no int overflow into "fits"
+  try {
+    renderGrid(grid, labels, 1 << 30);
+    FAIL() << "drew a 2^32 px image";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("renderGrid: pixels_per_cell 1073741824 on the grid's 4 x "
+                                         "4 cells makes a 4294967296 x 4294967296 px image"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 // An absolute subdir would write outside the run's output folder: refused, naming it.

@@ -220,6 +220,32 @@ TEST(TexturedMeshOutput, BadParametersAreRejected) {
   EXPECT_THROW(setParams(*p, "{subdir: /abs}", ctx), std::exception);
 }
 
+// tile_vertices ≤ 2001 and texels_per_cell ≤ 8 each allowed, together they made tiles of
+// 1.85 GiB (a 16001² texel texture), allocated whole as soon as a point fell in one: 2.0 GB RSS
+// for a single tile. Refused at the config with the estimate and both parameters.
+TEST(TexturedMeshOutput, TilesAboveTheMemoryBudgetAreRefusedAtTheConfig) {
+  PluginContext ctx;
+  PluginRegistry reg({test::pluginDir()});
+  auto p = reg.create("textured_mesh");
+  try {
+    setParams(*p, "{tile_vertices: 2001, texels_per_cell: 8}", ctx);
+    FAIL() << "accepted 1.85 GiB tiles";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("parameter 'texels_per_cell': tile_vertices 2001 with texels_per_cell 8 "
+                        "makes tiles of 1.85 GiB each"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("expected at most 256 MiB per tile"), std::string::npos) << what;
+  }
+  EXPECT_THROW(setParams(*reg.create("textured_mesh"), "{tile_vertices: 2001}", ctx),
+               std::exception);  // 2 texels per cell by default: 294 MiB
+  EXPECT_NO_THROW(setParams(*reg.create("textured_mesh"),
+                            "{tile_vertices: 2001, texels_per_cell: 1}", ctx));  // 214 MiB
+  EXPECT_NO_THROW(setParams(*reg.create("textured_mesh"),
+                            "{tile_vertices: 151, texels_per_cell: 8}", ctx));  // 10.7 MiB
+}
+
 TEST(TexturedMeshOutput, UnwritableOutputFolderFailsBeforeTheRun) {
   test::TempDir dir;
   const std::string file = (dir.path() / "occupied").string();
