@@ -149,6 +149,7 @@ struct Item {
   FrameRange frames;
   YAML::Mark mark;
   bool range_given = false;
+  std::string path_written;  ///< the item's `path:` as written (labels show it), or ""
   // Identity of the data, for the overlap check.
   std::string path;      ///< canonical data folder, if the source reads one
   std::string identity;  ///< type + distinguishing parameters, when there is no path
@@ -201,8 +202,15 @@ void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>
 /// with each other. Diagnostics at the fold item.
 void checkFolds(const std::vector<Item*>& train,
                 const std::vector<std::vector<std::unique_ptr<Item>>>& folds, Diags& d);
-/// Unique labels: an item named like another gets its frame range appended.
+/// Unique labels within one list, also once made file names (sanitize): items whose labels
+/// collide get their frame range (when given), then the source parameters in which they differ
+/// (`name range_noise_m=0.3`, `name path=<as written>`), then their place in the list (`name #2`),
+/// each only while they still collide.
 void uniqueLabels(std::vector<std::unique_ptr<Item>>& items);
+/// A diagnostic at each item whose label, made a file name, is another's of the list (only left
+/// when a `#N` added by uniqueLabels meets a label that is written so).
+void checkDistinctLabels(const std::vector<std::unique_ptr<Item>>& items,
+                         const std::string& list_name, Diags& d);
 
 /// Gives an item's configured source to a pipeline for one run and takes it back afterwards,
 /// also when the run throws.

@@ -284,21 +284,22 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
 
 }  // namespace sweep_detail
 
+using sweep_detail::checkDisjoint;
 using sweep_detail::Diags;
 using sweep_detail::Frame0;
-using sweep_detail::Item;
-using sweep_detail::Progress;
-using sweep_detail::TrainJob;
-using sweep_detail::checkDisjoint;
 using sweep_detail::identify;
+using sweep_detail::Item;
 using sweep_detail::kKeyHint;
 using sweep_detail::kStatsPlugin;
 using sweep_detail::parseSplit;
 using sweep_detail::pluginDirs;
 using sweep_detail::prepareItem;
+using sweep_detail::Progress;
 using sweep_detail::readFrame0;
 using sweep_detail::runTraining;
 using sweep_detail::stringList;
+using sweep_detail::TrainJob;
+using sweep_detail::uniqueLabels;
 
 namespace {
 /// Names each item by what it reads and checks that no test item overlaps a train item.
@@ -345,6 +346,8 @@ std::vector<std::string> checkTrainSplit(const std::string& config_path,
   std::vector<std::unique_ptr<Item>> train, test;
   parseSplit(split, nullptr, root["source"], f0.base_dir, d, train, test, false);
   d.throwIfAny();
+  uniqueLabels(train);  // named in the notes as `train` names them
+  uniqueLabels(test);
   std::vector<std::string> notes;
   identifyAndCheckDisjoint(train, test, f0.base_dir, reg, d, "", &notes);
   d.throwIfAny();
@@ -494,6 +497,9 @@ TrainResult trainModel(const TrainOptions& o) {
     train.push_back(std::move(it));
   }
   d.throwIfAny();
+  // Each training item keeps its own run folder (run_root/<label>) and name in the messages.
+  uniqueLabels(train);
+  uniqueLabels(test);
   std::vector<std::string> split_notes;
   identifyAndCheckDisjoint(train, test, f0.base_dir, reg, d,
                            o.data.empty() ? "" : " (train item from --data)", &split_notes);
