@@ -54,8 +54,11 @@ inline constexpr const char* kStatsPlugin = "feature_stats";
 std::string absPath(const std::string& base_dir, const std::string& p);
 /// `s` usable as a file name: anything but letters, digits and + - . _ becomes '_'.
 std::string sanitize(const std::string& s);
-/// Current UTC time, ISO 8601.
-std::string utcNow();
+/// When result files say they were made, UTC, ISO 8601 ("2026-12-07T02:26:50Z"): the current
+/// time, or SOURCE_DATE_EPOCH's (seconds since 1970) when that environment variable is set and
+/// not empty, so the files of two runs on the same data are the same bytes. Throws
+/// std::runtime_error naming the variable for a value that is not a whole number of seconds.
+std::string creationTime();
 
 // ---- progress bar -------------------------------------------------------------------------------
 

@@ -117,7 +117,7 @@ std::string composeModel(const std::string& stats_text, const TrainJob& job, con
   em << YAML::Key << "provenance" << YAML::Value << YAML::DoubleQuoted << summary;
   em << YAML::Key << "trained_from" << YAML::Value << YAML::BeginMap;
   em << YAML::Key << "tool" << YAML::Value << std::string("terramrf ") + TERRAMRF_VERSION;
-  em << YAML::Key << "date" << YAML::Value << utcNow();
+  em << YAML::Key << "date" << YAML::Value << creationTime();
   em << YAML::Key << "origin" << YAML::Value << job.origin;
   em << YAML::Key << "features" << YAML::Value << YAML::Flow << r.features;
   em << YAML::Key << "cells" << YAML::Value << stats_provenance;
@@ -361,6 +361,8 @@ std::vector<std::string> checkTrainSplit(const std::string& config_path,
 TrainResult trainModel(const TrainOptions& o) {
   std::ostream& log = o.log ? *o.log : std::cerr;
   if (o.model_out.empty()) throw std::runtime_error("no model file given (--out MODEL)");
+  // A bad SOURCE_DATE_EPOCH is refused now, not when the model is written after training.
+  (void)sweep_detail::creationTime();
   PluginRegistry reg(pluginDirs(o.plugin_dirs));
   Diags d;
   d.file = o.config_path;

@@ -7,9 +7,12 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/param_values.hpp"
@@ -1782,6 +1785,48 @@ TrainOptions quietTraining(const std::string& config, test::TempDir& dir, std::o
   o.plugin_dirs = {test::pluginDir()};
   o.log = &log;
   return o;
+}
+
+/// Sets an environment variable for one scope (unset before and after).
+struct ScopedEnv {
+  const char* name;
+  ScopedEnv(const char* n, const char* value) : name(n) { ::setenv(n, value, 1); }
+  ~ScopedEnv() { ::unsetenv(name); }
+};
+
+// The model's trained_from.date was the current time, so training twice on the same data gave
+// two different files. With SOURCE_DATE_EPOCH (reproducible-builds.org) it is that time, and the
+// two files are the same bytes; a value that is not a time is refused before training.
+TEST(Train, SourceDateEpochMakesTheModelTheSameBytes) {
+  test::TempDir dir;
+  std::ostringstream log;
+  TrainOptions o = quietTraining(oneFeatureTrainConfig(dir, ""), dir, log);
+  std::string first;
+  {
+    ScopedEnv env("SOURCE_DATE_EPOCH", "1700000000");
+    trainModel(o);
+    first = readFile(o.model_out);
+    EXPECT_EQ(YAML::Load(first)["trained_from"]["date"].as<std::string>(), "2023-11-14T22:13:20Z");
+    std::this_thread::sleep_for(std::chrono::milliseconds(1100));  // another second
+    trainModel(o);
+    EXPECT_EQ(readFile(o.model_out), first);
+  }
+  for (const char* bad : {"tomorrow", "1700000000.5", "-1", " 17"}) {
+    ScopedEnv env("SOURCE_DATE_EPOCH", bad);
+    o.model_out = dir.str() + "/bad.yaml";
+    try {
+      trainModel(o);
+      ADD_FAILURE() << "expected an error for SOURCE_DATE_EPOCH=" << bad;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("environment variable SOURCE_DATE_EPOCH: '" +
+                                           std::string(bad) +
+                                           "' is not a time; expected whole seconds since "
+                                           "1970-01-01 00:00:00 UTC"),
+                std::string::npos)
+          << e.what();
+    }
+    EXPECT_FALSE(fs::exists(o.model_out));
+  }
 }
 
 // The model records how each feature was computed, and a run whose stages compute it otherwise
