@@ -315,6 +315,10 @@ void identifyAndCheckDisjoint(std::vector<std::unique_ptr<Item>>& train,
       identify(*it, base_dir, reg);
       if (!it->identity_text.empty()) it->label = it->identity_text;
     }
+  // Two items of one source (two frame ranges, the same folder twice) would share that name: in
+  // the model's data list, the messages and the per-item run folders (run_root/<label>).
+  uniqueLabels(train);
+  uniqueLabels(test);
   std::vector<Item*> tr, te;
   for (auto& it : train) tr.push_back(it.get());
   for (auto& it : test) te.push_back(it.get());
@@ -346,8 +350,6 @@ std::vector<std::string> checkTrainSplit(const std::string& config_path,
   std::vector<std::unique_ptr<Item>> train, test;
   parseSplit(split, nullptr, root["source"], f0.base_dir, d, train, test, false);
   d.throwIfAny();
-  uniqueLabels(train);  // named in the notes as `train` names them
-  uniqueLabels(test);
   std::vector<std::string> notes;
   identifyAndCheckDisjoint(train, test, f0.base_dir, reg, d, "", &notes);
   d.throwIfAny();
@@ -499,9 +501,6 @@ TrainResult trainModel(const TrainOptions& o) {
     train.push_back(std::move(it));
   }
   d.throwIfAny();
-  // Each training item keeps its own run folder (run_root/<label>) and name in the messages.
-  uniqueLabels(train);
-  uniqueLabels(test);
   std::vector<std::string> split_notes;
   identifyAndCheckDisjoint(train, test, f0.base_dir, reg, d,
                            o.data.empty() ? "" : " (train item from --data)", &split_notes);

@@ -1787,6 +1787,32 @@ TrainOptions quietTraining(const std::string& config, test::TempDir& dir, std::o
   return o;
 }
 
+// Two ranges of the config's source were both named "simulator seed 7": in the model's data list
+// and in their run folders (the second overwrote the first's). Now named as compare names them.
+TEST(Train, ItemsOfOneSourceAreNamedApartInTheModel) {
+  test::TempDir dir;
+  std::ostringstream log;
+  const std::string config = put(dir, "train2.yaml",
+                                 std::string(R"(version: 1
+grid: {size_m: 30, cell_m: 0.5}
+source: {type: simulator, params: {seed: 7, frames: 2, )") +
+                                     kSim + R"(}}
+split:
+  train: [{frames: 0}, {frames: 1}, {params: {range_noise_m: 0.0}}, {params: {range_noise_m: 0.0}}]
+stages:
+  - {name: hdiff, type: height_difference}
+outputs:
+  - {type: feature_stats, params: {features: [height_diff], min_sigma: [0.02]}}
+)");
+  const TrainOptions o = quietTraining(config, dir, log);
+  trainModel(o);
+  std::vector<std::string> items;
+  for (const auto& d : YAML::LoadFile(o.model_out)["trained_from"]["data"])
+    items.push_back(d["item"].as<std::string>());
+  EXPECT_EQ(items, (std::vector<std::string>{"simulator seed 7[0-0]", "simulator seed 7[1-1]",
+                                             "simulator seed 7 #3", "simulator seed 7 #4"}));
+}
+
 /// Sets an environment variable for one scope (unset before and after).
 struct ScopedEnv {
   const char* name;
