@@ -54,8 +54,11 @@ inline constexpr const char* kStatsPlugin = "feature_stats";
 std::string absPath(const std::string& base_dir, const std::string& p);
 /// `s` usable as a file name: anything but letters, digits and + - . _ becomes '_'.
 std::string sanitize(const std::string& s);
-/// Current UTC time, ISO 8601.
-std::string utcNow();
+/// When result files say they were made, UTC, ISO 8601 ("2026-12-07T02:26:50Z"): the current
+/// time, or SOURCE_DATE_EPOCH's (seconds since 1970) when that environment variable is set and
+/// not empty, so the files of two runs on the same data are the same bytes. Throws
+/// std::runtime_error naming the variable for a value that is not a whole number of seconds.
+std::string creationTime();
 
 // ---- progress bar -------------------------------------------------------------------------------
 
@@ -149,6 +152,7 @@ struct Item {
   FrameRange frames;
   YAML::Mark mark;
   bool range_given = false;
+  std::string path_written;  ///< the item's `path:` as written (labels show it), or ""
   // Identity of the data, for the overlap check.
   std::string path;      ///< canonical data folder, if the source reads one
   std::string identity;  ///< type + distinguishing parameters, when there is no path
@@ -201,8 +205,15 @@ void parseSplit(const YAML::Node& split, const std::map<std::string, YAML::Node>
 /// with each other. Diagnostics at the fold item.
 void checkFolds(const std::vector<Item*>& train,
                 const std::vector<std::vector<std::unique_ptr<Item>>>& folds, Diags& d);
-/// Unique labels: an item named like another gets its frame range appended.
+/// Unique labels within one list, also once made file names (sanitize): items whose labels
+/// collide get their frame range (when given), then the source parameters in which they differ
+/// (`name range_noise_m=0.3`, `name path=<as written>`), then their place in the list (`name #2`),
+/// each only while they still collide.
 void uniqueLabels(std::vector<std::unique_ptr<Item>>& items);
+/// A diagnostic at each item whose label, made a file name, is another's of the list (only left
+/// when a `#N` added by uniqueLabels meets a label that is written so).
+void checkDistinctLabels(const std::vector<std::unique_ptr<Item>>& items,
+                         const std::string& list_name, Diags& d);
 
 /// Gives an item's configured source to a pipeline for one run and takes it back afterwards,
 /// also when the run throws.

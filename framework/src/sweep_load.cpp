@@ -625,6 +625,44 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
     const YAML::Node on = root["optimisers"];
     distinctNames(names, "optimiser", on && on.IsMap());
   }
+  // Each list's labels are unique (uniqueLabels) and so are the sets' and optimisers' names, but
+  // a run's folder joins three of them: test item 'a__b' × set 'c' and item 'a' × set 'b__c'
+  // would both write runs/a__b__c__<optimiser> and roc/a__b__c__<optimiser>.*.
+  for (auto& g : s->train_groups) uniqueLabels(g);
+  checkDistinctLabels(s->train, "split.train", d);
+  checkDistinctLabels(s->validation, "split.validation", d);
+  checkDistinctLabels(s->test, "split.test", d);
+  for (std::size_t k = 0; k < s->folds.size(); ++k)
+    checkDistinctLabels(s->folds[k], "split.folds fold " + std::to_string(k + 1), d);
+  for (std::size_t k = 0; k < s->train_groups.size(); ++k)
+    checkDistinctLabels(s->train_groups[k], "a feature set's train", d);
+  {
+    struct Run {
+      std::string text;
+      std::vector<std::string> parts;  // item, feature set, optimiser
+    };
+    std::map<std::string, Run> run_of;  // file name -> run
+    for (const auto& t : s->test)
+      for (const auto& f : s->feature_sets)
+        for (const auto& op : s->optimisers) {
+          RunRecord r;
+          r.dataset = t->label;
+          r.feature_set = f.name;
+          r.optimiser = op.name;
+          const Run run{t->label + " × " + f.name + " × " + op.name, {t->label, f.name, op.name}};
+          const auto [it, added] = run_of.emplace(sanitize(r.key()), run);
+          if (added) continue;
+          // Names equal part by part were reported above (or are one run): only a join is new.
+          bool part_by_part = true;
+          for (std::size_t k = 0; k < 3; ++k)
+            part_by_part = part_by_part && sanitize(run.parts[k]) == sanitize(it->second.parts[k]);
+          if (part_by_part) continue;
+          d.add(t->mark, "run '" + run.text + "' and run '" + it->second.text +
+                             "' would both write runs/" + it->first + " and roc/" + it->first +
+                             ".*: expected test items, feature sets and optimisers whose names "
+                             "do not join alike with '__' (rename one of them)");
+        }
+  }
   // energy
   if (const YAML::Node en = root["energy"]) {
     // Copies whose keys and values keep their file positions, so a run's errors point into the

@@ -1,16 +1,18 @@
 // The reports of a sweep: summary.md and its tables, CSV and JSON files, ROC plots.
-#include "terramrf/sweep.hpp"
-
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 
 #include "sweep_internal.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/sweep.hpp"
 #include "terramrf/text_format.hpp"
 #include "terramrf/version.hpp"
 
@@ -29,8 +31,24 @@ std::string sanitize(const std::string& s) {
   return o.empty() ? "_" : o;
 }
 
-std::string utcNow() {
-  const std::time_t t = std::time(nullptr);
+std::string creationTime() {
+  // reproducible-builds.org's SOURCE_DATE_EPOCH: with it, files written twice from the same
+  // data are the same bytes (the models' trained_from.date, results.json's and summary.md's
+  // "created"); without it, the current time.
+  std::time_t t = std::time(nullptr);
+  if (const char* env = std::getenv("SOURCE_DATE_EPOCH"); env && *env) {
+    const std::string v = env;
+    const bool digits = v.size() <= 12 && std::all_of(v.begin(), v.end(), [](unsigned char c) {
+                          return std::isdigit(c) != 0;
+                        });
+    if (!digits)
+      throw std::runtime_error(
+          "environment variable SOURCE_DATE_EPOCH: '" + v +
+          "' is not a time; expected whole seconds since 1970-01-01 00:00:00 UTC (as "
+          "'date +%s' prints them, at most 12 digits), or the variable unset for the current "
+          "time");
+    t = static_cast<std::time_t>(std::stoll(v));
+  }
   std::tm tm{};
   gmtime_r(&t, &tm);
   char b[32];
@@ -486,7 +504,8 @@ std::string resultsJson(const SweepResult& r) {
   std::ostringstream o;
   o << "{\n  \"schema\": \"terramrf.compare/1\",\n  \"name\": " << jsonQuote(r.name)
     << ",\n  \"sweep\": " << jsonQuote(r.sweep_path)
-    << ",\n  \"output_dir\": " << jsonQuote(r.output_dir) << ",\n  \"created\": " << jsonQuote(utcNow())
+    << ",\n  \"output_dir\": " << jsonQuote(r.output_dir)
+    << ",\n  \"created\": " << jsonQuote(creationTime())
     << ",\n  \"tool\": " << jsonQuote(std::string("terramrf ") + TERRAMRF_VERSION)
     << ",\n  \"limit\": " << r.limit << ",\n  \"labels\": " << list(r.labels.names())
     << ",\n  \"datasets\": " << list(r.datasets)
@@ -555,6 +574,7 @@ std::string resultsJson(const SweepResult& r) {
 
 using sweep_detail::accuracyCsv;
 using sweep_detail::capitalise;
+using sweep_detail::creationTime;
 using sweep_detail::energiesCsv;
 using sweep_detail::energiesSection;
 using sweep_detail::evaluationCsv;
@@ -575,7 +595,6 @@ using sweep_detail::selectionSection;
 using sweep_detail::Stats;
 using sweep_detail::stats;
 using sweep_detail::statusCell;
-using sweep_detail::utcNow;
 
 std::string accuracyTable(const SweepResult& r, const std::string& dataset,
                           const std::string& optimiser) {
@@ -647,7 +666,8 @@ void writeSweepReport(const SweepResult& r, const std::string& dir) {
                     roc = rocSection(r), runs = runsSection(r);
   std::ostringstream head;
   head << "# Sweep '" << r.name << "'\n\n- sweep file: " << r.sweep_path
-       << "\n- created: " << utcNow() << " (terramrf " << TERRAMRF_VERSION << ")\n- train split:";
+       << "\n- created: " << creationTime() << " (terramrf " << TERRAMRF_VERSION
+       << ")\n- train split:";
   for (const auto& t : r.train_items) head << " " << t << ";";
   if (r.train_items.empty()) head << " none (every feature set brings its model or train list)";
   if (!r.validation_items.empty()) {

@@ -384,6 +384,8 @@ using sweep_detail::trainFeatureSet;
 
 SweepResult runSweep(const CompareOptions& o) {
   std::ostream& log = o.log ? *o.log : std::cerr;
+  // A bad SOURCE_DATE_EPOCH is refused now, not when the report is written after every run.
+  (void)sweep_detail::creationTime();
   PluginRegistry reg(pluginDirs(o.plugin_dirs));
   auto s = loadSweep(o.sweep_path, reg, o.output_dir, o.limit);
   for (const auto& n : s->notes) log << "note: " << n << "\n";

@@ -1,15 +1,16 @@
 // Split items of train configs and sweeps: parsing, the identity of their data, the check that
 // train and test sets are disjoint, and configuring their sources.
-#include "terramrf/sweep.hpp"
-
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <set>
+#include <utility>
 
-#include "param_yaml.hpp"
 #include "config_internal.hpp"
+#include "param_yaml.hpp"
 #include "sweep_internal.hpp"
 #include "terramrf/param_values.hpp"
+#include "terramrf/sweep.hpp"
 
 namespace terramrf {
 namespace fs = std::filesystem;
@@ -202,6 +203,7 @@ bool parseItem(const YAML::Node& n, const std::map<std::string, YAML::Node>* dat
       params.remove("path");
       params["path"] = abs;
     }
+    it.path_written = path_override;
   }
   it.type = it.source["type"] ? it.source["type"].Scalar() : "";
   // Display name.
@@ -389,16 +391,96 @@ void checkFolds(const std::vector<Item*>& train,
   }
 }
 
+namespace {
+
+/// Items whose labels are equal once made file names (sanitize: "a b" and "a_b" are one folder),
+/// in groups of two or more, in list order.
+std::vector<std::vector<Item*>> labelCollisions(const std::vector<std::unique_ptr<Item>>& items) {
+  std::map<std::string, std::size_t> group_of;
+  std::vector<std::vector<Item*>> groups;
+  for (const auto& it : items) {
+    const auto [g, added] = group_of.emplace(sanitize(it->label), groups.size());
+    if (added) groups.emplace_back();
+    groups[g->second].push_back(it.get());
+  }
+  groups.erase(std::remove_if(groups.begin(), groups.end(),
+                              [](const std::vector<Item*>& g) { return g.size() < 2; }),
+               groups.end());
+  return groups;
+}
+
+/// A parameter value as a reader of the tables would write it ("0.3", "[1, 2]").
+std::string valueText(const YAML::Node& v) {
+  if (v.IsScalar()) return v.Scalar();
+  YAML::Emitter em;
+  em << YAML::Flow << v;
+  return em.c_str();
+}
+
+}  // namespace
+
 void uniqueLabels(std::vector<std::unique_ptr<Item>>& items) {
-  std::map<std::string, int> n;
-  for (const auto& it : items) ++n[it->label];
-  for (auto& it : items)
-    if (n[it->label] > 1 && it->range_given) {
-      it->label += "[" + std::to_string(it->frames.first) + "-" +
-                   (it->frames.last == FrameRange::npos ? std::string("end")
-                                                        : std::to_string(it->frames.last)) +
-                   "]";
+  // Labels name the rows and columns of every table and the run folders (runs/<label>__F__O,
+  // roc/…, select/…/runs/…__<label>, models/<F>.train/<label>): two equal ones overwrite each
+  // other's folders and SweepResult::find shows the first twice. Until they differ, colliding
+  // items get what tells them apart, most readable first.
+  // 1. The frame range, when one was given (the usual case: one recording split by frames).
+  for (const auto& g : labelCollisions(items))
+    for (Item* it : g)
+      if (it->range_given)
+        it->label += "[" + std::to_string(it->frames.first) + "-" +
+                     (it->frames.last == FrameRange::npos ? std::string("end")
+                                                          : std::to_string(it->frames.last)) +
+                     "]";
+  // 2. The source parameters in which they differ (`params:` or `path:` of the item): "sim_test
+  //    range_noise_m=0.3". A parameter one item sets and another leaves to its default is shown
+  //    where it is set.
+  for (const auto& g : labelCollisions(items)) {
+    std::set<std::string> keys;
+    for (const Item* it : g)
+      if (const YAML::Node p = std::as_const(it->source)["params"]; p && p.IsMap())
+        for (auto kv = p.begin(); kv != p.end(); ++kv) keys.insert(kv->first.Scalar());
+    std::vector<std::string> suffix(g.size());
+    for (const std::string& k : keys) {
+      std::vector<std::string> values(g.size());
+      for (std::size_t i = 0; i < g.size(); ++i) {
+        const YAML::Node p = std::as_const(g[i]->source)["params"];  // const: adds no key
+        if (p && p.IsMap() && p[k]) values[i] = valueText(p[k]);
+      }
+      if (std::all_of(values.begin(), values.end(),
+                      [&](const std::string& v) { return v == values[0]; }))
+        continue;
+      for (std::size_t i = 0; i < g.size(); ++i) {
+        if (values[i].empty()) continue;
+        // The path as written in the sweep, not the absolute one the source is given.
+        const std::string& shown =
+            k == "path" && !g[i]->path_written.empty() ? g[i]->path_written : values[i];
+        suffix[i] += " " + k + "=" + shown;
+      }
     }
+    for (std::size_t i = 0; i < g.size(); ++i) g[i]->label += suffix[i];
+  }
+  // 3. Their place in the list (the same data twice, or parameters that read alike): "#2" is
+  //    the list's second item.
+  for (const auto& g : labelCollisions(items))
+    for (Item* it : g)
+      for (std::size_t i = 0; i < items.size(); ++i)
+        if (items[i].get() == it) it->label += " #" + std::to_string(i + 1);
+}
+
+void checkDistinctLabels(const std::vector<std::unique_ptr<Item>>& items,
+                         const std::string& list_name, Diags& d) {
+  for (const auto& g : labelCollisions(items)) {
+    for (std::size_t i = 1; i < g.size(); ++i)
+      d.add(g[i]->mark,
+            list_name + " item '" + g[i]->label + "' has the same name as item '" + g[0]->label +
+                "'" +
+                (g[0]->mark.line >= 0 ? " (line " + std::to_string(g[0]->mark.line + 1) + ")"
+                                      : std::string()) +
+                " once made a file name ('" + sanitize(g[i]->label) +
+                "'): their run folders and table rows would overwrite each other; expected "
+                "distinct names (rename one of them)");
+  }
 }
 
 }  // namespace sweep_detail

@@ -117,7 +117,7 @@ std::string composeModel(const std::string& stats_text, const TrainJob& job, con
   em << YAML::Key << "provenance" << YAML::Value << YAML::DoubleQuoted << summary;
   em << YAML::Key << "trained_from" << YAML::Value << YAML::BeginMap;
   em << YAML::Key << "tool" << YAML::Value << std::string("terramrf ") + TERRAMRF_VERSION;
-  em << YAML::Key << "date" << YAML::Value << utcNow();
+  em << YAML::Key << "date" << YAML::Value << creationTime();
   em << YAML::Key << "origin" << YAML::Value << job.origin;
   em << YAML::Key << "features" << YAML::Value << YAML::Flow << r.features;
   em << YAML::Key << "cells" << YAML::Value << stats_provenance;
@@ -284,21 +284,22 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
 
 }  // namespace sweep_detail
 
+using sweep_detail::checkDisjoint;
 using sweep_detail::Diags;
 using sweep_detail::Frame0;
-using sweep_detail::Item;
-using sweep_detail::Progress;
-using sweep_detail::TrainJob;
-using sweep_detail::checkDisjoint;
 using sweep_detail::identify;
+using sweep_detail::Item;
 using sweep_detail::kKeyHint;
 using sweep_detail::kStatsPlugin;
 using sweep_detail::parseSplit;
 using sweep_detail::pluginDirs;
 using sweep_detail::prepareItem;
+using sweep_detail::Progress;
 using sweep_detail::readFrame0;
 using sweep_detail::runTraining;
 using sweep_detail::stringList;
+using sweep_detail::TrainJob;
+using sweep_detail::uniqueLabels;
 
 namespace {
 /// Names each item by what it reads and checks that no test item overlaps a train item.
@@ -314,6 +315,10 @@ void identifyAndCheckDisjoint(std::vector<std::unique_ptr<Item>>& train,
       identify(*it, base_dir, reg);
       if (!it->identity_text.empty()) it->label = it->identity_text;
     }
+  // Two items of one source (two frame ranges, the same folder twice) would share that name: in
+  // the model's data list, the messages and the per-item run folders (run_root/<label>).
+  uniqueLabels(train);
+  uniqueLabels(test);
   std::vector<Item*> tr, te;
   for (auto& it : train) tr.push_back(it.get());
   for (auto& it : test) te.push_back(it.get());
@@ -358,6 +363,8 @@ std::vector<std::string> checkTrainSplit(const std::string& config_path,
 TrainResult trainModel(const TrainOptions& o) {
   std::ostream& log = o.log ? *o.log : std::cerr;
   if (o.model_out.empty()) throw std::runtime_error("no model file given (--out MODEL)");
+  // A bad SOURCE_DATE_EPOCH is refused now, not when the model is written after training.
+  (void)sweep_detail::creationTime();
   PluginRegistry reg(pluginDirs(o.plugin_dirs));
   Diags d;
   d.file = o.config_path;

@@ -39,8 +39,11 @@ std::string frameNumber(const std::string& digits) {
   return first == std::string::npos ? "0" : digits.substr(first);
 }
 
-/// frame<id>-<stamp>.<ext> files of `dir`, keyed by frameNumber(id).
-std::map<std::string, std::string> cameraFiles(const fs::path& dir, const std::string& ext) {
+/// frame<id>-<stamp>.<ext> files of `dir`, keyed by frameNumber(id). Two files of one frame
+/// (frame104-….jpg and frame000104-….jpg, or two stamps) are an error: which one a frame got
+/// depended on the order the file system lists the folder in.
+std::map<std::string, std::string> cameraFiles(const fs::path& dir, const std::string& ext,
+                                               const std::string& what) {
   std::map<std::string, std::string> out;
   if (!isDir(dir)) return out;
   for (const auto& e : fs::directory_iterator(dir)) {
@@ -49,7 +52,16 @@ std::map<std::string, std::string> cameraFiles(const fs::path& dir, const std::s
     if (stem.rfind("frame", 0) != 0) continue;
     const auto dash = stem.find('-');
     const std::string id = stem.substr(5, dash == std::string::npos ? std::string::npos : dash - 5);
-    if (allDigits(id)) out[frameNumber(id)] = e.path().string();
+    if (!allDigits(id)) continue;
+    const auto [it, added] = out.emplace(frameNumber(id), e.path().string());
+    if (added) continue;
+    // Named in a fixed order, whichever the folder listed first.
+    const std::string a = std::min(it->second, e.path().string());
+    const std::string b = std::max(it->second, e.path().string());
+    throw ParamError("path", "'" + a + "' and '" + b + "' are both " + what + " of frame " +
+                                 it->first +
+                                 "; expected one per frame number (frame<number>-<stamp>" + ext +
+                                 ", the number's zero padding ignored): remove one");
   }
   return out;
 }
@@ -74,8 +86,8 @@ RellisLayout resolveRellisLayout(const std::string& path) {
     images = p / "pylon_camera_node";
     image_labels = p / "pylon_camera_node_label_id";
   }
-  const auto jpgs = cameraFiles(images, ".jpg");
-  const auto pngs = cameraFiles(image_labels, ".png");
+  const auto jpgs = cameraFiles(images, ".jpg", "images");
+  const auto pngs = cameraFiles(image_labels, ".png", "image labels");
   for (const auto& e : fs::directory_iterator(scans)) {
     if (!e.is_regular_file() || e.path().extension() != ".bin") continue;
     const std::string id = e.path().stem().string();

@@ -1,7 +1,8 @@
 // Colour f_c of a cell (paper 000 §4.3): the mean colour of the cell's pixels in one colour space.
 //
 //   rgb  colour_r, colour_g, colour_b   [0, 255], arithmetic means of the 8-bit values
-//   hsv  colour_h [deg, 0..360), colour_s, colour_v [0, 1]  (OpenCV RGB2HSV on float RGB/255)
+//   hsv  colour_h [deg, 0..360), colour_s, colour_v [0, 1]  (OpenCV's RGB2HSV definition for
+//        float RGB/255, computed in hsv.hpp in scalar code: the same bits on every CPU)
 //   lab  colour_lab_l [0, 100], colour_lab_a, colour_lab_b  (CIE L*a*b*, D65, sRGB input; OpenCV
 //        RGB2Lab on float RGB/255, which linearises the sRGB gamma and interpolates in a 3-D
 //        table: within ~0.15 of the exact formula)
@@ -16,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "hsv.hpp"
 #include "terramrf/camera_fusion/fused_cameras.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -82,8 +84,8 @@ class Colour final : public Stage {
       for (int c = 0; c < n; ++c)
         if (cam_of_cell_[c] == int(k)) total += cp.count(c);
       if (total == 0) continue;
-      // One row, not one column: cvtColor works row by row and vectorises along a row. The
-      // buffers keep their capacity between frames: fresh large allocations cost page faults.
+      // One row, not one column: cvtColor (Lab) works row by row and vectorises along a row.
+      // The buffers keep their capacity between frames: fresh large allocations cost page faults.
       in_.resize(3 * total);
       out_.resize(3 * total);
       cv::Mat buf(1, int(total), CV_32FC3, in_.data()), conv(1, int(total), CV_32FC3, out_.data());
@@ -95,8 +97,15 @@ class Colour final : public Stage {
           *b++ = p[0] * (1.f / 255.f), *b++ = p[1] * (1.f / 255.f), *b++ = p[2] * (1.f / 255.f);
         }
       }
-      cv::cvtColor(buf, conv, space_ == "hsv" ? cv::COLOR_RGB2HSV : cv::COLOR_RGB2Lab);
-      CV_Assert(conv.data == reinterpret_cast<uchar*>(out_.data()));  // converted in place
+      if (space_ == "hsv") {
+        // Not cv::cvtColor: its run-time choice of vector kernel changes the hue's last bits
+        // from one CPU to another (hsv.hpp).
+        for (std::size_t j = 0; j < 3 * total; j += 3)
+          colour::rgbToHsv(in_[j], in_[j + 1], in_[j + 2], out_[j], out_[j + 1], out_[j + 2]);
+      } else {
+        cv::cvtColor(buf, conv, cv::COLOR_RGB2Lab);
+        CV_Assert(conv.data == reinterpret_cast<uchar*>(out_.data()));  // converted in place
+      }
       const float* q = out_.data();
       for (int c = 0; c < n; ++c) {
         if (cam_of_cell_[c] != int(k)) continue;

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -54,6 +55,31 @@ TEST(Rellis, ImagesAreMatchedByFrameNumberWhateverTheirPadding) {
   EXPECT_NE(by_id.at("7")->image_label.find("frame0007-2.png"), std::string::npos);
   EXPECT_NE(by_id.at(long_id)->image.find("frame" + long_id + "-3.jpg"), std::string::npos);
   EXPECT_NE(by_id.at("000000")->image.find("frame0-4.jpg"), std::string::npos);
+}
+
+// Two images of one frame number (other padding, or another stamp): the frame got whichever the
+// folder listed last, silently. Now an error naming both files.
+TEST(Rellis, TwoImagesOfOneFrameAreAnErrorNamingBoth) {
+  for (const auto& [a, b, what] : std::vector<std::array<std::string, 3>>{
+           {"frame000104-1581624663_149.jpg", "frame104-1581624663_149.jpg", "images"},
+           {"frame000104-1.png", "frame000104-2.png", "image labels"}}) {
+    SCOPED_TRACE(a + " / " + b);
+    test::TempDir dir;
+    std::ofstream(dir.str() + "/000104.bin") << "";
+    std::ofstream(dir.str() + "/" + a) << "";
+    std::ofstream(dir.str() + "/" + b) << "";
+    try {
+      resolveRellisLayout(dir.str());
+      ADD_FAILURE() << "expected a ParamError";
+    } catch (const ParamError& e) {
+      EXPECT_EQ(e.param(), "path");
+      const std::string m = e.what();
+      EXPECT_NE(m.find("'" + dir.str() + "/" + a + "' and '" + dir.str() + "/" + b + "' are both " +
+                       what + " of frame 104; expected one per frame number"),
+                std::string::npos)
+          << m;
+    }
+  }
 }
 
 // Frames come in the order they were recorded, also when scan names are not zero-padded: text

@@ -2,9 +2,12 @@
 // below is derived by hand from the counts and times given, not read back from the code.
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "sweep_internal.hpp"  // framework/src: selection scoring
 #include "terramrf/sweep.hpp"
@@ -55,6 +58,47 @@ SweepResult handMade() {
     r.runs.push_back(x);
   }
   return r;
+}
+
+// results.json and summary.md said when they were written (the current time): the report of
+// the same runs differed on every writing. SOURCE_DATE_EPOCH fixes that time; a bad value is an
+// error naming the variable.
+TEST(SweepReport, SourceDateEpochIsTheCreationTime) {
+  test::TempDir dir;
+  ::setenv("SOURCE_DATE_EPOCH", "1700000000", 1);
+  writeSweepReport(handMade(), dir.str() + "/a");
+  std::this_thread::sleep_for(std::chrono::milliseconds(1100));  // another second
+  writeSweepReport(handMade(), dir.str() + "/b");
+  EXPECT_EQ(sweep_detail::creationTime(), "2023-11-14T22:13:20Z");
+  ::setenv("SOURCE_DATE_EPOCH", "0", 1);
+  EXPECT_EQ(sweep_detail::creationTime(), "1970-01-01T00:00:00Z");
+  ::setenv("SOURCE_DATE_EPOCH", "", 1);  // empty: unset, the current time
+  EXPECT_NE(sweep_detail::creationTime(), "1970-01-01T00:00:00Z");
+  ::setenv("SOURCE_DATE_EPOCH", "2023-11-14", 1);
+  EXPECT_THROW(
+      {
+        try {
+          writeSweepReport(handMade(), dir.str() + "/c");
+        } catch (const std::runtime_error& e) {
+          EXPECT_NE(std::string(e.what()).find("environment variable SOURCE_DATE_EPOCH: "
+                                               "'2023-11-14' is not a time"),
+                    std::string::npos)
+              << e.what();
+          throw;
+        }
+      },
+      std::runtime_error);
+  ::unsetenv("SOURCE_DATE_EPOCH");
+  for (const char* f : {"results.json", "summary.md"}) {
+    SCOPED_TRACE(f);
+    const std::string a = readFile(dir.str() + "/a/" + f);
+    EXPECT_EQ(a, readFile(dir.str() + "/b/" + f));
+    EXPECT_NE(a.find("2023-11-14T22:13:20Z"), std::string::npos) << a;
+  }
+  EXPECT_NE(readFile(dir.str() + "/a/results.json").find("\"created\": \"2023-11-14T22:13:20Z\""),
+            std::string::npos);
+  EXPECT_NE(readFile(dir.str() + "/a/summary.md").find("- created: 2023-11-14T22:13:20Z"),
+            std::string::npos);
 }
 
 TEST(SweepReport, AccuracyTableHasTheHandDerivedRates) {

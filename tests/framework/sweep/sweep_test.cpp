@@ -7,9 +7,12 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/param_values.hpp"
@@ -185,6 +188,71 @@ optimisers: {icm: {type: icm}, later: {type: not_built_yet}}
                                "drive share its ground and objects"),
             std::string::npos)
       << plan.notes[0];
+}
+
+// Items named alike (one dataset with other `params:`, or the same item twice) shared a label:
+// their runs wrote one folder (runs/<label>__F__O) and the tables showed the first item twice.
+TEST(SweepSplit, ItemsOfOneDatasetAreNamedApartByWhatDiffers) {
+  test::TempDir dir;
+  const std::string sweep = put(dir, "alike.yaml",
+                                std::string(R"(version: 1
+datasets:
+  sim_train: {type: simulator, params: {seed: 7, frames: 2, )") +
+                                    kSim + R"(}}
+  sim_test: {type: simulator, params: {seed: 1, frames: 2, )" +
+                                    kSim + R"(}}
+split:
+  train: [sim_train]
+  test:
+    - {dataset: sim_test, params: {range_noise_m: 0.0}}
+    - {dataset: sim_test, params: {range_noise_m: 0.3}}
+    - sim_test
+    - sim_test
+    - {dataset: sim_test, frames: 1}
+    - {dataset: sim_test, frames: 1, params: {azimuth_step_deg: 0.5}}
+feature_sets:
+  L: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
+optimisers: {icm: {type: icm}}
+)");
+  const SweepPlan plan = planSweep(sweep, {test::pluginDir()});
+  EXPECT_EQ(plan.runs, (std::vector<std::string>{
+                           "sim_test range_noise_m=0.0 × L × icm",
+                           "sim_test range_noise_m=0.3 × L × icm",
+                           "sim_test #3 × L × icm",
+                           "sim_test #4 × L × icm",
+                           "sim_test[1-1] azimuth_step_deg=0.4 × L × icm",
+                           "sim_test[1-1] azimuth_step_deg=0.5 × L × icm",
+                       }));
+}
+
+// A run's folder joins three names with "__": each unique, the joined ones may still be equal.
+TEST(SweepSplit, RunsWhoseFolderNamesJoinAlikeAreRejected) {
+  test::TempDir dir;
+  const std::string sweep = put(dir, "join.yaml",
+                                std::string(R"(version: 1
+datasets:
+  sim_train: {type: simulator, params: {seed: 7, frames: 1, )") +
+                                    kSim + R"(}}
+  a__b: {type: simulator, params: {seed: 1, frames: 1, )" +
+                                    kSim + R"(}}
+  a: {type: simulator, params: {seed: 2, frames: 1, )" +
+                                    kSim + R"(}}
+split:
+  train: [sim_train]
+  test: [a__b, a]
+feature_sets:
+  c: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
+  b__c: {stages: [{name: hdiff, type: height_difference}], features: [height_diff]}
+optimisers: {icm: {type: icm}}
+)");
+  const ConfigError e = expectConfigError(sweep);
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  EXPECT_EQ(e.diagnostics()[0].line, 8);  // the test items
+  EXPECT_NE(e.diagnostics()[0].message.find(
+                "run 'a × b__c × icm' and run 'a__b × c × icm' would both write "
+                "runs/a__b__c__icm and roc/a__b__c__icm.*"),
+            std::string::npos)
+      << e.what();
 }
 
 TEST(SweepSplit, ARangePastTheEndOfItsSourceIsAnError) {
@@ -689,6 +757,45 @@ TEST(SweepRun, TinySimulatorSweepWritesTheTables) {
   EXPECT_NE(
       readFile(out + "/runs/sim_test__L__icm/resolved_config.yaml").find(out + "/models/L.yaml"),
       std::string::npos);
+}
+
+// Two test items of one dataset with other `params:` used to share a run folder and a label:
+// the second run overwrote the first's files, and accuracy.md showed the first item twice.
+TEST(SweepRun, TestItemsOfOneDatasetWithOtherParamsKeepTheirOwnRunsAndTables) {
+  test::TempDir dir;
+  std::string text = tinySweep("  icm: {type: icm}");
+  text.replace(text.find("  test: [sim_test]"), std::string("  test: [sim_test]").size(),
+               "  test: [{dataset: sim_test, params: {range_noise_m: 0.0}},\n"
+               "         {dataset: sim_test, params: {range_noise_m: 0.5}}]");
+  const std::string sweep = put(dir, "noise.yaml", text);
+  std::ostringstream log;
+  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
+  EXPECT_EQ(r.exitCode(), 0) << log.str();
+  const std::string a = "sim_test range_noise_m=0.0", b = "sim_test range_noise_m=0.5";
+  EXPECT_EQ(r.datasets, (std::vector<std::string>{a, b}));
+  const RunRecord* ra = r.find(a, "L", "icm");
+  const RunRecord* rb = r.find(b, "L", "icm");
+  ASSERT_TRUE(ra && rb);
+  EXPECT_NE(ra->output_dir, rb->output_dir);
+  EXPECT_FALSE(ra->counts.cell_wise == rb->counts.cell_wise);  // half a metre of range noise
+  for (const RunRecord* x : {ra, rb})
+    EXPECT_TRUE(fs::exists(x->output_dir + "/resolved_config.yaml")) << x->output_dir;
+  EXPECT_NE(readFile(ra->output_dir + "/resolved_config.yaml").find("range_noise_m: 0.0"),
+            std::string::npos);
+  EXPECT_NE(readFile(rb->output_dir + "/resolved_config.yaml").find("range_noise_m: 0.5"),
+            std::string::npos);
+  const std::string acc = readFile(dir.str() + "/out/accuracy.md");
+  const std::size_t ha = acc.find("### " + a + ", optimiser icm");
+  const std::size_t hb = acc.find("### " + b + ", optimiser icm");
+  ASSERT_NE(ha, std::string::npos) << acc;
+  ASSERT_NE(hb, std::string::npos) << acc;
+  // Each heading has its own run's table (the first item's was shown twice).
+  auto table = [&](std::size_t heading) {
+    const std::size_t from = acc.find("\n|", heading);
+    return acc.substr(from, acc.find("\n\n", from + 1) - from);
+  };
+  EXPECT_NE(table(ha), table(hb)) << acc;
+  EXPECT_TRUE(fs::exists(dir.str() + "/out/roc/sim_test_range_noise_m_0.5__L__icm.csv"));
 }
 
 TEST(SweepRun, AFeatureSetsEnergyParametersApplyToItsRunsAndToTheSetsThatExtendIt) {
@@ -1693,6 +1800,74 @@ TrainOptions quietTraining(const std::string& config, test::TempDir& dir, std::o
   o.plugin_dirs = {test::pluginDir()};
   o.log = &log;
   return o;
+}
+
+// Two ranges of the config's source were both named "simulator seed 7": in the model's data list
+// and in their run folders (the second overwrote the first's). Now named as compare names them.
+TEST(Train, ItemsOfOneSourceAreNamedApartInTheModel) {
+  test::TempDir dir;
+  std::ostringstream log;
+  const std::string config = put(dir, "train2.yaml",
+                                 std::string(R"(version: 1
+grid: {size_m: 30, cell_m: 0.5}
+source: {type: simulator, params: {seed: 7, frames: 2, )") +
+                                     kSim + R"(}}
+split:
+  train: [{frames: 0}, {frames: 1}, {params: {range_noise_m: 0.0}}, {params: {range_noise_m: 0.0}}]
+stages:
+  - {name: hdiff, type: height_difference}
+outputs:
+  - {type: feature_stats, params: {features: [height_diff], min_sigma: [0.02]}}
+)");
+  const TrainOptions o = quietTraining(config, dir, log);
+  trainModel(o);
+  std::vector<std::string> items;
+  for (const auto& d : YAML::LoadFile(o.model_out)["trained_from"]["data"])
+    items.push_back(d["item"].as<std::string>());
+  EXPECT_EQ(items, (std::vector<std::string>{"simulator seed 7[0-0]", "simulator seed 7[1-1]",
+                                             "simulator seed 7 #3", "simulator seed 7 #4"}));
+}
+
+/// Sets an environment variable for one scope (unset before and after).
+struct ScopedEnv {
+  const char* name;
+  ScopedEnv(const char* n, const char* value) : name(n) { ::setenv(n, value, 1); }
+  ~ScopedEnv() { ::unsetenv(name); }
+};
+
+// The model's trained_from.date was the current time, so training twice on the same data gave
+// two different files. With SOURCE_DATE_EPOCH (reproducible-builds.org) it is that time, and the
+// two files are the same bytes; a value that is not a time is refused before training.
+TEST(Train, SourceDateEpochMakesTheModelTheSameBytes) {
+  test::TempDir dir;
+  std::ostringstream log;
+  TrainOptions o = quietTraining(oneFeatureTrainConfig(dir, ""), dir, log);
+  std::string first;
+  {
+    ScopedEnv env("SOURCE_DATE_EPOCH", "1700000000");
+    trainModel(o);
+    first = readFile(o.model_out);
+    EXPECT_EQ(YAML::Load(first)["trained_from"]["date"].as<std::string>(), "2023-11-14T22:13:20Z");
+    std::this_thread::sleep_for(std::chrono::milliseconds(1100));  // another second
+    trainModel(o);
+    EXPECT_EQ(readFile(o.model_out), first);
+  }
+  for (const char* bad : {"tomorrow", "1700000000.5", "-1", " 17"}) {
+    ScopedEnv env("SOURCE_DATE_EPOCH", bad);
+    o.model_out = dir.str() + "/bad.yaml";
+    try {
+      trainModel(o);
+      ADD_FAILURE() << "expected an error for SOURCE_DATE_EPOCH=" << bad;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("environment variable SOURCE_DATE_EPOCH: '" +
+                                           std::string(bad) +
+                                           "' is not a time; expected whole seconds since "
+                                           "1970-01-01 00:00:00 UTC"),
+                std::string::npos)
+          << e.what();
+    }
+    EXPECT_FALSE(fs::exists(o.model_out));
+  }
 }
 
 // The model records how each feature was computed, and a run whose stages compute it otherwise

@@ -2,7 +2,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <opencv2/imgproc.hpp>
+#include <random>
 
+#include "hsv.hpp"
 #include "plugins/feature/camera_fusion/fusion_test_frame.hpp"
 
 namespace terramrf {
@@ -97,6 +104,133 @@ TEST(Colour, GreyCellHasNoHue) {
   EXPECT_TRUE(std::isnan(m.c[0]));
   EXPECT_FLOAT_EQ(m.c[1], 0.0f);
   EXPECT_NEAR(m.c[2], 90.0 / 255, 1e-6);
+}
+
+// ---- HSV of one pixel (hsv.hpp) ---------------------------------------------------------------
+
+struct Hsv {
+  float h, s, v;
+};
+Hsv hsvOf(float r, float g, float b) {
+  Hsv o;
+  colour::rgbToHsv(r, g, b, o.h, o.s, o.v);
+  return o;
+}
+
+TEST(ColourHsv, KnownColours) {
+  const float one = 1.f / (1.f + FLT_EPSILON);  // S of a saturated colour: d / (V + ε)
+  struct Case {
+    float r, g, b, h, s, v;
+  } cases[] = {
+      {1, 0, 0, 0, one, 1},            // red
+      {0, 1, 0, 120, one, 1},          // green
+      {0, 0, 1, 240, one, 1},          // blue
+      {1, 1, 0, 60, one, 1},           // yellow: R = G = max counts as R
+      {0, 1, 1, 180, one, 1},          // cyan
+      {1, 0, 1, 300, one, 1},          // magenta: −60° wraps to 300°
+      {0.5f, 0.5f, 0.5f, 0, 0, 0.5f},  // grey: no hue, no saturation
+      {1, 1, 1, 0, 0, 1},              // white
+      {0, 0, 0, 0, 0, 0},              // black
+      {1, 0, 0.2f, 348, one, 1},       // hue −12° wraps to 348°
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(::testing::Message() << "rgb " << c.r << " " << c.g << " " << c.b);
+    const Hsv o = hsvOf(c.r, c.g, c.b);
+    EXPECT_NEAR(o.h, c.h, 1e-4);
+    EXPECT_FLOAT_EQ(o.s, c.s);
+    EXPECT_EQ(o.v, c.v);
+  }
+  EXPECT_FLOAT_EQ(hsvOf(200 / 255.f, 100 / 255.f, 50 / 255.f).h, 20.f);
+  // A hue a hair below 0° is 360° − 6e-8, which single precision rounds to 360: that is 0°.
+  const Hsv wrap = hsvOf(1, 0, 1e-9f);
+  EXPECT_EQ(wrap.h, 0.f);
+}
+
+// The same definition as OpenCV's float RGB2HSV (whichever of its kernels runs): within 1e-4.
+TEST(ColourHsv, AgreesWithCvtColor) {
+  std::vector<float> rgb;
+  for (int r = 0; r < 256; r += 5)
+    for (int g = 0; g < 256; g += 5)
+      for (int b = 0; b < 256; b += 5) rgb.insert(rgb.end(), {r / 255.f, g / 255.f, b / 255.f});
+  std::mt19937 gen(5);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  for (int i = 0; i < 100000; ++i) rgb.insert(rgb.end(), {u(gen), u(gen), u(gen)});
+  const int n = int(rgb.size() / 3);
+  cv::Mat in(1, n, CV_32FC3, rgb.data()), out;
+  cv::cvtColor(in, out, cv::COLOR_RGB2HSV);
+  const float* cv = out.ptr<float>();
+  for (int i = 0; i < n; ++i) {
+    const Hsv o = hsvOf(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
+    const double dh = std::fabs(double(o.h) - cv[3 * i]);
+    ASSERT_LT(std::min(dh, 360.0 - dh), 1e-4) << i << ": " << o.h << " vs " << cv[3 * i];
+    ASSERT_NEAR(o.s, cv[3 * i + 1], 1e-4) << i;
+    ASSERT_NEAR(o.v, cv[3 * i + 2], 1e-4) << i;
+    ASSERT_GE(o.h, 0.f);
+    ASSERT_LT(o.h, 360.f);
+  }
+}
+
+// cv::cvtColor chose its kernel at run time: with AVX2 (fused multiply-adds) the hue of many
+// pixels differed in the last bits from the SSE kernel's, so colour_h changed with the CPU (about
+// 110 cells per simulator frame). The test runs this binary twice, with OpenCV's AVX2 kernels
+// allowed and disabled (OPENCV_CPU_DISABLE=AVX2), and compares the layers bit by bit.
+const char* kHuesOut = "TERRAMRF_TEST_COLOUR_HUES_OUT";
+
+void writeHsvLayers(const std::string& path) {
+  // 6400 cells of 0.1 m with two pixels each, of colours from a fixed generator.
+  GridGeometry geom = test::forwardGrid();
+  geom.cell_m = 0.1;
+  std::mt19937 gen(11);
+  Frame f = groundFrame(forwardCamera(), [&](int, int, uint8_t* p) {
+    for (int i = 0; i < 3; ++i) p[i] = uint8_t(gen() >> 24);
+  });
+  StageRunner r(geom);
+  r.add("colour", "{space: hsv}");
+  r.prepare(f);
+  CellPixels cp;
+  cp.camera = 0;
+  cp.width = 200;
+  cp.height = 100;
+  for (std::size_t c = 0; c < r.grid.cells(); ++c) {
+    cp.offsets.push_back(uint32_t(cp.pixels.size()));
+    cp.pixels.push_back(uint32_t(2 * c)), cp.pixels.push_back(uint32_t(2 * c + 1));
+  }
+  cp.offsets.push_back(uint32_t(cp.pixels.size()));
+  r.grid.cellPixels().clear();
+  r.grid.cellPixels().push_back(cp);
+  r.process();
+  std::ofstream out(path, std::ios::binary);
+  for (const char* name : {"colour_h", "colour_s", "colour_v"}) {
+    const Layer& l = r.grid.layer(name);
+    for (std::size_t c = 0; c < r.grid.cells(); ++c)
+      out.write(reinterpret_cast<const char*>(&l[c]), sizeof(float));
+  }
+}
+
+TEST(ColourHsv, TheSameBitsWithOrWithoutOpenCvsAvx2Kernels) {
+  if (const char* out = std::getenv(kHuesOut)) {  // the child: write the layers
+    writeHsvLayers(out);
+    return;
+  }
+  if (!__builtin_cpu_supports("avx2"))
+    GTEST_SKIP() << "this CPU has no AVX2: OpenCV's kernels cannot differ here";
+  test::TempDir dir;
+  const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
+  auto runChild = [&](const std::string& env, const std::string& file) {
+    const std::string cmd = env + " " + kHuesOut + "='" + dir.str() + "/" + file + "' '" + self +
+                            "' --gtest_filter=ColourHsv.TheSameBitsWithOrWithoutOpenCvsAvx2Kernels"
+                            " > /dev/null 2>&1";
+    EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
+    std::ifstream in(dir.str() + "/" + file, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string with = runChild("env -u OPENCV_CPU_DISABLE", "avx2.bin");
+  const std::string without = runChild("env OPENCV_CPU_DISABLE=AVX2", "no_avx2.bin");
+  ASSERT_EQ(with.size(), 3 * 6400 * sizeof(float));
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i + 4 <= with.size(); i += 4)
+    differ += with.compare(i, 4, without, i, 4) != 0;
+  EXPECT_EQ(differ, 0u) << "cells whose h, s or v differ";
 }
 
 TEST(ColourBadInput, GreyImage) {
