@@ -3,9 +3,11 @@
 #include <lcm/lcm.h>
 
 #include <climits>
+#include <cstdlib>
 #include <stdexcept>
 
 #include "terramrf/lcm/grid_codec.hpp"
+#include "terramrf/lcm/log_writer.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
 
 namespace terramrf {
@@ -13,6 +15,9 @@ namespace terramrf {
 // Only LCM's C API is used here: the handle is what callers pass in, and it keeps lcm-cpp.hpp out.
 struct GridPublisher::Impl {
   lcm_t* lcm = nullptr;
+  // file:// URLs: the log is written here, not by LCM's file provider, whose failed writes go
+  // unreported (see log_writer.hpp). Exactly one of lcm and log is used.
+  std::unique_ptr<LcmLogWriter> log;
   bool owned = false;
   std::string url;  // for messages; "(caller's instance)" when borrowed
   std::string channel;
@@ -23,6 +28,15 @@ struct GridPublisher::Impl {
 
 GridPublisher::GridPublisher(const std::string& url, std::string channel)
     : impl_(std::make_unique<Impl>()) {
+  // LCM takes an empty URL to mean $LCM_DEFAULT_URL, which may name a log too.
+  const char* env = url.empty() ? std::getenv("LCM_DEFAULT_URL") : nullptr;
+  const std::string effective = url.empty() ? (env != nullptr ? env : "") : url;
+  if (const auto log = parseLcmLogUrl(effective)) {
+    impl_->log = std::make_unique<LcmLogWriter>(log->path, log->append);
+    impl_->url = effective;
+    impl_->channel = std::move(channel);
+    return;
+  }
   impl_->lcm = lcm_create(url.empty() ? nullptr : url.c_str());
   if (impl_->lcm == nullptr) {
     throw std::runtime_error("LCM could not be set up on '" + url +
@@ -47,12 +61,29 @@ GridPublisher& GridPublisher::operator=(GridPublisher&&) noexcept = default;
 const std::string& GridPublisher::channel() const { return impl_->channel; }
 
 void GridPublisher::publishBytes(const std::string& channel, const MessageBytes& bytes) {
+  if (impl_->log) {
+    impl_->log->write(channel, bytes.data(), bytes.size());
+    return;
+  }
+  if (impl_->lcm == nullptr) {
+    throw std::runtime_error("cannot publish on channel '" + channel + "': the publisher (" +
+                             impl_->url + ") is closed");
+  }
   if (bytes.size() > static_cast<std::size_t>(UINT_MAX) ||
       lcm_publish(impl_->lcm, channel.c_str(), bytes.data(),
                   static_cast<unsigned int>(bytes.size())) != 0) {
     throw std::runtime_error("LCM could not publish " + std::to_string(bytes.size()) +
                              " bytes on channel '" + channel + "' (" + impl_->url + ")");
   }
+}
+
+void GridPublisher::close() {
+  if (impl_->log) {
+    impl_->log->close();
+    return;
+  }
+  if (impl_->owned && impl_->lcm != nullptr) lcm_destroy(impl_->lcm);
+  impl_->lcm = nullptr;
 }
 
 void GridPublisher::publish(const TerrainGrid& grid, const LabelSet& labels,

@@ -1,5 +1,6 @@
 // Output "lcm_publish": publishes each labelled grid as terramrf_msgs.terrain_grid_t (and, if
-// asked, the scan's points as point_cloud_t on <channel>_POINTS). Writes nothing to disk.
+// asked, the scan's points as point_cloud_t on <channel>_POINTS). Writes nothing to disk, except
+// the LCM log a file:// URL names.
 #include <memory>
 #include <set>
 #include <stdexcept>
@@ -7,6 +8,7 @@
 #include <vector>
 
 #include "terramrf/lcm/grid_publisher.hpp"
+#include "terramrf/lcm/log_writer.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -35,14 +37,15 @@ class LcmPublishOutput : public Output {
                                     "' is not an LCM URL; expected provider://address "
                                     "with provider udpm, tcpq, file or memq");
       }
-      // LCM opens a log file for reading unless told otherwise: without mode=w every publish
-      // failed ("could not publish"), or the run failed at its start for a new file.
-      if (provider == "file" && url_.find("mode=w") == std::string::npos &&
-          url_.find("mode=a") == std::string::npos)
-        throw ParamError("url", "'" + url_ +
-                                    "' opens the log for reading; to write one give "
-                                    "?mode=w (or ?mode=a to append), e.g. "
-                                    "file:///tmp/run.lcmlog?mode=w");
+      // A log is written by terramrf_lcm itself (LCM's provider hid failed writes); the same
+      // reading of the URL refuses one LCM would open for reading (every publish failed).
+      if (provider == "file") {
+        try {
+          parseLcmLogUrl(url_);
+        } catch (const std::invalid_argument& e) {
+          throw ParamError("url", e.what());
+        }
+      }
     }
     if (ctx.labels) labels_ = *ctx.labels;
   }
@@ -71,7 +74,12 @@ class LcmPublishOutput : public Output {
     if (publish_points_) publisher_->publishPoints(ctx.frame->points, header);
   }
 
-  void end(const RunSummary& /*summary*/) override { publisher_.reset(); }
+  // Closing a log saves its last bytes: a failure there is the run's output error, not lost.
+  void end(const RunSummary& /*summary*/) override {
+    if (!publisher_) return;
+    std::unique_ptr<GridPublisher> p = std::move(publisher_);  // gone even if close() throws
+    p->close();
+  }
 
  private:
   std::string url_ = "udpm://239.255.76.67:7667?ttl=0";

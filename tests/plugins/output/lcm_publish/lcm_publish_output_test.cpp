@@ -2,6 +2,9 @@
 // is observed through LCM's file:// provider (an LCM log), read back with lcm::LogFile.
 #include <gtest/gtest.h>
 
+#include <cerrno>
+#include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <lcm/lcm-cpp.hpp>
 #include <vector>
@@ -111,6 +114,59 @@ TEST_F(LcmPublishTest, WhatIsPublishedDecodesToTheGrid) {
   EXPECT_EQ(pc.cloud.ring[0], 12);
 }
 
+// LCM's own file provider returned 0 from lcm_publish when the write failed (and dropped the
+// buffered bytes' fflush error at close): a full disk cut the log while every frame was "ok".
+TEST_F(LcmPublishTest, LogWriteFailureFailsTheFrameNamingTheFile) {
+  auto out = test::makeOutput("lcm_publish", "{url: 'file:///dev/full?mode=w'}", pctx());
+  ASSERT_TRUE(out);
+  out->begin(info());
+  for (int i = 0; i < 2; ++i) {
+    try {
+      out->write(ctx());
+      FAIL() << "frame logged to /dev/full reported ok";
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find("LCM log '/dev/full': cannot write event 0 (channel "
+                                           "'TERRAMRF_GRID', "),
+                std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find(std::strerror(ENOSPC)), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_NO_THROW(out->end(RunSummary{}));
+}
+
+// The log's timestamps are the wall clock at the write [µs], as LCM's provider recorded them, and
+// mode=a adds to a log instead of replacing it.
+TEST_F(LcmPublishTest, LogTimestampsAndAppend) {
+  const std::string log = dir.str() + "/run.lcmlog";
+  const auto now = [] {
+    return std::chrono::duration_cast<std::chrono::microseconds>(
+               std::chrono::system_clock::now().time_since_epoch())
+        .count();
+  };
+  const std::int64_t t0 = now();
+  for (const char* mode : {"w", "a"}) {
+    auto out = test::makeOutput(
+        "lcm_publish", "{url: 'file://" + log + "?mode=" + mode + "', publish_points: true}",
+        pctx());
+    ASSERT_TRUE(out);
+    out->begin(info());
+    out->write(ctx());
+    out->end(RunSummary{});
+  }
+  const std::int64_t t1 = now();
+  lcm::LogFile file(log, "r");
+  ASSERT_TRUE(file.good());
+  std::vector<std::string> channels;
+  while (const lcm::LogEvent* e = file.readNextEvent()) {
+    channels.push_back(e->channel);
+    EXPECT_GE(e->timestamp, t0);
+    EXPECT_LE(e->timestamp, t1);
+  }
+  EXPECT_EQ(channels, (std::vector<std::string>{"TERRAMRF_GRID", "TERRAMRF_GRID_POINTS",
+                                                "TERRAMRF_GRID", "TERRAMRF_GRID_POINTS"}));
+}
+
 TEST_F(LcmPublishTest, BadParamsAndMissingLayer) {
   try {
     test::makeOutput("lcm_publish", "{url: 'http://example'}", pctx());
@@ -130,6 +186,24 @@ TEST_F(LcmPublishTest, BadParamsAndMissingLayer) {
         << e.what();
   }
   EXPECT_NO_THROW(test::makeOutput("lcm_publish", "{url: 'file:///tmp/x.lcmlog?mode=a'}", pctx()));
+  // "mode=w" inside another option's text passed a substring check; LCM then opened the log
+  // for reading ("Invalid value for mode: wx").
+  try {
+    test::makeOutput("lcm_publish", "{url: 'file:///tmp/x.lcmlog?mode=wx'}", pctx());
+    FAIL() << "mode=wx accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("mode 'wx' is not a write mode"), std::string::npos)
+        << e.what();
+  }
+  // Options LCM only reads when playing a log back are refused when writing.
+  try {
+    test::makeOutput("lcm_publish", "{url: 'file:///tmp/x.lcmlog?mode=w&speed=2'}", pctx());
+    FAIL() << "a reading option accepted for a log being written";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("option 'speed' has no meaning for a log being written"),
+              std::string::npos)
+        << e.what();
+  }
 
   auto out = test::makeOutput("lcm_publish", "{url: 'memq://', layers: [roughness]}", pctx());
   ASSERT_TRUE(out);

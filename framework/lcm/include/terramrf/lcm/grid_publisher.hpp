@@ -20,6 +20,12 @@ class GridPublisher {
   /// Opens its own LCM instance on `url` (e.g. "udpm://239.255.76.67:7667?ttl=0", "memq://",
   /// "" = LCM's default / $LCM_DEFAULT_URL). Throws std::runtime_error naming the URL if LCM
   /// cannot be set up (bad URL, no multicast route, ...).
+  ///
+  /// A `file://PATH?mode=w` (or `mode=a`) URL, given or in $LCM_DEFAULT_URL, is written by
+  /// LcmLogWriter instead of LCM's file provider (same log format, channels and timestamps), so
+  /// that a failed write is reported: see log_writer.hpp. Throws std::invalid_argument for a
+  /// file:// URL that cannot be written (parseLcmLogUrl), std::runtime_error naming the file if
+  /// it cannot be opened.
   GridPublisher(const std::string& url, std::string channel);
   /// Publishes through an LCM instance the caller owns (lcm::LCM::getUnderlyingLCM() or
   /// lcm_create()); it must outlive the publisher. Throws std::invalid_argument if null.
@@ -36,13 +42,19 @@ class GridPublisher {
   std::string pointsChannel() const { return channel() + "_POINTS"; }
 
   /// Encodes (see encodeGrid) and publishes on channel(). Throws std::runtime_error naming the
-  /// channel if LCM refuses the message.
+  /// channel if LCM refuses the message, or naming the log file, the event and the OS error if a
+  /// log cannot write it.
   void publish(const TerrainGrid& grid, const LabelSet& labels, const MessageHeader& header,
                const std::vector<std::string>& layers = {});
   /// Encodes (see encodePointCloud) and publishes on pointsChannel().
   void publishPoints(const PointCloud& cloud, const MessageHeader& header);
   /// Publishes an already encoded message on any channel.
   void publishBytes(const std::string& channel, const MessageBytes& bytes);
+
+  /// Closes the LCM instance it opened, or the log (see LcmLogWriter::close: throws naming the
+  /// file if its last bytes cannot be saved or it ends in a cut event). The destructor closes
+  /// too but cannot report; call this where a failure must be seen. Later publishes throw.
+  void close();
 
  private:
   struct Impl;
