@@ -1,6 +1,4 @@
 // The reports of a sweep: summary.md and its tables, CSV and JSON files, ROC plots.
-#include "terramrf/sweep.hpp"
-
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -11,6 +9,8 @@
 
 #include "sweep_internal.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/stop_request.hpp"
+#include "terramrf/sweep.hpp"
 #include "terramrf/text_format.hpp"
 #include "terramrf/version.hpp"
 
@@ -486,10 +486,12 @@ std::string resultsJson(const SweepResult& r) {
   std::ostringstream o;
   o << "{\n  \"schema\": \"terramrf.compare/1\",\n  \"name\": " << jsonQuote(r.name)
     << ",\n  \"sweep\": " << jsonQuote(r.sweep_path)
-    << ",\n  \"output_dir\": " << jsonQuote(r.output_dir) << ",\n  \"created\": " << jsonQuote(utcNow())
+    << ",\n  \"output_dir\": " << jsonQuote(r.output_dir)
+    << ",\n  \"created\": " << jsonQuote(utcNow())
     << ",\n  \"tool\": " << jsonQuote(std::string("terramrf ") + TERRAMRF_VERSION)
-    << ",\n  \"limit\": " << r.limit << ",\n  \"labels\": " << list(r.labels.names())
-    << ",\n  \"datasets\": " << list(r.datasets)
+    << ",\n  \"limit\": " << r.limit
+    << ",\n  \"interrupted\": " << (r.stop_signal ? jsonQuote(signalName(r.stop_signal)) : "null")
+    << ",\n  \"labels\": " << list(r.labels.names()) << ",\n  \"datasets\": " << list(r.datasets)
     << ",\n  \"feature_sets\": " << list(r.feature_sets)
     << ",\n  \"optimisers\": " << list(r.optimisers) << ",\n  \"train\": " << list(r.train_items)
     << ",\n  \"models\": [";
@@ -665,6 +667,10 @@ void writeSweepReport(const SweepResult& r, const std::string& dir) {
   }
   head << "\n- runs: " << r.runs.size() << " (" << skipped << " skipped, " << failed
        << " failed; reasons under Runs)";
+  if (r.stop_signal != 0)
+    head << "\n- **interrupted** (" << signalName(r.stop_signal)
+         << "): the run or training in hand stopped after its frame in hand and is reported "
+            "failed; those after it were not run";
   if (r.cached_frames)
     head << "\n- frame cache: " << r.cached_frames << " frame(s) kept after their first read ("
          << fmt("%.0f", r.cached_mb) << " MB), " << r.cache_hits
