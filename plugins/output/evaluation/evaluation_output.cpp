@@ -81,10 +81,11 @@ class EvaluationOutput : public Output {
       table += "- no frame with ground truth was evaluated; all ratios are undefined\n";
     }
     std::string json = toJson(total, labels_, rules_id_);
-    // An interrupted run's totals are those of its first frames only: said first, in both.
+    // An interrupted run's totals are those of its first frames only: said first in the table,
+    // and right after the schema in the JSON.
     if (const std::string stopped = interruptionText(summary); !stopped.empty()) {
       table = "**Run " + stopped + "**: these totals cover those frames only.\n\n" + table;
-      json.insert(json.find('\n') + 1,
+      json.insert(json.find('\n', json.find("\"schema\"")) + 1,
                   "  \"interrupted\": " + jsonQuote("run " + stopped) +
                       ",\n  \"frames_planned\": " + std::to_string(summary.frames_total) + ",\n");
     }
