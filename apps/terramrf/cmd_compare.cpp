@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "terramrf/stop_request.hpp"
 #include "terramrf/sweep.hpp"
 
 namespace terramrf::cli {
@@ -73,6 +74,11 @@ int cmdCompare(const Args& args) {
       for (const auto& [frame, why] : x.failed)
         std::cout << "  frame " << frame << " of " << x.dataset << " × " << x.feature_set << " × "
                   << x.optimiser << " failed and was skipped: " << why << "\n";
+    if (r.stop_signal != 0)
+      std::cout << "compare interrupted (" << signalName(r.stop_signal)
+                << "): the run or training in hand stopped after its frame in hand (failed "
+                   "above), those after it were not run (exit status "
+                << r.exitCode() << ")\n";
     std::cout << "report: " << r.output_dir << "/summary.md\n";
     return r.exitCode();
   } catch (const ConfigError& e) {

@@ -74,11 +74,13 @@ int cmdMesh(const Args& args) {
     std::cerr << "terramrf mesh: " << e.what() << "\n";
     return kError;
   }
-  writeRunReports(p.output_dir, r);
+  const bool exported = r.output_errors.empty();  // before the reports add theirs
+  writeReportsOf(p.output_dir, r);
   std::cout << r.summary.frames_ok << " of " << r.frames_total << " frame(s) ok\n";
   for (const auto& [id, why] : r.summary.failed) std::cout << "  " << id << ": " << why << "\n";
   for (const auto& e : r.output_errors) std::cout << "error: " << e << "\n";
-  if (r.output_errors.empty()) std::cout << "mesh: " << mesh_dirs << " (report.md)\n";
+  printInterruption(r);
+  if (exported) std::cout << "mesh: " << mesh_dirs << " (report.md)\n";
   return r.exitCode();
 }
 

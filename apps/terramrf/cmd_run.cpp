@@ -6,6 +6,7 @@
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/config.hpp"
 #include "terramrf/pipeline.hpp"
+#include "terramrf/stop_request.hpp"
 #include "terramrf/sweep.hpp"
 
 namespace terramrf::cli {
@@ -129,7 +130,7 @@ int cmdRun(const Args& args) {
             << ", outputs in " << p.output_dir << "\n";
   RunResult r = runPipeline(p, ro);
   const std::string table = timingTable(r);
-  writeRunReports(p.output_dir, r);
+  writeReportsOf(p.output_dir, r);
   std::cout << "\nPer-stage timing over " << r.summary.frames_ok << " scan(s):\n" << table;
   std::cout << "\n" << r.summary.frames_ok << " of " << r.frames_total << " frame(s) ok";
   if (!r.summary.failed.empty()) {
@@ -150,8 +151,27 @@ int cmdRun(const Args& args) {
     std::cout << r.frames_outside_grid.size()
               << " frame(s) had under 1 % of their points inside the grid (nearly all cells "
                  "unknown; is the cloud in the sensor frame?)\n";
+  printInterruption(r);
   std::cout << "outputs: " << p.output_dir << "\n";
   return r.exitCode();
+}
+
+void writeReportsOf(const std::string& output_dir, RunResult& r) {
+  try {
+    writeRunReports(output_dir, r);
+  } catch (const std::exception& e) {
+    const std::string why = std::string("the run's reports (timing.md, metrics.csv): ") + e.what();
+    std::cerr << "terramrf: writing " << why << "\n";
+    r.output_errors.push_back(why);
+  }
+}
+
+void printInterruption(const RunResult& r) {
+  const std::string stopped = interruptionText(r.summary);
+  if (stopped.empty()) return;
+  std::cout << "run " << stopped
+            << ": the outputs' summaries and timing.md cover those frames only (exit status "
+            << r.exitCode() << ")\n";
 }
 
 int cmdPlugins(const Args&) {

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "terramrf/stop_request.hpp"
 #include "terramrf/sweep.hpp"
 
 namespace terramrf::cli {
@@ -41,6 +42,13 @@ int cmdTrain(const Args& args) {
     std::cerr << e.diagnostics().size() << " error(s) in " << o.config_path
               << "; nothing was trained\n";
     return kUsage;
+  } catch (const std::exception& e) {
+    // Stopped by SIGINT/SIGTERM (stop_request.hpp): trainModel says what it kept.
+    if (const int sig = stopRequested()) {
+      std::cerr << "terramrf train: " << e.what() << "\n";
+      return 128 + sig;
+    }
+    throw;
   }
   std::cout << "model: " << r.model_path << "\n"
             << "trained on " << r.labelled_frames << " labelled of " << r.frames

@@ -21,6 +21,7 @@ int cmdCompare(const Args& args);
 int cmdMesh(const Args& args);
 
 /// Exit statuses shared by all commands.
+/// Interrupted runs end with 128 + the signal (RunResult::exitCode): 130 SIGINT, 143 SIGTERM.
 enum Exit { kOk = 0, kError = 1, kUsage = 2, kSomeFramesFailed = 3, kFailed = 4 };
 
 /// A command line that cannot mean anything (exit status kUsage).
@@ -51,6 +52,14 @@ int parseRunArgs(const Args& args, const char* command, RunArgs& out);
 /// --first within the source's frames; otherwise prints what the source holds and returns false
 /// (a run past the end would run nothing, exit 0 and overwrite the summaries with empty ones).
 bool firstFrameInRange(const Pipeline& p, const RunOptions& ro, const char* command);
+
+/// writeRunReports, whose failure (a full disk) becomes one of the run's errors (exit 4, printed
+/// with the summary) instead of ending the command before it prints what did run.
+void writeReportsOf(const std::string& output_dir, RunResult& r);
+
+/// "run interrupted (SIGINT) after 41 of 600 frame(s): …" on stdout, for a run that was; the
+/// exit status is then r.exitCode(): 130 or 143.
+void printInterruption(const RunResult& r);
 
 /// Loads and validates a config; on failure prints every diagnostic and returns false.
 bool loadOrReport(const std::string& config, const LoadOptions& options, PluginRegistry& registry,

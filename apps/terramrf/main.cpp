@@ -10,6 +10,7 @@
 #endif
 
 #include "commands.hpp"
+#include "terramrf/stop_request.hpp"
 
 namespace {
 
@@ -49,7 +50,8 @@ const char* kFooter =
     "Plugins are searched in the install's plugin folder, $TERRAMRF_PLUGIN_PATH and the\n"
     "config's plugin_path. Exit status: 0 ok, 1 error, 2 usage/config error,\n"
     "3 some frames failed (reported and skipped), 4 every frame failed or an output failed at\n"
-    "the end.\n";
+    "the end, 130/143 run, mesh, compare or train stopped by SIGINT/SIGTERM after the frame in\n"
+    "hand, with what was done written (a second signal stops at once).\n";
 
 std::string usageText() {
   std::string t = "usage: terramrf <command> [options]\n\ncommands:\n";
@@ -97,6 +99,10 @@ int main(int argc, char** argv) {
       if (cmd == c.name) std::cout << "usage: terramrf " << c.text << "\n" << kFooter;
     return kOk;
   }
+  // The commands that run pipelines stop between frames on SIGINT/SIGTERM and still write
+  // their summaries; the others are short, and keep the default (end at once).
+  if (cmd == "run" || cmd == "mesh" || cmd == "compare" || cmd == "train")
+    terramrf::installStopHandlers();
   try {
     return it->second(Args(argv + 2, argv + argc));
   } catch (const UsageError& e) {

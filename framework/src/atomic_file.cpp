@@ -1,10 +1,12 @@
 #include "terramrf/atomic_file.hpp"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -28,7 +30,8 @@ void writeFileAtomic(const std::string& path, std::string_view bytes) {
     }
   }
   std::string tmpl = (target.has_parent_path() ? target.parent_path() / "" : fs::path()).string() +
-                     "." + target.filename().string() + ".tmp.XXXXXX";
+                     "." + target.filename().string() + ".tmp." + std::to_string(::getpid()) +
+                     ".XXXXXX";
   const int fd = ::mkstemp(tmpl.data());
   if (fd < 0) {
     throw std::runtime_error("cannot write output '" + path + "': " + std::strerror(errno));
@@ -61,6 +64,93 @@ void writeFileAtomic(const std::string& path, std::string_view bytes) {
     ::unlink(tmpl.c_str());
     throw std::runtime_error("cannot replace output '" + path + "': " + why);
   }
+}
+
+namespace {
+/// `digits` as a pid, or 0 if it is not one (empty, not all digits, too long).
+pid_t pidIn(const std::string& digits) {
+  if (digits.empty() || digits.size() > 9) return 0;  // pid_t is at most 2^22 on Linux
+  for (char c : digits)
+    if (c < '0' || c > '9') return 0;
+  return static_cast<pid_t>(std::stol(digits));
+}
+
+/// The writer whose pid a temporary name carries, or 0 if `name` is none of ours.
+/// `is_dir`: mesh export folders (`X.tmp-<pid>`, `X.old-<pid>`); files: writeFileAtomic's
+/// `.X.tmp.<pid>.XXXXXX` and `.write_probe_<pid>`. `old` is set for `X.old-<pid>`.
+pid_t tempWriter(const std::string& name, bool is_dir, bool& old) {
+  old = false;
+  if (is_dir) {
+    for (const char* mark : {".tmp-", ".old-"}) {
+      const std::size_t at = name.rfind(mark);
+      if (at == std::string::npos || at == 0) continue;
+      const pid_t pid = pidIn(name.substr(at + 5));
+      if (pid == 0) continue;
+      old = mark[1] == 'o';
+      return pid;
+    }
+    return 0;
+  }
+  if (name.rfind(".write_probe_", 0) == 0) return pidIn(name.substr(13));
+  // .<name>.tmp.<pid>.XXXXXX: mkstemp's six characters after the pid.
+  if (name.size() < 1 + 1 + 5 + 1 + 1 + 6 || name[0] != '.') return 0;
+  const std::size_t dot = name.size() - 7;
+  if (name[dot] != '.') return 0;
+  for (std::size_t k = dot + 1; k < name.size(); ++k)
+    if (!std::isalnum(static_cast<unsigned char>(name[k]))) return 0;
+  const std::size_t tmp = name.rfind(".tmp.", dot);
+  if (tmp == std::string::npos || tmp < 2) return 0;
+  return pidIn(name.substr(tmp + 5, dot - tmp - 5));
+}
+
+/// True only when no process has this pid (ESRCH). EPERM: alive, another user's.
+bool writerIsGone(pid_t pid) { return pid > 1 && ::kill(pid, 0) == -1 && errno == ESRCH; }
+}  // namespace
+
+std::vector<std::string> removeStaleTemps(const std::string& dir, int max_depth) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> done;
+  std::error_code ec;
+  // Gathered first, changed after: removing while iterating would skip entries.
+  std::vector<std::pair<fs::path, bool>> stale;  // path, X.old-<pid>
+  fs::recursive_directory_iterator it(dir, fs::directory_options::skip_permission_denied, ec), end;
+  for (; !ec && it != end; it.increment(ec)) {
+    const fs::directory_entry& e = *it;
+    std::error_code ec2;
+    const bool is_dir = e.is_directory(ec2) && !e.is_symlink(ec2);
+    const bool is_file = e.is_regular_file(ec2) && !e.is_symlink(ec2);
+    bool old = false;
+    const pid_t pid =
+        (is_dir || is_file) ? tempWriter(e.path().filename().string(), is_dir, old) : 0;
+    if (pid != 0 && writerIsGone(pid)) {
+      stale.emplace_back(e.path(), old);
+      if (is_dir) it.disable_recursion_pending();  // removed whole
+      continue;
+    }
+    if (is_dir && it.depth() >= max_depth) it.disable_recursion_pending();
+  }
+  for (const auto& [path, old] : stale) {
+    std::error_code rec;
+    if (old) {
+      // X.old-<pid>: the previous export, moved aside just before the new one was moved in. With
+      // X missing the writer died between the two renames, and this is the only export left.
+      const std::string name = path.filename().string();
+      const fs::path target = path.parent_path() / name.substr(0, name.rfind(".old-"));
+      if (!fs::exists(target, rec)) {
+        fs::rename(path, target, rec);
+        done.push_back(rec ? "cannot restore " + target.string() + " from " + path.string() +
+                                 " (left by a process that no longer runs): " + rec.message()
+                           : "restored " + target.string() + " from " + path.string() +
+                                 " (moved aside by a process that no longer runs)");
+        continue;
+      }
+    }
+    fs::remove_all(path, rec);
+    done.push_back(rec ? "cannot remove " + path.string() +
+                             " (left by a process that no longer runs): " + rec.message()
+                       : "removed " + path.string() + " (left by a process that no longer runs)");
+  }
+  return done;
 }
 
 std::string safeFileName(std::string s) {

@@ -18,6 +18,7 @@
 #include "frame_reader.hpp"
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/params.hpp"
+#include "terramrf/stop_request.hpp"
 #include "terramrf/text_format.hpp"
 
 namespace terramrf {
@@ -47,6 +48,7 @@ double StageTiming::median() const {
 }
 
 int RunResult::exitCode() const {
+  if (summary.stop_signal != 0) return 128 + summary.stop_signal;
   if (!output_errors.empty()) return 4;
   if (frames_total > 0 && summary.frames_ok == 0) return 4;
   if (!summary.failed.empty()) return 3;
@@ -185,6 +187,10 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   std::ostream& log = opt.log ? *opt.log : std::cerr;
   RunResult res;
   std::filesystem::create_directories(p.output_dir);
+  // A run killed mid-write (before session 38 any SIGINT/SIGTERM, now a second one or SIGKILL)
+  // leaves its temporaries; no later run would ever replace them.
+  for (const auto& line : removeStaleTemps(p.output_dir))
+    log << (line.rfind("cannot", 0) == 0 ? "warning: " : "note: ") << line << "\n";
   auto inOutputDir = [&](const std::string& f) {
     const std::filesystem::path path(f);
     return path.is_absolute() ? path : std::filesystem::path(p.output_dir) / path;
@@ -214,6 +220,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   const std::size_t first = std::min(opt.first, n_all);
   const std::size_t n = opt.limit ? std::min(opt.limit, n_all - first) : n_all - first;
   res.frames_total = n;
+  res.summary.frames_total = n;
 
   RunInfo info;
   info.config_path = p.config_path;
@@ -292,6 +299,12 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   }
 
   for (std::size_t k = 0; k < n; ++k) {
+    // Checked between frames only: a frame half through its outputs would leave some of its
+    // files written and others not.
+    if (const int sig = stopRequested()) {
+      res.summary.stop_signal = sig;
+      break;
+    }
     const std::size_t i = first + k;
     std::string id;  // known once frameId() returns, which a source may make throw
     FrameContext& ctx = ctxs[cur];
@@ -375,6 +388,13 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
     }
     progress.update(k + 1, id, msSince(t_frame), res.summary.failed.size());
   }
+  // Reads in progress finish and no other starts: frames read ahead are dropped, and the reader
+  // threads are joined before the outputs end.
+  reader.reset();
+  if (res.summary.stop_signal != 0) {
+    if (opt.progress && ::isatty(2)) std::fprintf(stderr, "\n");
+    log << "run " << interruptionText(res.summary) << "; ending the outputs\n";
+  }
 
   for (auto& o : p.outputs) {
     try {
@@ -422,7 +442,10 @@ std::string metricsCsv(const RunResult& r) {
 }
 
 void writeRunReports(const std::string& dir, const RunResult& r) {
-  writeFileAtomic(dir + "/" + kTimingFile, timingTable(r));
+  const std::string stopped = interruptionText(r.summary);
+  writeFileAtomic(
+      dir + "/" + kTimingFile,
+      (stopped.empty() ? "" : "Run " + stopped + ": timings of those only.\n\n") + timingTable(r));
   // Always written, if only its header: an earlier run's file would pass for this one's.
   writeFileAtomic(dir + "/" + kMetricsFile, metricsCsv(r));
 }

@@ -384,6 +384,8 @@ struct SweepRun {
   std::size_t done = 0;    ///< frames processed so far (progress bar)
   /// Items whose untimed warm-up run is done (executeRun).
   std::set<const Item*> warmed = {};
+  /// The signal that cut a run or training short (SweepResult::stop_signal), 0 if none did.
+  int stopped = 0;
 };
 
 /// The items a feature set trains on: its own `train:`, else split.train.

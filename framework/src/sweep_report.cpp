@@ -12,6 +12,7 @@
 
 #include "sweep_internal.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/stop_request.hpp"
 #include "terramrf/sweep.hpp"
 #include "terramrf/text_format.hpp"
 #include "terramrf/version.hpp"
@@ -507,8 +508,9 @@ std::string resultsJson(const SweepResult& r) {
     << ",\n  \"output_dir\": " << jsonQuote(r.output_dir)
     << ",\n  \"created\": " << jsonQuote(creationTime())
     << ",\n  \"tool\": " << jsonQuote(std::string("terramrf ") + TERRAMRF_VERSION)
-    << ",\n  \"limit\": " << r.limit << ",\n  \"labels\": " << list(r.labels.names())
-    << ",\n  \"datasets\": " << list(r.datasets)
+    << ",\n  \"limit\": " << r.limit
+    << ",\n  \"interrupted\": " << (r.stop_signal ? jsonQuote(signalName(r.stop_signal)) : "null")
+    << ",\n  \"labels\": " << list(r.labels.names()) << ",\n  \"datasets\": " << list(r.datasets)
     << ",\n  \"feature_sets\": " << list(r.feature_sets)
     << ",\n  \"optimisers\": " << list(r.optimisers) << ",\n  \"train\": " << list(r.train_items)
     << ",\n  \"models\": [";
@@ -685,6 +687,10 @@ void writeSweepReport(const SweepResult& r, const std::string& dir) {
   }
   head << "\n- runs: " << r.runs.size() << " (" << skipped << " skipped, " << failed
        << " failed; reasons under Runs)";
+  if (r.stop_signal != 0)
+    head << "\n- **interrupted** (" << signalName(r.stop_signal)
+         << "): the run or training in hand stopped after its frame in hand and is reported "
+            "failed; those after it were not run";
   if (r.cached_frames)
     head << "\n- frame cache: " << r.cached_frames << " frame(s) kept after their first read ("
          << fmt("%.0f", r.cached_mb) << " MB), " << r.cache_hits

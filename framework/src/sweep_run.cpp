@@ -8,6 +8,7 @@
 
 #include "sweep_internal.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/stop_request.hpp"
 #include "terramrf/sweep.hpp"
 
 namespace terramrf {
@@ -228,6 +229,7 @@ const RunRecord* SweepResult::find(const std::string& dataset, const std::string
 }
 
 int SweepResult::exitCode() const {
+  if (stop_signal != 0) return 128 + stop_signal;
   for (const auto& r : runs)
     if (r.status == RunRecord::Status::kFailed || !r.failed.empty()) return 3;
   for (const auto& m : models)
@@ -291,6 +293,12 @@ void executeRun(SweepRun& run, const RunSpec& spec, RunRecord& rec) {
     }
     rec.frames_ok = rr.summary.frames_ok;
     rec.failed = rr.summary.failed;
+    if (rr.summary.stop_signal != 0) {
+      // Scores of part of the item would pass for the whole in the tables: a failed run.
+      run.stopped = rr.summary.stop_signal;
+      rec.status = RunRecord::Status::kFailed;
+      rec.reason = "run " + interruptionText(rr.summary) + "; its files cover those only";
+    }
     rec.counts.frames_failed = rec.failed.size();
     rec.times = runTimes(rr, p);
     writeRunReports(rec.output_dir, rr);
@@ -472,6 +480,7 @@ SweepResult runSweep(const CompareOptions& o) {
       mr.failed = tr.failed;
     };
     auto fail = [&](const std::string& why) {
+      if (const int sig = stopRequested()) run.stopped = sig;  // why says "interrupted"
       mr.reason = why;
       mr.path.clear();
       train_failed[i] = true;
@@ -484,6 +493,14 @@ SweepResult runSweep(const CompareOptions& o) {
       mr.train_items.clear();
     } else if (!fs_train_reason[i].empty()) {
       mr.reason = "not trained: " + fs_train_reason[i];
+    }
+    if (const int sig = stopRequested(); sig != 0 && mr.path.empty()) {
+      run.stopped = sig;
+      mr.reason = "not trained: compare interrupted (" + signalName(sig) + ")";
+      train_failed[i] = true;
+      model_of[i].clear();
+      res.models.push_back(mr);
+      continue;
     }
     if (selecting && fs_train_reason[i].empty() &&
         sweep_detail::selectsFor(sweep_detail::candidatesFor(sel, f))) {
@@ -568,6 +585,13 @@ SweepResult runSweep(const CompareOptions& o) {
           res.runs.push_back(std::move(rec));
           continue;
         }
+        if (const int sig = stopRequested()) {
+          run.stopped = sig;
+          rec.status = RunRecord::Status::kSkipped;
+          rec.reason = "not run: compare interrupted (" + signalName(sig) + ")";
+          res.runs.push_back(std::move(rec));
+          continue;
+        }
         rec.output_dir = s->output_dir + "/runs/" + sanitize(rec.key());
         RunSpec spec;
         spec.item = &t;
@@ -593,6 +617,7 @@ SweepResult runSweep(const CompareOptions& o) {
         res.cache_hits += c->hits();
         res.cached_mb += c->keptBytes() / 1048576.0;
       }
+  res.stop_signal = run.stopped;
   writeSweepReport(res, s->output_dir);
   return res;
 }

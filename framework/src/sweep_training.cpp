@@ -1,7 +1,5 @@
 // `terramrf train`: runs the feature stages over the training items and learns the per-class
 // feature model with the feature_stats output plugin.
-#include "terramrf/sweep.hpp"
-
 #include <chrono>
 #include <filesystem>
 #include <iostream>
@@ -12,6 +10,8 @@
 #include "sweep_internal.hpp"
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/param_values.hpp"
+#include "terramrf/stop_request.hpp"
+#include "terramrf/sweep.hpp"
 #include "terramrf/version.hpp"
 
 namespace terramrf {
@@ -234,6 +234,15 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
       rr = runPipeline(p, runOptions(*it, &log, /*timed=*/false));
     }
     progress.advanceTo(0, job.what + it->label);
+    if (rr.summary.stop_signal != 0) {
+      // A model learnt from part of the data would pass for one learnt from all of it, and
+      // replace a good one: none is written.
+      progress.breakLine();
+      throw std::runtime_error("training " + interruptionText(rr.summary) + " of item '" +
+                               it->label + "'; no model written (" + job.model_path +
+                               " is left as it was): one learnt from part of the data would "
+                               "pass for one learnt from all of it");
+    }
     rec.failed_frames = rr.summary.failed.size();
     for (const auto& f : rr.summary.failed) r.failed.push_back(f);
     r.frames += rec.frame_ids.size();

@@ -140,6 +140,10 @@ ExportStats exportMesh(const TerrainMesh& mesh, const std::string& dir,
   const fs::path target = fs::absolute(dir).lexically_normal();
   const fs::path parent = target.parent_path();
   checkWritableFolder(parent.string());
+  // An export killed mid-way (this folder's name with .tmp-/.old-<its pid>) is never finished or
+  // removed by its own process: gone before this one starts, its previous export put back.
+  for (const auto& line : removeStaleTemps(parent.string(), 0))
+    std::fprintf(stderr, "mesh export: %s\n", line.c_str());
   const fs::path tmp = parent / (target.filename().string() + ".tmp-" + std::to_string(::getpid()));
   std::error_code ec;
   fs::remove_all(tmp, ec);

@@ -1,8 +1,11 @@
 // `terramrf plugins` and `describe` (apps/terramrf/cmd_run.cpp), and the parameter specs they
 // print: the brief promises that the specs are the documentation, so each must be complete.
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -10,6 +13,7 @@
 #include <iterator>
 #include <regex>
 #include <set>
+#include <thread>
 
 #include "commands.hpp"
 #include "terramrf/atomic_file.hpp"
@@ -308,6 +312,162 @@ TEST(RunCli, AnOutputFailingAtTheEndIsNamedInTheSummary) {
                       out + "/evaluation/summary.json'"),
             std::string::npos)
       << said << err;
+}
+
+// The run's own reports failing at the end (a full disk; here a folder where timing.md goes):
+// before, the command ended with status 1 and "terramrf run: cannot replace output …" only,
+// without the "N of M frame(s) ok" summary and the frames' errors. Now the summary is printed
+// with the error in it, and the status is the run's error status, 4.
+TEST(RunCli, ReportsThatCannotBeWrittenStillLeaveTheSummary) {
+  test::TempDir dir;
+  const std::string config = labellingConfig(
+      dir, "{type: simulator, params: {frames: 1, enable_camera: false}}", "[{type: evaluation}]");
+  const std::string out = dir.str() + "/out";
+  fs::create_directories(out + "/timing.md/held");
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  int rc = -1;
+  EXPECT_NO_THROW(rc = cli::cmdRun({config, "--out", out, "--no-progress"}));
+  const std::string said = testing::internal::GetCapturedStdout();
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(rc, cli::kFailed) << said << err;
+  EXPECT_NE(said.find("1 of 1 frame(s) ok\nerror: the run's reports (timing.md, metrics.csv): "
+                      "cannot replace output '" +
+                      out + "/timing.md'"),
+            std::string::npos)
+      << said << err;
+  EXPECT_NE(said.find("outputs: " + out), std::string::npos) << said;
+  EXPECT_TRUE(fs::exists(out + "/evaluation/summary.json"));
+}
+
+namespace {
+/// Starts `command` (a shell command line) as a child with SIGINT and SIGTERM at their defaults
+/// (a test started in the background has SIGINT ignored, which the child would inherit).
+pid_t startShell(const std::string& command) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::signal(SIGINT, SIG_DFL);
+    ::signal(SIGTERM, SIG_DFL);
+    ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  return pid;
+}
+
+/// Waits up to `seconds` for `path` to exist; false if it did not.
+bool waitForFile(const std::string& path, int seconds) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
+  while (std::chrono::steady_clock::now() < until) {
+    if (fs::exists(path)) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return false;
+}
+
+/// The child's wait status, killing it (and failing) if it has not ended within `seconds`.
+int waitOrKill(pid_t pid, int seconds) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(seconds);
+  int status = 0;
+  while (std::chrono::steady_clock::now() < until) {
+    if (::waitpid(pid, &status, WNOHANG) == pid) return status;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ::kill(pid, SIGKILL);
+  ::waitpid(pid, &status, 0);
+  ADD_FAILURE() << "the child did not end within " << seconds << " s of the signal";
+  return status;
+}
+
+/// Entries under `dir` (recursively) whose names are our temporaries: `.x.tmp.…`, `x.tmp-…`,
+/// `x.old-…`, `.write_probe_…`, `x.overlays-new`.
+std::vector<std::string> temporariesUnder(const std::string& dir) {
+  std::vector<std::string> found;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    const std::string n = e.path().filename().string();
+    if (n.find(".tmp") != std::string::npos || n.find(".old-") != std::string::npos ||
+        n.rfind(".write_probe_", 0) == 0 || n.find("overlays-new") != std::string::npos)
+      found.push_back(e.path().string());
+  }
+  return found;
+}
+
+std::string fileText(const std::string& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+}  // namespace
+
+// SIGTERM to a long `terramrf run` (the reviewer's case: grid_png, grid_csv, evaluation, roc).
+// Before: the process died at once with every summary lost (timing.md, metrics.csv,
+// evaluation/summary.*, roc/*), sometimes a temporary left in grid/. Now the frame in hand
+// completes, the outputs end, the reports are written, all saying the run was interrupted;
+// no temporary is left and the status is 143.
+TEST(MainCli, SigtermDuringARunLeavesEverySummaryAndExits143) {
+  test::TempDir dir;
+  const std::string config =
+      labellingConfig(dir, "{type: simulator, params: {frames: 400, enable_camera: false}}",
+                      "[{type: grid_png}, {type: grid_csv}, {type: evaluation}, {type: roc}]");
+  const std::string out = dir.str() + "/out";
+  const pid_t pid =
+      startShell("exec " + test::cli() + " run " + config + " --out " + out + " --no-progress > " +
+                 dir.str() + "/stdout 2> " + dir.str() + "/stderr");
+  ASSERT_GT(pid, 0);
+  const bool started = waitForFile(out + "/grid_csv/000002.csv", 120);
+  ::kill(pid, SIGTERM);
+  const int status = waitOrKill(pid, 120);
+  const std::string said = fileText(dir.str() + "/stdout"), err = fileText(dir.str() + "/stderr");
+  ASSERT_TRUE(started) << err;
+  ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status) << "\n" << err;
+  EXPECT_EQ(WEXITSTATUS(status), 143) << said << err;
+  EXPECT_NE(said.find("run interrupted (SIGTERM) after "), std::string::npos) << said << err;
+  EXPECT_NE(said.find(" of 400 frame(s): the outputs' summaries and timing.md cover those "
+                      "frames only (exit status 143)"),
+            std::string::npos)
+      << said;
+  EXPECT_EQ(fileText(out + "/timing.md").rfind("Run interrupted (SIGTERM) after ", 0), 0u);
+  EXPECT_TRUE(fs::exists(out + "/metrics.csv"));
+  EXPECT_NE(fileText(out + "/evaluation/summary.json")
+                .find("\"interrupted\": \"run interrupted (SIGTERM) after "),
+            std::string::npos);
+  EXPECT_EQ(fileText(out + "/evaluation/summary.md").rfind("**Run interrupted (SIGTERM) after ", 0),
+            0u);
+  EXPECT_NE(fileText(out + "/roc/summary.json").find("run interrupted (SIGTERM) after "),
+            std::string::npos);
+  EXPECT_TRUE(fs::exists(out + "/roc/roc.csv"));
+  EXPECT_TRUE(fs::exists(out + "/roc/roc.svg"));
+  EXPECT_EQ(temporariesUnder(out), std::vector<std::string>{});
+}
+
+// SIGINT (Ctrl-C) during `terramrf mesh`: before, the mesh was lost entirely (it is exported at
+// the end). Now it is exported from the frames done, its report says so, status 130.
+TEST(MainCli, SigintDuringMeshExportsTheMeshOfTheFramesDoneAndExits130) {
+  test::TempDir dir;
+  const std::string config =
+      oneStageConfig(dir, "frames: 400, azimuth_step_deg: 0.4, enable_camera: false");
+  const std::string out = dir.str() + "/out";
+  const std::string log = dir.str() + "/stderr";
+  const pid_t pid = startShell("exec " + test::cli() + " mesh " + config + " --out " + out +
+                               " --no-progress > " + dir.str() + "/stdout 2> " + log);
+  ASSERT_GT(pid, 0);
+  // The mesh output notes each frame it adds on stderr.
+  bool started = false;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!started && std::chrono::steady_clock::now() < until) {
+    started = fileText(log).find("frame 000001") != std::string::npos;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ::kill(pid, SIGINT);
+  const int status = waitOrKill(pid, 120);
+  const std::string said = fileText(dir.str() + "/stdout"), err = fileText(log);
+  ASSERT_TRUE(started) << err;
+  ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status) << "\n" << err;
+  EXPECT_EQ(WEXITSTATUS(status), 130) << said << err;
+  EXPECT_TRUE(fs::exists(out + "/mesh/terrain.obj")) << said << err;
+  EXPECT_EQ(fileText(out + "/mesh/report.md").rfind("**Run interrupted (SIGINT) after ", 0), 0u)
+      << fileText(out + "/mesh/report.md");
+  EXPECT_NE(said.find("run interrupted (SIGINT) after "), std::string::npos) << said;
+  EXPECT_TRUE(fs::exists(out + "/timing.md"));
+  EXPECT_EQ(temporariesUnder(out), std::vector<std::string>{});
 }
 
 // `mesh` on a config that lists no textured_mesh output adds one with its defaults; an output

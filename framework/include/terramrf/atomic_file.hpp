@@ -9,7 +9,20 @@ namespace terramrf {
 
 /// Writes `bytes` to `path` atomically (temp file + fsync + rename). Creates parent folders.
 /// Throws std::runtime_error naming the path on failure; the old file, if any, is untouched.
+/// The temporary file, `.<name>.tmp.<pid>.XXXXXX` beside `path`, names its writer's process, so
+/// one left by a writer that was killed can be told from one being written (removeStaleTemps).
 void writeFileAtomic(const std::string& path, std::string_view bytes);
+
+/// Removes, in `dir` and its folders at most `max_depth` levels down (symbolic links not
+/// followed), what
+/// writers killed mid-write left: writeFileAtomic's `.<name>.tmp.<pid>.XXXXXX` files, the mesh
+/// export's `<name>.tmp-<pid>` folders and `.write_probe_<pid>` files, and its `<name>.old-<pid>`
+/// folders, which are moved back to `<name>` when that is missing (the previous export, moved
+/// aside when its writer was killed mid-swap). Only names of these exact shapes whose pid names
+/// no live process (kill(pid, 0) fails with ESRCH) are touched: a live writer's, and temporary
+/// files without a pid (before session 38), are left alone. Never throws; returns one line per
+/// entry removed or restored, or that could not be, for the log.
+std::vector<std::string> removeStaleTemps(const std::string& dir, int max_depth = 4);
 
 /// A frame id or camera name made safe as one file-name component inside an output folder: path
 /// separators, ':' and spaces become '_', and "", "." and ".." get a leading '_'.

@@ -56,10 +56,16 @@ struct RunResult {
   /// What the stages measured (FrameContext::metrics, e.g. "rough.sorted_rings"), per frame that
   /// completed, in run order; frames whose stages measured nothing are left out.
   std::vector<std::pair<std::string, std::map<std::string, double>>> metrics;
-  /// 0 all frames ok; 3 some frames failed; 4 every frame failed or an output failed at the end.
+  /// 0 all frames ok; 3 some frames failed; 4 every frame failed or an output failed at the end;
+  /// 128 + the signal (130 SIGINT, 143 SIGTERM, as a shell reports a process the signal ended)
+  /// when the run was interrupted (summary.stop_signal), whatever else happened.
   int exitCode() const;
 };
 
+/// Runs every frame, or stops taking frames once a stop is requested (stop_request.hpp: SIGINT,
+/// SIGTERM), after the frame in hand; every output's end() runs either way. Before the first
+/// frame it removes temporaries that killed writers left in the output folder
+/// (removeStaleTemps).
 RunResult runPipeline(Pipeline& pipeline, const RunOptions& options = {});
 
 /// Per-stage timing table (mean, std, min, max, median per scan [ms]), Markdown.
@@ -68,8 +74,8 @@ std::string timingTable(const RunResult& r);
 /// The stage metrics as CSV: `frame,metric,value`, one row per frame and metric.
 std::string metricsCsv(const RunResult& r);
 
-/// Writes `timing.md` and, when a stage measured something, `metrics.csv` into `dir`
-/// (atomically, like every output).
+/// Writes `timing.md` and `metrics.csv` (if only its header) into `dir` (atomically, like every
+/// output); the timing of an interrupted run says so in its first line.
 void writeRunReports(const std::string& dir, const RunResult& r);
 
 }  // namespace terramrf

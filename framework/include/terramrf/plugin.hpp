@@ -133,6 +133,12 @@ struct RunInfo {
 struct RunSummary {
   std::size_t frames_ok = 0;
   std::vector<std::pair<std::string, std::string>> failed;  ///< frame id, reason
+  /// Frames the run was to take (RunInfo::frames).
+  std::size_t frames_total = 0;
+  /// Non-zero when the run was asked to stop (the signal: SIGINT, SIGTERM; stop_request.hpp) and
+  /// took no frame after its frames_ok + failed.size(). end() still runs: a summary it writes
+  /// covers those frames only and should say so (interruptionText()).
+  int stop_signal = 0;
 };
 
 class Output : public Plugin {

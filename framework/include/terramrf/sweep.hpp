@@ -185,8 +185,12 @@ struct SweepResult {
   double cached_mb = 0;
   const RunRecord* find(const std::string& dataset, const std::string& feature_set,
                         const std::string& optimiser) const;
+  /// Non-zero when a stop was requested (the signal: SIGINT, SIGTERM; stop_request.hpp): the run
+  /// or training in hand stopped after its frame in hand (failed, "interrupted …"), the runs and
+  /// trainings after it were skipped, and the report was still written.
+  int stop_signal = 0;
   /// 0: every run that could run did (skipped runs are reported, not failures); 3: a run failed
-  /// or lost frames.
+  /// or lost frames; 128 + the signal (130, 143) when interrupted.
   int exitCode() const;
 };
 

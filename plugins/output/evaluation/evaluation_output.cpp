@@ -12,6 +12,8 @@
 #include "terramrf/evaluation.hpp"
 #include "terramrf/output_folder.hpp"
 #include "terramrf/plugin.hpp"
+#include "terramrf/stop_request.hpp"
+#include "terramrf/text_format.hpp"
 
 namespace terramrf {
 namespace {
@@ -78,7 +80,16 @@ class EvaluationOutput : public Output {
     if (total.scans == 0) {
       table += "- no frame with ground truth was evaluated; all ratios are undefined\n";
     }
-    writeFileAtomic(path("summary.json"), toJson(total, labels_, rules_id_));
+    std::string json = toJson(total, labels_, rules_id_);
+    // An interrupted run's totals are those of its first frames only: said first in the table,
+    // and right after the schema in the JSON.
+    if (const std::string stopped = interruptionText(summary); !stopped.empty()) {
+      table = "**Run " + stopped + "**: these totals cover those frames only.\n\n" + table;
+      json.insert(json.find('\n', json.find("\"schema\"")) + 1,
+                  "  \"interrupted\": " + jsonQuote("run " + stopped) +
+                      ",\n  \"frames_planned\": " + std::to_string(summary.frames_total) + ",\n");
+    }
+    writeFileAtomic(path("summary.json"), json);
     writeFileAtomic(path("summary.md"), table);
     std::cout << table << std::flush;
   }

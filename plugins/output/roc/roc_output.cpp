@@ -12,6 +12,7 @@
 #include "terramrf/output_folder.hpp"
 #include "terramrf/plugin.hpp"
 #include "terramrf/roc.hpp"
+#include "terramrf/stop_request.hpp"
 
 namespace terramrf {
 
@@ -66,10 +67,13 @@ class RocOutput final : public Output {
     acc_->addFrame(*ctx.grid, *ctx.frame, em);
   }
 
-  void end(const RunSummary&) override {
+  void end(const RunSummary& summary) override {
     if (!acc_) acc_.emplace(labels_);
     const auto curves = acc_->curves(static_cast<std::size_t>(max_points_));
     std::ostringstream note;
+    // The curves of an interrupted run are those of its first frames only.
+    if (const std::string stopped = interruptionText(summary); !stopped.empty())
+      note << "run " << stopped << ", curves of those only; ";
     if (acc_->frames_with_layers + acc_->frames_with_energy_fallback == 0) {
       note << "no ROC: no frame had ground truth and scores"
            << (fallback_ == "skip" ? " (the optimiser wrote no score layers; fallback: skip)" : "");

@@ -13,6 +13,7 @@
 #include "terramrf/meshing/mesh_builder.hpp"
 #include "terramrf/output_folder.hpp"
 #include "terramrf/plugin.hpp"
+#include "terramrf/stop_request.hpp"
 
 namespace terramrf {
 namespace {
@@ -120,7 +121,7 @@ class TexturedMeshOutput : public Output {
     }
   }
 
-  void end(const RunSummary&) override {
+  void end(const RunSummary& summary) override {
     if (!builder_) return;
     const MaskStats ms = builder_->finish();
     const std::string dir = (fs::path(output_dir_) / subdir_).string();
@@ -130,7 +131,12 @@ class TexturedMeshOutput : public Output {
     // report.md goes into the export's temporary folder, so it is swapped in with the mesh it
     // describes (a failing export keeps the previous mesh and its own report).
     ex.add_files = [&](const std::string& folder, const ExportStats& st) {
-      writeFileAtomic((fs::path(folder) / "report.md").string(), builder_->report(&ms, &st));
+      // An interrupted run's mesh covers its first frames only: said first.
+      const std::string stopped = interruptionText(summary);
+      writeFileAtomic(
+          (fs::path(folder) / "report.md").string(),
+          (stopped.empty() ? "" : "**Run " + stopped + "**: this mesh covers those only.\n\n") +
+              builder_->report(&ms, &st));
     };
     try {
       es = exportMesh(builder_->mesh(), dir, ex);

@@ -1,12 +1,18 @@
+#include "terramrf/atomic_file.hpp"
+
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
+#include <fstream>
+#include <thread>
 
-#include "terramrf/atomic_file.hpp"
-#include "terramrf/text_format.hpp"
 #include "terramrf/errors.hpp"
+#include "terramrf/text_format.hpp"
 #include "test_support.hpp"
 
 namespace terramrf {
@@ -103,6 +109,115 @@ TEST(SafeFileName, KeepsANameInsideItsFolder) {
   EXPECT_EQ(safeFileName(""), "_");
   EXPECT_EQ(safeFileName("."), "_.");
   EXPECT_EQ(safeFileName(".."), "_..");
+}
+
+namespace {
+namespace fs = std::filesystem;
+/// A pid that no process has: a child's, after it has exited and been reaped.
+pid_t deadPid() {
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return child;
+}
+void touch(const fs::path& p, const std::string& text = "x") { std::ofstream(p) << text; }
+}  // namespace
+
+// A writer killed mid-write (SIGKILL, or before session 38 any SIGTERM) leaves its temporary
+// file; its name now carries the writer's pid, so once the writer is gone it is known stale and
+// removed, and no other file is touched. Before, it was `.big.bin.tmp.XXXXXX` and stayed.
+TEST(AtomicFile, ATemporaryLeftByAKilledWriterNamesItAndIsRemoved) {
+  test::TempDir d;
+  const std::string big(16 << 20, 'x');
+  writeFileAtomic(d.str() + "/big.bin", "previous");  // replaced whole or not at all
+  std::string left;
+  for (int attempt = 0; attempt < 50 && left.empty(); ++attempt) {
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      for (;;) writeFileAtomic(d.str() + "/big.bin", big);
+    }
+    // Killed while a temporary is there (most of each write is spent on it).
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (std::chrono::steady_clock::now() < until) {
+      bool seen = false;
+      for (const auto& e : fs::directory_iterator(d.str()))
+        seen = seen || e.path().filename().string().rfind(".big.bin.tmp.", 0) == 0;
+      if (seen) break;
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    ::kill(child, SIGKILL);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    for (const auto& e : fs::directory_iterator(d.str()))
+      if (e.path().filename().string().rfind(".big.bin.tmp.", 0) == 0) {
+        left = e.path().filename().string();
+        EXPECT_EQ(left.rfind(".big.bin.tmp." + std::to_string(child) + ".", 0), 0u) << left;
+      }
+  }
+  ASSERT_FALSE(left.empty()) << "no write was caught mid-way";
+  const std::vector<std::string> done = removeStaleTemps(d.str());
+  ASSERT_EQ(done.size(), 1u);
+  EXPECT_EQ(done[0],
+            "removed " + d.str() + "/" + left + " (left by a process that no longer runs)");
+  EXPECT_FALSE(fs::exists(d.str() + "/" + left));
+  EXPECT_TRUE(fs::exists(d.str() + "/big.bin"));
+}
+
+// What removeStaleTemps touches: our temporaries whose writer is gone, and nothing else (a live
+// writer's, names without a pid, names of other shapes, folders deeper than asked); a mesh
+// export moved aside by a killed swap is put back where the export is missing.
+TEST(AtomicFile, OnlyOurTemporariesOfWritersThatAreGoneAreRemoved) {
+  test::TempDir d;
+  const fs::path root = d.str();
+  const std::string dead = std::to_string(deadPid()), live = std::to_string(::getpid());
+  fs::create_directories(root / "grid");
+  fs::create_directories(root / "a/b/c/d/e");
+  const std::vector<fs::path> removed = {
+      root / ("grid/.000041.png.tmp." + dead + ".hbVTdD"),
+      root / (".timing.md.tmp." + dead + ".A1b2C3"),
+      root / (".write_probe_" + dead),
+      root / ("a/b/.x.csv.tmp." + dead + ".zzzzzz"),
+  };
+  const std::vector<fs::path> kept = {
+      root / ("grid/.000042.png.tmp." + live + ".hbVTdD"),  // a live writer's
+      root / "grid/.000043.png.tmp.hbVTdD",                 // no pid (before session 38)
+      root / ("grid/000044.png.tmp." + dead + ".hbVTdD"),   // no leading dot: not ours
+      root / ("grid/.000045.png.tmp." + dead + ".hbVTd"),   // not mkstemp's six characters
+      root / ("grid/.000046.png.tmp.1" + dead + "x.hbVTdD"),
+      root / ("notes.tmp-" + dead),                        // a file, not an export folder
+      root / ("a/b/c/d/e/.deep.tmp." + dead + ".qwerty"),  // deeper than max_depth
+      root / "grid/.1.tmp.1.abcdef",                       // pid 1 is never taken for gone
+  };
+  for (const auto& p : removed) touch(p);
+  for (const auto& p : kept) touch(p);
+  // A killed mesh export: its half-written folder, and the previous export moved aside with the
+  // export itself missing (killed between the two renames of the swap).
+  fs::create_directories(root / ("mesh.tmp-" + dead + "/textures"));
+  fs::create_directories(root / ("mesh.old-" + dead));
+  touch(root / ("mesh.old-" + dead) / "terrain.obj", "previous");
+  // Another export's aside copy where the export is there: removed.
+  fs::create_directories(root / "mesh2");
+  fs::create_directories(root / ("mesh2.old-" + dead));
+  fs::create_directories(root / ("mesh3.tmp-" + live));  // an export in progress
+  const std::vector<std::string> done = removeStaleTemps(d.str(), 3);
+  for (const auto& p : removed) EXPECT_FALSE(fs::exists(p)) << p;
+  for (const auto& p : kept) EXPECT_TRUE(fs::exists(p)) << p;
+  EXPECT_FALSE(fs::exists(root / ("mesh.tmp-" + dead)));
+  EXPECT_FALSE(fs::exists(root / ("mesh.old-" + dead)));
+  EXPECT_EQ(readFile((root / "mesh/terrain.obj").string()), "previous");
+  EXPECT_TRUE(fs::exists(root / "mesh2"));
+  EXPECT_FALSE(fs::exists(root / ("mesh2.old-" + dead)));
+  EXPECT_TRUE(fs::exists(root / ("mesh3.tmp-" + live)));
+  EXPECT_EQ(done.size(), removed.size() + 3) << ::testing::PrintToString(done);
+  EXPECT_NE(std::find(done.begin(), done.end(),
+                      "restored " + (root / "mesh").string() + " from " +
+                          (root / ("mesh.old-" + dead)).string() +
+                          " (moved aside by a process that no longer runs)"),
+            done.end())
+      << ::testing::PrintToString(done);
+  EXPECT_TRUE(removeStaleTemps(d.str() + "/missing").empty());  // no folder: nothing, no throw
 }
 
 }  // namespace terramrf

@@ -1,6 +1,9 @@
 #include "terramrf/pipeline.hpp"
 
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <atomic>
@@ -14,6 +17,7 @@
 
 #include "config_fixture.hpp"
 #include "terramrf/atomic_file.hpp"
+#include "terramrf/stop_request.hpp"
 
 namespace terramrf {
 
@@ -709,6 +713,168 @@ TEST(Pipeline, EvidenceFromThePreviousFrameFillsCellsWithoutPoints) {
   const int cell = p.grid.cellOf(1.25, 0.25);
   EXPECT_EQ(grid.layer("evidence.obstacle")[cell], 0.f);
   EXPECT_EQ(grid.layer("evidence.road")[cell], 20.f);
+}
+
+namespace {
+/// Asks the run to stop (as the SIGINT handler does) while writing its `stop_at`-th frame; counts
+/// the frames it wrote and its end()s, and keeps the summary end() was handed.
+struct StopsTheRun : Output {
+  int stop_at = 2, frames = 0, ends = 0;
+  RunSummary seen;
+  void write(const FrameContext&) override {
+    if (++frames == stop_at) requestStop(SIGINT);
+  }
+  void end(const RunSummary& s) override {
+    ++ends;
+    seen = s;
+  }
+};
+/// Clears the process-wide stop request before and after a test.
+struct StopRequestGuard {
+  StopRequestGuard() { clearStopRequest(); }
+  ~StopRequestGuard() { clearStopRequest(); }
+};
+}  // namespace
+
+// Ctrl-C (SIGINT) during a run: the frame in hand completes, no other is taken, every output
+// still ends and the reports are written, saying the run was interrupted; exit status 130.
+// Before, the run only stopped by dying: no end(), no timing.md or summaries. With frames read
+// ahead on reader threads too: they are stopped and joined.
+TEST(Pipeline, AStopRequestEndsTheRunAfterTheFrameInHandAndTheOutputsStillEnd) {
+  for (const std::size_t read_ahead : {std::size_t{0}, std::size_t{4}}) {
+    StopRequestGuard guard;
+    test::ConfigFixture f;
+    Pipeline p = f.loadSynthetic("{frames: 6}");
+    auto stopper = std::make_unique<StopsTheRun>();
+    stopper->setIdentity("stopper", "stopper");
+    StopsTheRun* s = stopper.get();
+    p.outputs.push_back(std::move(stopper));
+    std::ostringstream log;
+    RunOptions ro;
+    ro.progress = false;
+    ro.log = &log;
+    ro.read_ahead = read_ahead;
+    const RunResult r = runPipeline(p, ro);
+    EXPECT_EQ(s->frames, 2) << "read_ahead " << read_ahead;
+    EXPECT_EQ(s->ends, 1);
+    EXPECT_EQ(s->seen.stop_signal, SIGINT);
+    EXPECT_EQ(s->seen.frames_total, 6u);
+    EXPECT_EQ(r.summary.frames_ok, 2u);
+    EXPECT_EQ(r.frames_total, 6u);
+    EXPECT_EQ(r.exitCode(), 130);
+    EXPECT_EQ(interruptionText(r.summary), "interrupted (SIGINT) after 2 of 6 frame(s)");
+    EXPECT_NE(log.str().find("run interrupted (SIGINT) after 2 of 6 frame(s); ending the outputs"),
+              std::string::npos)
+        << log.str();
+    writeRunReports(p.output_dir, r);
+    const std::string timing = readFile(p.output_dir + "/timing.md");
+    EXPECT_EQ(
+        timing.rfind("Run interrupted (SIGINT) after 2 of 6 frame(s): timings of those only.", 0),
+        0u)
+        << timing;
+    EXPECT_TRUE(std::filesystem::exists(p.output_dir + "/metrics.csv"));
+  }
+}
+
+// A stop requested before the run starts (a signal while the config loads) runs no frame but
+// still ends the outputs; a run with no request is untouched.
+TEST(Pipeline, AStopRequestedBeforeTheRunTakesNoFrameAndARunWithoutOneAllFrames) {
+  StopRequestGuard guard;
+  test::ConfigFixture f;
+  {
+    Pipeline p = f.loadSynthetic("{frames: 3}");
+    auto counter = std::make_unique<CountsEnds>();
+    CountsEnds* c = counter.get();
+    p.outputs.push_back(std::move(counter));
+    requestStop(SIGTERM);
+    requestStop(SIGINT);  // the first request wins
+    std::ostringstream log;
+    RunOptions ro;
+    ro.progress = false;
+    ro.log = &log;
+    const RunResult r = runPipeline(p, ro);
+    EXPECT_EQ(r.summary.frames_ok + r.summary.failed.size(), 0u);
+    EXPECT_EQ(c->ends, 1);
+    EXPECT_EQ(r.exitCode(), 143);
+  }
+  clearStopRequest();
+  std::ostringstream log;
+  const RunResult r = runSynthetic(f, "{frames: 3}", log);
+  EXPECT_EQ(r.summary.frames_ok, 3u);
+  EXPECT_EQ(r.summary.stop_signal, 0);
+  EXPECT_EQ(r.exitCode(), 0);
+  EXPECT_EQ(interruptionText(r.summary), "");
+}
+
+// The SIGINT handler itself, raised in this process: it records the signal, and puts the
+// default action back so that a second signal ends the process at once.
+TEST(StopRequest, TheHandlerRecordsTheSignalAndASecondOneActsAsWithoutIt) {
+  StopRequestGuard guard;
+  struct sigaction saved_int {
+  }, saved_term{};
+  sigaction(SIGINT, nullptr, &saved_int);
+  sigaction(SIGTERM, nullptr, &saved_term);
+  struct sigaction dfl {};
+  dfl.sa_handler = SIG_DFL;
+  sigemptyset(&dfl.sa_mask);
+  sigaction(SIGINT, &dfl, nullptr);
+  sigaction(SIGTERM, &dfl, nullptr);
+  installStopHandlers();
+  ASSERT_EQ(::raise(SIGINT), 0);
+  EXPECT_EQ(stopRequested(), SIGINT);
+  struct sigaction now {};
+  sigaction(SIGINT, nullptr, &now);
+  EXPECT_EQ(now.sa_handler, SIG_DFL);
+  sigaction(SIGTERM, nullptr, &now);
+  EXPECT_EQ(now.sa_handler, SIG_DFL);
+  // A signal ignored when the handlers are installed stays ignored (a background job's SIGINT).
+  struct sigaction ign {};
+  ign.sa_handler = SIG_IGN;
+  sigemptyset(&ign.sa_mask);
+  sigaction(SIGINT, &ign, nullptr);
+  installStopHandlers();
+  sigaction(SIGINT, nullptr, &now);
+  EXPECT_EQ(now.sa_handler, SIG_IGN);
+  sigaction(SIGTERM, nullptr, &now);
+  EXPECT_NE(now.sa_handler, SIG_DFL);
+  sigaction(SIGINT, &saved_int, nullptr);
+  sigaction(SIGTERM, &saved_term, nullptr);
+}
+
+namespace {
+/// A pid that no process has: a child's, after it has exited and been reaped.
+pid_t deadPid() {
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return child;
+}
+}  // namespace
+
+// A run killed mid-write left `.<name>.tmp.<pid>.XXXXXX` in its output folder, which no later
+// run removed; now a run removes those of writers that are gone before its first frame, and
+// leaves a live writer's alone.
+TEST(Pipeline, TemporariesOfKilledWritersAreRemovedWhenTheFolderIsUsedAgain) {
+  test::ConfigFixture f;
+  Pipeline p = f.loadSynthetic("{frames: 1}");
+  namespace fs = std::filesystem;
+  const std::string dead = std::to_string(deadPid()), live = std::to_string(::getpid());
+  fs::create_directories(p.output_dir + "/grid");
+  const std::string stale = p.output_dir + "/grid/.000041.png.tmp." + dead + ".hbVTdD";
+  const std::string busy = p.output_dir + "/grid/.000042.png.tmp." + live + ".aB3dE9";
+  std::ofstream(stale) << "x";
+  std::ofstream(busy) << "x";
+  std::ostringstream log;
+  RunOptions ro;
+  ro.progress = false;
+  ro.log = &log;
+  runPipeline(p, ro);
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::exists(busy));
+  EXPECT_NE(log.str().find("note: removed " + stale + " (left by a process that no longer runs)"),
+            std::string::npos)
+      << log.str();
 }
 
 }  // namespace terramrf

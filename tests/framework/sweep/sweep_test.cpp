@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -17,6 +18,7 @@
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/param_values.hpp"
 #include "terramrf/registry.hpp"
+#include "terramrf/stop_request.hpp"
 #include "test_support.hpp"
 
 namespace terramrf {
@@ -2113,6 +2115,96 @@ TEST(Train, ALabelMapMissingAnIdOfTheDataFailsEveryFrameAndSaysWhichFileAndId) {
     EXPECT_NE(what.find("is not listed in the label map"), std::string::npos) << what;
   }
   EXPECT_FALSE(fs::exists(o.model_out));  // no model from nothing
+}
+
+// ---- interruption (SIGINT/SIGTERM) ---------------------------------------------------------
+
+/// Clears the process-wide stop request before and after a test.
+struct StopRequestGuard {
+  StopRequestGuard() { clearStopRequest(); }
+  ~StopRequestGuard() { clearStopRequest(); }
+};
+
+// A stop asked for during a sweep's first test run (here by a test output, as the SIGINT handler
+// would): that run stops after its frame in hand and is reported failed, the runs after it are
+// not run, and the report is still written, saying so; status 130. Before, nothing stopped a
+// sweep but the signal itself, which lost the report.
+TEST(SweepRun, AStopDuringATestRunEndsTheSweepWithItsReport) {
+  StopRequestGuard guard;
+  test::TempDir dir;
+  std::string text =
+      test::edited(tinySweep("  icm: {type: icm}"), "seed: 1, frames: 1", "seed: 1, frames: 2");
+  text += "outputs: [{type: test_requests_stop, params: {after: 1}}]\n";
+  const std::string sweep = put(dir, "stop.yaml", text);
+  CompareOptions o;
+  o.sweep_path = sweep;
+  o.output_dir = dir.str() + "/out";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir(), std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/requests_stop"};
+  std::ostringstream log;
+  o.log = &log;
+  const SweepResult r = runSweep(o);
+  EXPECT_EQ(r.stop_signal, SIGINT);
+  EXPECT_EQ(r.exitCode(), 130);
+  for (const auto& m : r.models) EXPECT_TRUE(m.trained) << m.reason;  // before the stop
+  ASSERT_EQ(r.runs.size(), 2u);
+  EXPECT_EQ(r.runs[0].status, RunRecord::Status::kFailed);
+  EXPECT_EQ(r.runs[0].reason,
+            "run interrupted (SIGINT) after 1 of 2 frame(s); its files cover those only");
+  EXPECT_EQ(r.runs[0].frames_ok, 1u);
+  EXPECT_EQ(r.runs[1].status, RunRecord::Status::kSkipped);
+  EXPECT_EQ(r.runs[1].reason, "not run: compare interrupted (SIGINT)");
+  const std::string summary = readFile(o.output_dir + "/summary.md");
+  EXPECT_NE(summary.find("- **interrupted** (SIGINT)"), std::string::npos) << summary;
+  EXPECT_NE(readFile(o.output_dir + "/results.json").find("\"interrupted\": \"SIGINT\""),
+            std::string::npos);
+  // The interrupted run's own files: its timing says it, its evaluation too.
+  const std::string run_dir = r.runs[0].output_dir;
+  EXPECT_EQ(readFile(run_dir + "/timing.md").rfind("Run interrupted (SIGINT) after 1 of 2", 0), 0u);
+}
+
+// `train` asked to stop: no model is written (one learnt from part of the data would pass for
+// one learnt from all of it), the one there is kept, the scratch runs are removed, and the error
+// says all this.
+TEST(Train, AStopWritesNoModelAndKeepsTheOneThere) {
+  StopRequestGuard guard;
+  test::TempDir dir;
+  const std::string config = put(dir, "train.yaml",
+                                 std::string(R"(version: 1
+grid: {size_m: 30, cell_m: 0.5}
+source: {type: simulator, params: {seed: 7, frames: 3, )") +
+                                     kSim + R"(}}
+stages:
+  - {name: pre, type: eigen_preclass}
+  - {name: hdiff, type: height_difference}
+  - {name: mrf, type: potts_gaussian, params: {model: m.yaml, features: [height_diff]}}
+  - {name: solve, type: icm}
+)");
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/models/sim.yaml";
+  fs::create_directories(dir.str() + "/models");
+  std::ofstream(o.model_out) << "a good model\n";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  std::ostringstream log;
+  o.log = &log;
+  requestStop(SIGTERM);
+  try {
+    trainModel(o);
+    ADD_FAILURE() << "expected the interrupted training to throw";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(
+        std::string(e.what()).rfind("training interrupted (SIGTERM) after 0 of 3 frame(s)", 0), 0u)
+        << e.what();
+    EXPECT_NE(
+        std::string(e.what()).find("no model written (" + o.model_out + " is left as it was)"),
+        std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(readFile(o.model_out), "a good model\n");
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir.str() + "/models"), fs::directory_iterator()),
+            1);
 }
 
 }  // namespace
