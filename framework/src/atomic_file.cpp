@@ -78,13 +78,16 @@ pid_t pidIn(const std::string& digits) {
 /// The writer whose pid a temporary name carries, or 0 if `name` is none of ours.
 /// `is_dir`: mesh export folders (`X.tmp-<pid>`, `X.old-<pid>`); files: writeFileAtomic's
 /// `.X.tmp.<pid>.XXXXXX` and `.write_probe_<pid>`. `old` is set for `X.old-<pid>`.
-pid_t tempWriter(const std::string& name, bool is_dir, bool& old) {
+pid_t tempWriter(const std::string& name, bool is_dir, const std::string& export_name, bool& old) {
   old = false;
   if (is_dir) {
+    // Only the named export's own folders: any folder "<x>.old-<digits>" of the user's (a
+    // backup, "photos.old-2021") would otherwise be removed whole when that pid is free.
+    if (export_name.empty()) return 0;
     for (const char* mark : {".tmp-", ".old-"}) {
-      const std::size_t at = name.rfind(mark);
-      if (at == std::string::npos || at == 0) continue;
-      const pid_t pid = pidIn(name.substr(at + 5));
+      const std::string prefix = export_name + mark;
+      if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) continue;
+      const pid_t pid = pidIn(name.substr(prefix.size()));
       if (pid == 0) continue;
       old = mark[1] == 'o';
       return pid;
@@ -107,7 +110,8 @@ pid_t tempWriter(const std::string& name, bool is_dir, bool& old) {
 bool writerIsGone(pid_t pid) { return pid > 1 && ::kill(pid, 0) == -1 && errno == ESRCH; }
 }  // namespace
 
-std::vector<std::string> removeStaleTemps(const std::string& dir, int max_depth) {
+std::vector<std::string> removeStaleTemps(const std::string& dir, int max_depth,
+                                          const std::string& export_name) {
   namespace fs = std::filesystem;
   std::vector<std::string> done;
   std::error_code ec;
@@ -120,8 +124,9 @@ std::vector<std::string> removeStaleTemps(const std::string& dir, int max_depth)
     const bool is_dir = e.is_directory(ec2) && !e.is_symlink(ec2);
     const bool is_file = e.is_regular_file(ec2) && !e.is_symlink(ec2);
     bool old = false;
-    const pid_t pid =
-        (is_dir || is_file) ? tempWriter(e.path().filename().string(), is_dir, old) : 0;
+    const pid_t pid = (is_dir || is_file)
+                          ? tempWriter(e.path().filename().string(), is_dir, export_name, old)
+                          : 0;
     if (pid != 0 && writerIsGone(pid)) {
       stale.emplace_back(e.path(), old);
       if (is_dir) it.disable_recursion_pending();  // removed whole

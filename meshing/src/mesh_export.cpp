@@ -142,7 +142,7 @@ ExportStats exportMesh(const TerrainMesh& mesh, const std::string& dir,
   checkWritableFolder(parent.string());
   // An export killed mid-way (this folder's name with .tmp-/.old-<its pid>) is never finished or
   // removed by its own process: gone before this one starts, its previous export put back.
-  for (const auto& line : removeStaleTemps(parent.string(), 0))
+  for (const auto& line : removeStaleTemps(parent.string(), 0, target.filename().string()))
     std::fprintf(stderr, "mesh export: %s\n", line.c_str());
   const fs::path tmp = parent / (target.filename().string() + ".tmp-" + std::to_string(::getpid()));
   std::error_code ec;

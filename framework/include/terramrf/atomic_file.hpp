@@ -16,13 +16,15 @@ void writeFileAtomic(const std::string& path, std::string_view bytes);
 /// Removes, in `dir` and its folders at most `max_depth` levels down (symbolic links not
 /// followed), what
 /// writers killed mid-write left: writeFileAtomic's `.<name>.tmp.<pid>.XXXXXX` files, the mesh
-/// export's `<name>.tmp-<pid>` folders and `.write_probe_<pid>` files, and its `<name>.old-<pid>`
-/// folders, which are moved back to `<name>` when that is missing (the previous export, moved
+/// export's `.write_probe_<pid>` files and, when `export_name` is given, that export's
+/// `<export_name>.tmp-<pid>` folders and its `<export_name>.old-<pid>` folders, which are moved
+/// back to `<export_name>` when that is missing (the previous export, moved
 /// aside when its writer was killed mid-swap). Only names of these exact shapes whose pid names
 /// no live process (kill(pid, 0) fails with ESRCH) are touched: a live writer's, and temporary
 /// files without a pid (before session 38), are left alone. Never throws; returns one line per
 /// entry removed or restored, or that could not be, for the log.
-std::vector<std::string> removeStaleTemps(const std::string& dir, int max_depth = 4);
+std::vector<std::string> removeStaleTemps(const std::string& dir, int max_depth = 4,
+                                          const std::string& export_name = "");
 
 /// A frame id or camera name made safe as one file-name component inside an output folder: path
 /// separators, ':' and spaces become '_', and "", "." and ".." get a leading '_'.

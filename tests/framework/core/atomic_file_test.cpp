@@ -166,7 +166,8 @@ TEST(AtomicFile, ATemporaryLeftByAKilledWriterNamesItAndIsRemoved) {
 }
 
 // What removeStaleTemps touches: our temporaries whose writer is gone, and nothing else (a live
-// writer's, names without a pid, names of other shapes, folders deeper than asked); a mesh
+// writer's, names without a pid, names of other shapes, folders deeper than asked, folders not
+// named after the export, which used to go if their digits named no process); a mesh
 // export moved aside by a killed swap is put back where the export is missing.
 TEST(AtomicFile, OnlyOurTemporariesOfWritersThatAreGoneAreRemoved) {
   test::TempDir d;
@@ -201,7 +202,15 @@ TEST(AtomicFile, OnlyOurTemporariesOfWritersThatAreGoneAreRemoved) {
   fs::create_directories(root / "mesh2");
   fs::create_directories(root / ("mesh2.old-" + dead));
   fs::create_directories(root / ("mesh3.tmp-" + live));  // an export in progress
-  const std::vector<std::string> done = removeStaleTemps(d.str(), 3);
+  // Folders of other names are the user's, whatever they look like (a backup named by year).
+  fs::create_directories(root / ("photos.old-" + dead));
+  fs::create_directories(root / ("photos.tmp-" + dead));
+  // Files are gathered by their exact shape anywhere; folders only by the export's name (mesh
+  // and mesh2 here: two calls, as exportMesh makes one per export).
+  std::vector<std::string> done = removeStaleTemps(d.str(), 3, "mesh");
+  for (const auto& line : removeStaleTemps(d.str(), 0, "mesh2")) done.push_back(line);
+  EXPECT_TRUE(fs::exists(root / ("photos.old-" + dead)));
+  EXPECT_TRUE(fs::exists(root / ("photos.tmp-" + dead)));
   for (const auto& p : removed) EXPECT_FALSE(fs::exists(p)) << p;
   for (const auto& p : kept) EXPECT_TRUE(fs::exists(p)) << p;
   EXPECT_FALSE(fs::exists(root / ("mesh.tmp-" + dead)));
