@@ -1,6 +1,7 @@
 #pragma once
 // Paths every test may need. The real data is required: a test that needs it fails loudly.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -23,6 +24,15 @@ inline std::string dataPath(const std::string& rel) {
   }
   return p;
 }
+/// A pid that no process has: a child's, after it has exited and been reaped.
+inline pid_t deadPid() {
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return child;
+}
+
 inline std::string pluginDir() { return TERRAMRF_PLUGIN_DIR; }
 inline std::string sourceDir() { return TERRAMRF_SOURCE_DIR; }
 inline std::string cli() { return TERRAMRF_CLI; }

@@ -113,14 +113,7 @@ TEST(SafeFileName, KeepsANameInsideItsFolder) {
 
 namespace {
 namespace fs = std::filesystem;
-/// A pid that no process has: a child's, after it has exited and been reaped.
-pid_t deadPid() {
-  const pid_t child = ::fork();
-  if (child == 0) ::_exit(0);
-  int status = 0;
-  ::waitpid(child, &status, 0);
-  return child;
-}
+using test::deadPid;
 void touch(const fs::path& p, const std::string& text = "x") { std::ofstream(p) << text; }
 }  // namespace
 

@@ -842,14 +842,7 @@ TEST(StopRequest, TheHandlerRecordsTheSignalAndASecondOneActsAsWithoutIt) {
 }
 
 namespace {
-/// A pid that no process has: a child's, after it has exited and been reaped.
-pid_t deadPid() {
-  const pid_t child = ::fork();
-  if (child == 0) ::_exit(0);
-  int status = 0;
-  ::waitpid(child, &status, 0);
-  return child;
-}
+using test::deadPid;
 }  // namespace
 
 // A run killed mid-write left `.<name>.tmp.<pid>.XXXXXX` in its output folder, which no later
