@@ -48,8 +48,8 @@ void voteVertices(TerrainMesh& mesh, const CameraView& view, const GroundSegment
   for (const auto& [key, ground] : votes) {
     const bool g = ground;  // C++17 lambdas cannot capture a structured binding (clang refuses)
     mesh.forEachCopy(key, [&](Tile& t, int k) {
-      uint16_t& c = g ? t.ground_votes[k] : t.object_votes[k];
-      if (c < 65535) ++c;
+      uint32_t& c = g ? t.ground_votes[k] : t.object_votes[k];
+      if (c < UINT32_MAX) ++c;
     });
   }
 }

@@ -361,4 +361,35 @@ TEST(BuildingMask, FarApartPatchesAreMaskedTileByTileAndAlike) {
   EXPECT_EQ(st.trees, 0u);
 }
 
+// A vertex in view of more than 65 535 images keeps its majority: the 16-bit counts saturated,
+// both tied at 65 535 and every such vertex was called ground.
+TEST(MeshBuilder, VotesCountPastSixteenBits) {
+  SimScene s(5);
+  MeshBuilder b;
+  const Frame f = s.frame(0);
+  b.addFrame(f);
+  // What this frame's image says of each vertex, then both counts as after 65 535 such frames.
+  std::map<std::pair<const Tile*, int>, bool> said_object;
+  for (auto& [key, tp] : b.mesh().tiles()) {
+    Tile& t = *tp;
+    for (std::size_t k = 0; k < t.vertices(); ++k) {
+      if (t.ground_votes[k] + t.object_votes[k] == 0) continue;
+      said_object[{&t, int(k)}] = t.object_votes[k] > 0;
+      t.ground_votes[k] = t.object_votes[k] = 65535;
+    }
+  }
+  ASSERT_GT(said_object.size(), 100u);
+  b.addFrame(f);  // the same view once more breaks every tie its own way
+  std::size_t objects = 0;
+  for (const auto& [vertex, object] : said_object) {
+    const Tile& t = *vertex.first;
+    const int k = vertex.second;
+    objects += object;
+    EXPECT_EQ(object ? t.object_votes[k] : t.ground_votes[k], 65536u);
+    EXPECT_EQ(object ? t.ground_votes[k] : t.object_votes[k], 65535u);
+  }
+  EXPECT_GT(objects, 0u);
+  EXPECT_LT(objects, said_object.size());
+}
+
 }  // namespace terramrf::meshing

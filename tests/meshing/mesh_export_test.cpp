@@ -168,15 +168,15 @@ TEST(TerrainMesh, TilesAboveTheMemoryBudgetAreRefused) {
     FAIL() << "accepted tiles of " << tileBytes(p) << " bytes";
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()),
-              "tile_vertices 2001 with texels_per_cell 8 makes tiles of 1.85 GiB each (2001 x 2001 "
-              "vertices: 187 MiB, a 16001 x 16001 texel texture: 1.67 GiB); expected at most "
+              "tile_vertices 2001 with texels_per_cell 8 makes tiles of 1.87 GiB each (2001 x 2001 "
+              "vertices: 202 MiB, a 16001 x 16001 texel texture: 1.67 GiB); expected at most "
               "256 MiB per tile: every tile is allocated whole as soon as a point falls in it. "
-              "Lower texels_per_cell or tile_vertices (the defaults, 151 and 2: 1.67 MiB per "
+              "Lower texels_per_cell or tile_vertices (the defaults, 151 and 2: 1.76 MiB per "
               "tile)");
   }
-  p.texels_per_cell = 2;  // 294 MiB: still too large
+  p.texels_per_cell = 2;  // 309 MiB: still too large
   EXPECT_THROW(TerrainMesh{p}, std::invalid_argument);
-  p.texels_per_cell = 1;  // 214 MiB: the largest within the bounds that fits
+  p.texels_per_cell = 1;  // 229 MiB: the largest within the bounds that fits
   EXPECT_NO_THROW(TerrainMesh{p});
   EXPECT_LE(tileBytes(p), kMaxTileBytes);
   // Parameters far outside any bound cannot overflow the estimate into "fits".

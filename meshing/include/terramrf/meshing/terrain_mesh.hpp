@@ -67,10 +67,13 @@ struct Tile {
   std::vector<float> z_min;      ///< lowest registered point [m]
   // The sums are double: with world-frame heights (z ≈ 300 m) a float sum of 60 000 points on one
   // vertex (a vehicle standing still) rounded its mean 0.17 m low. 12 bytes more per vertex than
-  // float (49 instead of 37; 1.67 instead of 1.41 MiB per tile of 151² vertices, 2 texels/cell).
+  // float (then 49 instead of 37 bytes per vertex; now 53 with 32-bit votes: 1.76 MiB per tile of
+  // 151² vertices, 2 texels/cell).
   std::vector<double> z_sum;     ///< sum of heights (mean = z_sum / count) [m]
   std::vector<uint32_t> count;   ///< registered points
-  std::vector<uint16_t> ground_votes, object_votes;  ///< per-frame image segmentation votes
+  // 32-bit: 16-bit counts saturated at 65 535 images of one vertex (a vehicle standing an hour
+  // or more in view), after which both tied and the vertex fell to ground whatever it was.
+  std::vector<uint32_t> ground_votes, object_votes;  ///< per-image segmentation votes
   std::vector<double> rec_sum;     ///< Σ weight·height of the recovered-height estimates [m]
   std::vector<double> rec_weight;  ///< Σ weight of those estimates (1/range⁴) [m⁻⁴]
   std::vector<float> rec_lower;            ///< lower bound when the top left the image [m]

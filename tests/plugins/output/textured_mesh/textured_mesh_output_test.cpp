@@ -233,15 +233,15 @@ TEST(TexturedMeshOutput, TilesAboveTheMemoryBudgetAreRefusedAtTheConfig) {
   } catch (const std::runtime_error& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("parameter 'texels_per_cell': tile_vertices 2001 with texels_per_cell 8 "
-                        "makes tiles of 1.85 GiB each"),
+                        "makes tiles of 1.87 GiB each"),
               std::string::npos)
         << what;
     EXPECT_NE(what.find("expected at most 256 MiB per tile"), std::string::npos) << what;
   }
   EXPECT_THROW(setParams(*reg.create("textured_mesh"), "{tile_vertices: 2001}", ctx),
-               std::exception);  // 2 texels per cell by default: 294 MiB
+               std::exception);  // 2 texels per cell by default: 309 MiB
   EXPECT_NO_THROW(setParams(*reg.create("textured_mesh"),
-                            "{tile_vertices: 2001, texels_per_cell: 1}", ctx));  // 214 MiB
+                            "{tile_vertices: 2001, texels_per_cell: 1}", ctx));  // 229 MiB
   EXPECT_NO_THROW(setParams(*reg.create("textured_mesh"),
                             "{tile_vertices: 151, texels_per_cell: 8}", ctx));  // 10.7 MiB
 }
