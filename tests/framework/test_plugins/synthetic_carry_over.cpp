@@ -4,6 +4,7 @@
 // takes evidence and classifies cells without points from it) is tested with it now.
 #include <cmath>
 
+#include "terramrf/grid_warp.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -31,20 +32,16 @@ class SyntheticCarryOver final : public Stage {
     Eigen::Isometry3d to_prev = Eigen::Isometry3d::Identity();
     if (ctx.frame->pose && prev->frame && prev->frame->pose)
       to_prev = prev->frame->pose->inverse() * *ctx.frame->pose;
-    const GridGeometry& pg = prev->grid->geometry();
+    const std::vector<LabelId> carried_labels = resampleLabels(
+        prev->grid->labels(), cellsUnder(g.geometry(), prev->grid->geometry(), to_prev));
     std::size_t carried = 0;
-    for (int r = 0; r < g.rows(); ++r)
-      for (int c = 0; c < g.cols(); ++c) {
-        const Eigen::Vector2d m = g.geometry().cellCentre(r, c);
-        const Eigen::Vector3d q = to_prev * Eigen::Vector3d(m.x(), m.y(), 0);
-        const int pc = pg.cellOf(q.x(), q.y());
-        if (pc < 0) continue;
-        const LabelId l = prev->grid->labels()[pc];
-        if (l == labels::kUnknown) continue;
-        for (std::size_t k = 0; k < out.size(); ++k)
-          (*out[k])[std::size_t(r) * g.cols() + c] = (k + 1 == l) ? 0.f : float(penalty_);
-        ++carried;
-      }
+    for (std::size_t cell = 0; cell < carried_labels.size(); ++cell) {
+      const LabelId l = carried_labels[cell];
+      if (l == labels::kUnknown) continue;
+      for (std::size_t k = 0; k < out.size(); ++k)
+        (*out[k])[cell] = (k + 1 == l) ? 0.f : float(penalty_);
+      ++carried;
+    }
     ctx.metrics[name() + ".cells_carried"] = double(carried);
   }
 
