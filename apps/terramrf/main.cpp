@@ -2,7 +2,6 @@
 #include <cstdio>
 #include <exception>
 #include <iostream>
-#include <map>
 #include <string>
 
 #if defined(__GLIBC__)
@@ -14,35 +13,43 @@
 
 namespace {
 
-/// One entry per command: its synopsis and what it does, as `--help` and the overview print it.
-struct CommandHelp {
+using terramrf::cli::Args;
+
+/// One entry per command, the only place a command is named: a new command (e.g. an LCM node)
+/// is its cmd_*.cpp file and one line here.
+struct Command {
   const char* name;
+  int (*run)(const Args&);
+  /// Runs pipelines: stops between frames on SIGINT/SIGTERM and still writes its summaries. The
+  /// others are short and keep the default (end at once).
+  bool stops_between_frames;
+  /// Synopsis and what it does, as `--help` and the overview print it.
   const char* text;
 };
-const CommandHelp kCommands[] = {
-    {"run",
+const Command kCommands[] = {
+    {"run", terramrf::cli::cmdRun, true,
      "run CONFIG [--data DIR] [--out DIR] [--first N] [--limit N] [--read-ahead N]\n"
      "             [--no-progress]\n"
      "                         classify every frame of the config's source; --read-ahead: frames\n"
      "                         read on other threads while one is classified (0: none)\n"},
-    {"validate",
+    {"validate", terramrf::cli::cmdValidate, false,
      "validate CONFIG|SWEEP [--data DIR]\n"
      "                         check a config or a sweep (all errors at once) without running "
      "it\n"},
-    {"plugins",
+    {"plugins", terramrf::cli::cmdPlugins, false,
      "plugins                list the plugins found (and libraries that failed to load)\n"},
-    {"describe",
+    {"describe", terramrf::cli::cmdDescribe, false,
      "describe TYPE          parameters of one plugin (name, type, default, range, unit, doc)\n"},
-    {"simulate",
+    {"simulate", terramrf::cli::cmdSimulate, false,
      "simulate --out DIR [--frames N] [--seed S] [--config CONFIG]\n"
      "                         write simulated scans in SemanticKITTI/KITTI layout\n"},
-    {"train",
+    {"train", terramrf::cli::cmdTrain, true,
      "train CONFIG --out MODEL [--data DIR]... [--features a,b] [--limit N] [--no-progress]\n"
      "                         learn per-class feature mean/sigma from annotated cells\n"},
-    {"compare",
+    {"compare", terramrf::cli::cmdCompare, true,
      "compare SWEEP [--out DIR] [--limit N] [--dry-run] [--no-progress]\n"
      "                         feature sets x optimisers x datasets: paper-shaped tables, ROC\n"},
-    {"mesh",
+    {"mesh", terramrf::cli::cmdMesh, true,
      "mesh CONFIG [--out DIR] (and the options of run)\n"
      "                         textured terrain mesh (paper 004): OBJ/MTL/PNG, PLY, glTF\n"},
 };
@@ -83,28 +90,22 @@ int main(int argc, char** argv) {
     std::fputs(usageText().c_str(), argc < 2 ? stderr : stdout);
     return argc < 2 ? kUsage : kOk;
   }
-  const std::map<std::string, int (*)(const Args&)> commands = {
-      {"run", cmdRun},         {"validate", cmdValidate}, {"plugins", cmdPlugins},
-      {"describe", cmdDescribe}, {"simulate", cmdSimulate}, {"train", cmdTrain},
-      {"compare", cmdCompare},   {"mesh", cmdMesh}};
   const std::string cmd = argv[1];
-  auto it = commands.find(cmd);
-  if (it == commands.end()) {
+  const Command* it = nullptr;
+  for (const auto& c : kCommands)
+    if (cmd == c.name) it = &c;
+  if (!it) {
     std::cerr << "terramrf: unknown command '" << cmd << "'\n\n" << usageText();
     return kUsage;
   }
   // `terramrf run --help`: that command's synopsis, not a run of a config named --help.
   if (asksForHelp(argc, argv)) {
-    for (const auto& c : kCommands)
-      if (cmd == c.name) std::cout << "usage: terramrf " << c.text << "\n" << kFooter;
+    std::cout << "usage: terramrf " << it->text << "\n" << kFooter;
     return kOk;
   }
-  // The commands that run pipelines stop between frames on SIGINT/SIGTERM and still write
-  // their summaries; the others are short, and keep the default (end at once).
-  if (cmd == "run" || cmd == "mesh" || cmd == "compare" || cmd == "train")
-    terramrf::installStopHandlers();
+  if (it->stops_between_frames) terramrf::installStopHandlers();
   try {
-    return it->second(Args(argv + 2, argv + argc));
+    return it->run(Args(argv + 2, argv + argc));
   } catch (const UsageError& e) {
     std::cerr << "terramrf " << cmd << ": " << e.what() << "\n";
     return kUsage;
