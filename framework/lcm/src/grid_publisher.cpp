@@ -21,6 +21,7 @@ struct GridPublisher::Impl {
   bool owned = false;
   std::string url;  // for messages; "(caller's instance)" when borrowed
   std::string channel;
+  bool log_message_time = false;  // log events at the message's time, not the wall clock
   ~Impl() {
     if (owned && lcm != nullptr) lcm_destroy(lcm);
   }
@@ -60,9 +61,17 @@ GridPublisher& GridPublisher::operator=(GridPublisher&&) noexcept = default;
 
 const std::string& GridPublisher::channel() const { return impl_->channel; }
 
-void GridPublisher::publishBytes(const std::string& channel, const MessageBytes& bytes) {
+bool GridPublisher::writesLog() const { return impl_->log != nullptr; }
+
+void GridPublisher::stampLogWithMessageTime(bool on) { impl_->log_message_time = on; }
+
+void GridPublisher::publishBytes(const std::string& channel, const MessageBytes& bytes,
+                                 std::optional<int64_t> log_utime) {
   if (impl_->log) {
-    impl_->log->write(channel, bytes.data(), bytes.size());
+    if (log_utime)
+      impl_->log->write(channel, bytes.data(), bytes.size(), *log_utime);
+    else
+      impl_->log->write(channel, bytes.data(), bytes.size());
     return;
   }
   if (impl_->lcm == nullptr) {
@@ -88,11 +97,16 @@ void GridPublisher::close() {
 
 void GridPublisher::publish(const TerrainGrid& grid, const LabelSet& labels,
                             const MessageHeader& header, const std::vector<std::string>& layers) {
-  publishBytes(impl_->channel, encodeGrid(grid, labels, header, layers));
+  publishBytes(impl_->channel, encodeGrid(grid, labels, header, layers), logTime(header));
 }
 
 void GridPublisher::publishPoints(const PointCloud& cloud, const MessageHeader& header) {
-  publishBytes(pointsChannel(), encodePointCloud(cloud, header));
+  publishBytes(pointsChannel(), encodePointCloud(cloud, header), logTime(header));
+}
+
+std::optional<int64_t> GridPublisher::logTime(const MessageHeader& header) const {
+  if (!impl_->log_message_time) return std::nullopt;
+  return toUtime(header.timestamp_s);
 }
 
 }  // namespace terramrf

@@ -24,6 +24,11 @@ class LcmPublishOutput : public Output {
     d.add("layers", layers_, "float layers to send; empty = every layer of the grid").unique();
     d.add("publish_points", publish_points_,
           "also publish the scan's points as point_cloud_t on <channel>_POINTS");
+    d.add("log_time", log_time_,
+          "time of each event in a file:// log: 'wall' (when it was written, as LCM's logger "
+          "records) or 'frame' (the frame's own timestamp, so lcm-logplayer replays a dataset "
+          "at its recorded rate)")
+        .choices({"wall", "frame"});
   }
 
   void configure(const PluginContext& ctx) override {
@@ -45,6 +50,14 @@ class LcmPublishOutput : public Output {
         } catch (const std::invalid_argument& e) {
           throw ParamError("url", e.what());
         }
+      } else if (log_time_ == "frame") {
+        // Live receivers stamp the arrival: the setting would be silently without effect.
+        throw ParamError("log_time",
+                         "'frame' applies to a log being written (url file://...); "
+                         "'" +
+                             url_ +
+                             "' publishes live, where each receiver "
+                             "stamps the arrival time");
       }
     }
     if (ctx.labels) labels_ = *ctx.labels;
@@ -59,14 +72,18 @@ class LcmPublishOutput : public Output {
   // LCM is opened here rather than in configure() so validating a config opens no socket.
   void begin(const RunInfo& info) override {
     if (info.labels) labels_ = *info.labels;
-    publisher_ = std::make_unique<GridPublisher>(url_, channel_);
+    publisher_ = makePublisher();
+    if (log_time_ == "frame" && !publisher_->writesLog())  // url empty: $LCM_DEFAULT_URL decided
+      throw ParamError("log_time", "'frame' applies to a log being written (file://...), but "
+                                   "$LCM_DEFAULT_URL publishes live, where each receiver stamps "
+                                   "the arrival time");
   }
 
   void write(const FrameContext& ctx) override {
     if (!ctx.frame || !ctx.grid) {
       throw std::invalid_argument("lcm_publish: frame context without a frame or a grid");
     }
-    if (!publisher_) publisher_ = std::make_unique<GridPublisher>(url_, channel_);
+    if (!publisher_) publisher_ = makePublisher();
     MessageHeader header;
     header.frame_id = ctx.frame->id;
     header.timestamp_s = ctx.frame->timestamp_s;
@@ -82,10 +99,17 @@ class LcmPublishOutput : public Output {
   }
 
  private:
+  std::unique_ptr<GridPublisher> makePublisher() const {
+    auto p = std::make_unique<GridPublisher>(url_, channel_);
+    p->stampLogWithMessageTime(log_time_ == "frame");
+    return p;
+  }
+
   std::string url_ = "udpm://239.255.76.67:7667?ttl=0";
   std::string channel_ = "TERRAMRF_GRID";
   std::vector<std::string> layers_;
   bool publish_points_ = false;
+  std::string log_time_ = "wall";
 
   LabelSet labels_ = LabelSet::defaults();
   std::unique_ptr<GridPublisher> publisher_;

@@ -167,6 +167,40 @@ TEST_F(LcmPublishTest, LogTimestampsAndAppend) {
                                                 "TERRAMRF_GRID", "TERRAMRF_GRID_POINTS"}));
 }
 
+// log_time: frame stamps each event with its frame's time, so a log made from a dataset replays
+// at the recorded rate (10 Hz here) instead of the speed the run processed it; grid and points
+// of one frame share the stamp. It only means something for a log: a live URL refuses it.
+TEST_F(LcmPublishTest, LogTimeFrameStampsEventsWithTheFramesTime) {
+  const std::string log = dir.str() + "/replay.lcmlog";
+  auto out = test::makeOutput(
+      "lcm_publish", "{url: 'file://" + log + "?mode=w', publish_points: true, log_time: frame}",
+      pctx());
+  ASSERT_TRUE(out);
+  out->begin(info());
+  for (int k = 0; k < 3; ++k) {
+    frame.timestamp_s = 1234.5 + 0.1 * k;
+    out->write(ctx());
+  }
+  out->end(RunSummary{});
+  lcm::LogFile file(log, "r");
+  ASSERT_TRUE(file.good());
+  std::vector<std::int64_t> stamps;
+  while (const lcm::LogEvent* e = file.readNextEvent()) stamps.push_back(e->timestamp);
+  EXPECT_EQ(stamps, (std::vector<std::int64_t>{1234500000, 1234500000, 1234600000, 1234600000,
+                                               1234700000, 1234700000}));
+
+  try {
+    test::makeOutput("lcm_publish", "{url: 'memq://', log_time: frame}", pctx());
+    FAIL() << "log_time: frame accepted for a live URL";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("parameter 'log_time': 'frame' applies to a log being "
+                                         "written"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(test::makeOutput("lcm_publish", "{log_time: recorded}", pctx()), std::exception);
+}
+
 TEST_F(LcmPublishTest, BadParamsAndMissingLayer) {
   try {
     test::makeOutput("lcm_publish", "{url: 'http://example'}", pctx());

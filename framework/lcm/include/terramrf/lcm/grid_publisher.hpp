@@ -1,7 +1,9 @@
 #pragma once
 // Publishes grids (and the scan's points) on an LCM channel. The LCM handle is opaque so this
 // header can be included next to CGAL.
+#include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,8 +50,18 @@ class GridPublisher {
                const std::vector<std::string>& layers = {});
   /// Encodes (see encodePointCloud) and publishes on pointsChannel().
   void publishPoints(const PointCloud& cloud, const MessageHeader& header);
-  /// Publishes an already encoded message on any channel.
-  void publishBytes(const std::string& channel, const MessageBytes& bytes);
+  /// Publishes an already encoded message on any channel. `log_utime` [µs]: the event's time in
+  /// a log; none = the wall clock now (what LCM's logger records). Live providers ignore it.
+  void publishBytes(const std::string& channel, const MessageBytes& bytes,
+                    std::optional<int64_t> log_utime = std::nullopt);
+
+  /// True if this publisher writes a log (a file:// URL) rather than publishing live.
+  bool writesLog() const;
+  /// For a log: stamp the events of publish()/publishPoints() with their message's
+  /// MessageHeader::timestamp_s instead of the wall clock, so that lcm-logplayer (or any reader
+  /// pacing by event time) replays a dataset at its recorded rate rather than at the speed it was
+  /// processed. No effect on live providers: their receivers stamp the arrival.
+  void stampLogWithMessageTime(bool on);
 
   /// Closes the LCM instance it opened, or the log (see LcmLogWriter::close: throws naming the
   /// file if its last bytes cannot be saved or it ends in a cut event). The destructor closes
@@ -57,6 +69,8 @@ class GridPublisher {
   void close();
 
  private:
+  std::optional<int64_t> logTime(const MessageHeader& header) const;
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
