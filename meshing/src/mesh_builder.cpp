@@ -11,6 +11,37 @@
 namespace terramrf::meshing {
 
 namespace {
+// "000123" → 123 if the id is digits only (at most 18 of them), else -1.
+long long numericId(const std::string& id) {
+  if (id.empty() || id.size() > 18) return -1;
+  long long v = 0;
+  for (char ch : id) {
+    if (ch < '0' || ch > '9') return -1;
+    v = v * 10 + (ch - '0');
+  }
+  return v;
+}
+}  // namespace
+
+std::vector<std::string> compactFrameIds(const std::vector<std::string>& ids) {
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < ids.size();) {
+    const long long first = numericId(ids[i]);
+    std::size_t j = i + 1;  // one past the run of ids[i]
+    if (first >= 0)
+      while (j < ids.size() && ids[j].size() == ids[i].size() &&
+             numericId(ids[j]) == first + static_cast<long long>(j - i))
+        ++j;
+    if (j - i >= 3)
+      out.push_back(ids[i] + "–" + ids[j - 1] + " (" + std::to_string(j - i) + " frames)");
+    else
+      for (std::size_t k = i; k < j; ++k) out.push_back(ids[k]);
+    i = j;
+  }
+  return out;
+}
+
+namespace {
 double msSince(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
 }
@@ -176,8 +207,8 @@ std::string MeshBuilder::report(const MaskStats* mask, const ExportStats* ex) co
   o << "- tiles: " << mesh_.tileCount() << " (" << mesh_.params().tile_vertices << "x"
     << mesh_.params().tile_vertices << " vertices, cell " << mesh_.params().cell_m << " m)\n";
   const std::size_t with_data = mesh_.verticesWithData(), textured = mesh_.texturedVertices();
-  o << "- vertices with data: " << with_data << ", textured: " << textured << ", untextured: "
-    << (with_data - textured) << "\n";
+  o << "- vertices with data: " << with_data << ", textured: " << textured
+    << ", untextured: " << (with_data - textured) << "\n";
   if (ex && ex->tiles == 0)
     o << "- exported: nothing (no mesh files written): " << emptyMeshReason() << "\n";
   else if (ex)
@@ -191,7 +222,8 @@ std::string MeshBuilder::report(const MaskStats* mask, const ExportStats* ex) co
     double s = 0;
     for (double v : sum_.segmentation_ms) s += v;
     std::snprintf(buf, sizeof buf, "- ground segmentation (%s): %.2f ms per image (mean of %zu)\n",
-                  toString(p_.ground.mrf.mode), s / sum_.segmentation_ms.size(), sum_.segmentation_ms.size());
+                  toString(p_.ground.mrf.mode), s / sum_.segmentation_ms.size(),
+                  sum_.segmentation_ms.size());
     o << buf;
   }
   auto list = [&](const char* what, const std::vector<std::string>& v) {
@@ -199,8 +231,14 @@ std::string MeshBuilder::report(const MaskStats* mask, const ExportStats* ex) co
     o << "- " << what << ": " << v.size() << "\n";
     for (const auto& s : v) o << "  - " << s << "\n";
   };
-  list("frames without a camera image (mesh untextured there)", sum_.frames_without_image);
-  list("frames without a pose (LiDAR frame used as world)", sum_.frames_without_pose);
+  // A LiDAR-only log has every frame without an image: runs of consecutive ids, one line each.
+  auto frameList = [&](const char* what, const std::vector<std::string>& v) {
+    if (v.empty()) return;
+    o << "- " << what << ": " << v.size() << "\n";
+    for (const auto& s : compactFrameIds(v)) o << "  - " << s << "\n";
+  };
+  frameList("frames without a camera image (mesh untextured there)", sum_.frames_without_image);
+  frameList("frames without a pose (LiDAR frame used as world)", sum_.frames_without_pose);
   list("cameras that see none of the points (skipped)", sum_.cameras_looking_away);
   list("camera images rejected", sum_.images_rejected);
   list("pixel truth images rejected (not evaluated)", sum_.truth_rejected);
@@ -208,7 +246,8 @@ std::string MeshBuilder::report(const MaskStats* mask, const ExportStats* ex) co
     const GroundConfusion& c = sum_.confusion;
     o << "\n## Image ground segmentation vs pixel truth (" << sum_.truth_frames << " image(s))\n\n";
     o << "| truth / inferred | ground | non-ground |\n|---|---:|---:|\n";
-    o << "| ground | " << c.tp << " | " << c.fn << " |\n| non-ground | " << c.fp << " | " << c.tn << " |\n\n";
+    o << "| ground | " << c.tp << " | " << c.fn << " |\n| non-ground | " << c.fp << " | " << c.tn
+      << " |\n\n";
     std::snprintf(buf, sizeof buf,
                   "Ground pixels found: %.2f %% (paper Table 1: 97.68 %%); errors over all pixels: "
                   "%.2f %% (paper: 3.19 %%)\n",

@@ -392,4 +392,17 @@ TEST(MeshBuilder, VotesCountPastSixteenBits) {
   EXPECT_LT(objects, said_object.size());
 }
 
+// Runs of consecutive numeric ids of one width collapse; everything else is kept as it is.
+TEST(MeshReport, CompactFrameIdsIsLosslessAndKeepsOrder) {
+  EXPECT_EQ(compactFrameIds({}), std::vector<std::string>{});
+  EXPECT_EQ(compactFrameIds({"000001", "000002", "000003", "000004", "000009", "000010", "x7",
+                             "000011", "000012", "000013", "0098", "0099", "0100", "99", "100",
+                             "101"}),
+            (std::vector<std::string>{"000001–000004 (4 frames)", "000009", "000010", "x7",
+                                      "000011–000013 (3 frames)", "0098–0100 (3 frames)", "99",
+                                      "100", "101"}));
+  // A repeated id is not a run.
+  EXPECT_EQ(compactFrameIds({"5", "5", "6"}), (std::vector<std::string>{"5", "5", "6"}));
+}
+
 }  // namespace terramrf::meshing

@@ -91,6 +91,10 @@ class MeshBuilder {
   BuilderSummary sum_;
 };
 
+/// Frame ids for a report: runs of three or more consecutive numeric ids of one width become one
+/// entry "000018–000199 (182 frames)"; other ids are kept as they are, in order. Lossless.
+std::vector<std::string> compactFrameIds(const std::vector<std::string>& ids);
+
 /// Overlay of the classes on an image for inspection: ground blue, tree green, building red,
 /// other objects yellow; `ground`/`objects` masks (may be empty) are blended in.
 Image overlaySegmentation(const Image& image, const std::vector<uint8_t>& ground,

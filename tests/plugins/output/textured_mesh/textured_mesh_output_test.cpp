@@ -86,6 +86,52 @@ TEST(TexturedMeshOutput, WritesAllFormatsAndAReport) {
   EXPECT_EQ(overlays, (std::vector<std::string>{"000001_image_2.png"}));
 }
 
+// A LiDAR-only log: every frame has the same note. It is printed for the first three frames and
+// then counted (one line per frame flooded the terminal for a long log), and report.md gives the
+// frames as one range instead of a line each.
+TEST(TexturedMeshOutput, RepeatedFrameNotesAreCountedNotPrintedEachTime) {
+  test::TempDir dir;
+  PluginContext ctx;
+  ctx.output_dir = dir.str();
+  PluginRegistry reg({test::pluginDir()});
+  auto src = reg.create("simulator");
+  setParams(*src, "{seed: 2, frames: 7, azimuth_step_deg: 0.72}", ctx);
+  auto* source = dynamic_cast<Source*>(src.get());
+  ASSERT_NE(source, nullptr);
+  auto out = test::makeOutput("textured_mesh", "{tile_vertices: 81, max_range_m: 20}", ctx);
+  ASSERT_NE(out, nullptr);
+  RunInfo info;
+  info.output_dir = dir.str();
+  out->begin(info);
+  testing::internal::CaptureStderr();
+  for (std::size_t i = 0; i < source->size(); ++i) {
+    Frame f = source->read(i);
+    f.cameras.clear();
+    FrameContext fc;
+    fc.frame = &f;
+    fc.index = i;
+    out->write(fc);
+  }
+  out->end({});
+  const std::string err = testing::internal::GetCapturedStderr();
+  const std::string note = "no usable camera image: points meshed without texture or segmentation";
+  std::size_t printed = 0;
+  for (auto at = err.find(note); at != std::string::npos; at = err.find(note, at + 1)) ++printed;
+  EXPECT_EQ(printed, 4u) << err;  // frames 000000–000002, then the total
+  EXPECT_NE(err.find("textured_mesh: frame 000002: " + note +
+                     " (further frames with this note are counted, not printed; report.md lists "
+                     "them)"),
+            std::string::npos)
+      << err;
+  EXPECT_EQ(err.find("frame 000003"), std::string::npos) << err;
+  EXPECT_NE(err.find("textured_mesh: 7 frames in all: " + note), std::string::npos) << err;
+  const std::string report = readFile((dir.path() / "mesh" / "report.md").string());
+  EXPECT_NE(report.find("- frames without a camera image (mesh untextured there): 7\n"
+                        "  - 000000–000006 (7 frames)\n"),
+            std::string::npos)
+      << report;
+}
+
 // Two cameras (simulator image_2 ahead, image_3 to the left): each overlay shows its own
 // camera's segmentation; a camera whose image cannot be segmented gets none; names are safe.
 TEST(TexturedMeshOutput, EachCameraOverlayShowsItsOwnSegmentation) {
