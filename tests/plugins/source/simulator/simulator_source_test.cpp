@@ -1,10 +1,8 @@
 // The "simulator" source plugin as the pipeline sees it: determinism, HDL-64E geometry, classes,
 // camera, sensor samples, parameter errors, and a (non-asserted) timing note.
 #include <gtest/gtest.h>
-#include <time.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -424,40 +422,6 @@ TEST(SimulatorSource, OutOfRangeDitchAndAzimuthStepNameTheParameterAndRange) {
       EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos) << e.what();
     }
   }
-}
-
-double threadCpuMs() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
-TEST(SimulatorSource, PerformanceNote) {
-  // Not a timed assertion (shared machines vary): prints the median time per frame so a
-  // regression is visible in the log. CPU time of this thread is what one core spends; wall time
-  // also counts waiting for a busy machine. Reference numbers: docs/plugins/simulator.md.
-  auto p = makeSource("{frames: 5}");
-  auto q = makeSource("{frames: 5, enable_camera: false}");
-  std::vector<double> lidar_cpu, full_cpu, lidar_wall;
-  std::size_t points = 0;
-  for (std::size_t i = 0; i < 5; ++i) {
-    const auto w0 = std::chrono::steady_clock::now();
-    const double c0 = threadCpuMs();
-    points = src(q).read(i).points.size();
-    const double c1 = threadCpuMs();
-    const auto w1 = std::chrono::steady_clock::now();
-    src(p).read(i);
-    const double c2 = threadCpuMs();
-    lidar_cpu.push_back(c1 - c0);
-    full_cpu.push_back(c2 - c1);
-    lidar_wall.push_back(std::chrono::duration<double, std::milli>(w1 - w0).count());
-  }
-  for (auto* v : {&lidar_cpu, &full_cpu, &lidar_wall}) std::sort(v->begin(), v->end());
-  std::printf(
-      "simulator: %zu points/frame; median CPU %.0f ms per LiDAR frame (wall %.0f ms), "
-      "%.0f ms with the 640x256 camera\n",
-      points, lidar_cpu[2], lidar_wall[2], full_cpu[2]);
-  SUCCEED();
 }
 
 }  // namespace
