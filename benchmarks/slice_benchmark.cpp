@@ -11,6 +11,7 @@
 //       BM_LG_AlphaExpansionNoBlockMoves with the expansions alone, and
 //       BM_LG_AlphaExpansionNoStripMoves without the strip moves (expansions and 2×2 blocks)
 //   BM_ReadScan: the semantickitti reader alone (.bin read + ring recovery), as the CLI runs it
+//   BM_RecoverRings: ring recovery alone on that scan's points
 //   BM_FileToLabels_LG_Icm: BM_ReadScan + BM_LG_Icm, file to labelled grid (what a ground
 //       segmenter that reads the same file is held against, docs/benchmarks.md)
 //   BM_FileToLabels_LG_Icm_RingsGiven: the same from a copy of the scan whose rings come with it
@@ -33,6 +34,7 @@
 #include <vector>
 
 #include "terramrf/io/kitti_writer.hpp"
+#include "terramrf/io/ring_recovery.hpp"
 #include "terramrf/param_values.hpp"
 #include "terramrf/registry.hpp"
 
@@ -128,7 +130,8 @@ struct SliceFixture {
   void run(FrameContext& fc, const Chain& c, std::size_t n_stages) {
     grid.reset(geom);
     grid.binPoints(frame.points);
-    for (std::size_t s = 0; s < n_stages && s < c.size(); ++s) static_cast<Stage&>(*c[s]).process(fc);
+    for (std::size_t s = 0; s < n_stages && s < c.size(); ++s)
+      static_cast<Stage&>(*c[s]).process(fc);
   }
 };
 
@@ -180,6 +183,20 @@ void BM_ReadScan(benchmark::State& state) {
   }
   state.counters["points"] = static_cast<double>(f.frame.points.size());
 }
+// Ring recovery alone (scan order), on the points of frame 0 without their rings.
+void BM_RecoverRings(benchmark::State& state) {
+  SliceFixture& f = fixture();
+  PointCloud bare = f.frame.points;
+  bare.ring.clear();
+  PointCloud c;
+  for (auto _ : state) {
+    state.PauseTiming();
+    c = bare;
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(recoverRings(c).rings_found);
+  }
+  state.counters["points"] = static_cast<double>(bare.size());
+}
 void BM_LG_AlphaExpansionNoBlockMoves(benchmark::State& s) {
   runChain(s, "LG_alpha_expansion_no_block_moves");
 }
@@ -199,6 +216,7 @@ TERRAMRF_BENCH(BM_LG_AlphaExpansion);
 TERRAMRF_BENCH(BM_LG_AlphaExpansionNoBlockMoves);
 TERRAMRF_BENCH(BM_LG_AlphaExpansionNoStripMoves);
 TERRAMRF_BENCH(BM_ReadScan);
+TERRAMRF_BENCH(BM_RecoverRings);
 TERRAMRF_BENCH(BM_FileToLabels_LG_Icm);
 TERRAMRF_BENCH(BM_FileToLabels_LG_Icm_RingsGiven);
 

@@ -1,9 +1,7 @@
 // The "semantickitti" source on every KITTI-style folder of the shared data, plus bad input.
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -605,36 +603,6 @@ TEST_F(SemanticKittiSourceTest, TimesFileShorterThanTheSequenceNamesFileCountAnd
               std::string::npos)
         << e.what();
   }
-}
-
-TEST_F(SemanticKittiSourceTest, ReadTime) {
-  // Thread CPU time, so other jobs on the machine do not count; bounds only catch gross
-  // regressions (e.g. per-point allocation), the printed numbers are what docs report.
-  auto cpu_ms = [] {
-    timespec ts;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-  };
-  const std::string seq = test::dataPath("semantickitti_seq00_000000-000005/sequences/00");
-  auto src = make("{path: " + seq + "}");
-  auto raw = make("{path: " + seq + ", ring_method: none, use_poses: false}");
-  double best_full = 1e9, best_raw = 1e9;
-  for (int rep = 0; rep < 5; ++rep) {
-    const double t0 = cpu_ms();
-    const Frame f = src->read(0);
-    const double t1 = cpu_ms();
-    const Frame g = raw->read(0);
-    const double t2 = cpu_ms();
-    best_full = std::min(best_full, t1 - t0);
-    best_raw = std::min(best_raw, t2 - t1);
-    ASSERT_EQ(f.truth.label.size(), g.points.size());
-  }
-  std::printf(
-      "semantickitti read of frame 0 (124668 points + labels): %.2f ms CPU; with pose and "
-      "ring recovery %.2f ms CPU (best of 5)\n",
-      best_raw, best_full);
-  EXPECT_LT(best_raw, 50.0);
-  EXPECT_LT(best_full, 200.0);
 }
 
 }  // namespace
