@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <string>
 
+#include "terramrf/simd.hpp"
+
 namespace terramrf::test {
 
 inline std::string dataDir() {
@@ -69,14 +71,39 @@ class TempDir {
     std::filesystem::remove_all(path_);
     std::filesystem::create_directories(path_);
   }
-  ~TempDir() { std::error_code ec; std::filesystem::remove_all(path_, ec); }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
   const std::filesystem::path& path() const { return path_; }
   std::string str() const { return path_.string(); }
 
  private:
-  static int& counter() { static int c = 0; return c; }
+  static int& counter() {
+    static int c = 0;
+    return c;
+  }
   std::filesystem::path path_;
 };
+
+/// For tests of "the same bits with this CPU's widest vectors as with SSE2". True if the wide
+/// path (AVX2, or AVX with `avx2` false) runs now. Fails the test if the CPU has it but it is off
+/// before the test switches it (TERRAMRF_SIMD=sse2 already in the environment, dispatch compiled
+/// out): the comparison would be of SSE2 with itself and could not fail. On a CPU without it,
+/// returns false and says so in the log (nothing to compare there).
+inline bool widePathRuns(bool avx2 = true) {
+  const bool cpu = avx2 ? __builtin_cpu_supports("avx2") : __builtin_cpu_supports("avx");
+  const bool on = avx2 ? terramrf::useAvx2() : terramrf::useAvx();
+  if (!cpu) {
+    GTEST_LOG_(INFO) << "this CPU has no " << (avx2 ? "AVX2" : "AVX")
+                     << ": the SSE2 path is compared with itself";
+    return false;
+  }
+  EXPECT_TRUE(on) << "the CPU has " << (avx2 ? "AVX2" : "AVX")
+                  << " but the vector path is off (TERRAMRF_SIMD=sse2 set before the test?): "
+                     "SSE2 would be compared with itself";
+  return on;
+}
 
 /// Sets an environment variable for the scope, restoring its previous value (or absence).
 class ScopedEnv {

@@ -65,30 +65,37 @@ SweepResult handMade() {
 // error naming the variable.
 TEST(SweepReport, SourceDateEpochIsTheCreationTime) {
   test::TempDir dir;
-  ::setenv("SOURCE_DATE_EPOCH", "1700000000", 1);
-  writeSweepReport(handMade(), dir.str() + "/a");
-  std::this_thread::sleep_for(std::chrono::milliseconds(1100));  // another second
-  writeSweepReport(handMade(), dir.str() + "/b");
-  EXPECT_EQ(sweep_detail::creationTime(), "2023-11-14T22:13:20Z");
-  ::setenv("SOURCE_DATE_EPOCH", "0", 1);
-  EXPECT_EQ(sweep_detail::creationTime(), "1970-01-01T00:00:00Z");
-  ::setenv("SOURCE_DATE_EPOCH", "", 1);  // empty: unset, the current time
-  EXPECT_NE(sweep_detail::creationTime(), "1970-01-01T00:00:00Z");
-  ::setenv("SOURCE_DATE_EPOCH", "2023-11-14", 1);
-  EXPECT_THROW(
-      {
-        try {
-          writeSweepReport(handMade(), dir.str() + "/c");
-        } catch (const std::runtime_error& e) {
-          EXPECT_NE(std::string(e.what()).find("environment variable SOURCE_DATE_EPOCH: "
-                                               "'2023-11-14' is not a time"),
-                    std::string::npos)
-              << e.what();
-          throw;
-        }
-      },
-      std::runtime_error);
-  ::unsetenv("SOURCE_DATE_EPOCH");
+  {
+    test::ScopedEnv epoch("SOURCE_DATE_EPOCH", "1700000000");
+    writeSweepReport(handMade(), dir.str() + "/a");
+    std::this_thread::sleep_for(std::chrono::milliseconds(1100));  // another second
+    writeSweepReport(handMade(), dir.str() + "/b");
+    EXPECT_EQ(sweep_detail::creationTime(), "2023-11-14T22:13:20Z");
+  }
+  {
+    test::ScopedEnv epoch("SOURCE_DATE_EPOCH", "0");
+    EXPECT_EQ(sweep_detail::creationTime(), "1970-01-01T00:00:00Z");
+  }
+  {
+    test::ScopedEnv epoch("SOURCE_DATE_EPOCH", "");  // empty: unset, the current time
+    EXPECT_NE(sweep_detail::creationTime(), "1970-01-01T00:00:00Z");
+  }
+  {
+    test::ScopedEnv epoch("SOURCE_DATE_EPOCH", "2023-11-14");
+    EXPECT_THROW(
+        {
+          try {
+            writeSweepReport(handMade(), dir.str() + "/c");
+          } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find("environment variable SOURCE_DATE_EPOCH: "
+                                                 "'2023-11-14' is not a time"),
+                      std::string::npos)
+                << e.what();
+            throw;
+          }
+        },
+        std::runtime_error);
+  }
   for (const char* f : {"results.json", "summary.md"}) {
     SCOPED_TRACE(f);
     const std::string a = readFile(dir.str() + "/a/" + f);

@@ -717,8 +717,13 @@ TEST(SweepRun, TinySimulatorSweepWritesTheTables) {
     EXPECT_EQ(x.score_source,
               x.optimiser == "icm" ? ScoreSource::kLocalEnergy : ScoreSource::kScoreLayers);
     ASSERT_FALSE(x.roc.empty());
+    std::size_t obstacle_curves = 0;
     for (const auto& c : x.roc)
-      if (c.class_name == "obstacle") EXPECT_GT(c.auc, 0.8);
+      if (c.class_name == "obstacle") {
+        EXPECT_GT(c.auc, 0.8);
+        ++obstacle_curves;
+      }
+    EXPECT_EQ(obstacle_curves, 1u);
     // Road is found: the laser features separate it from obstacles in the simulator.
     EXPECT_GT(x.counts.cell_wise.scores(labels::kRoad).tpr(), 0.5);
   }
@@ -1830,12 +1835,7 @@ outputs:
                                              "simulator seed 7 #3", "simulator seed 7 #4"}));
 }
 
-/// Sets an environment variable for one scope (unset before and after).
-struct ScopedEnv {
-  const char* name;
-  ScopedEnv(const char* n, const char* value) : name(n) { ::setenv(n, value, 1); }
-  ~ScopedEnv() { ::unsetenv(name); }
-};
+using test::ScopedEnv;  // restores the variable's earlier value
 
 // The model's trained_from.date was the current time, so training twice on the same data gave
 // two different files. With SOURCE_DATE_EPOCH (reproducible-builds.org) it is that time, and the

@@ -234,6 +234,7 @@ TEST(HomogeneityChengSun, SameBitsOnEveryInstructionSet) {
   std::vector<uint8_t> img(200 * 100);
   for (auto& x : img) x = uint8_t(std::uniform_int_distribution<int>(0, 255)(rng));
   auto fill = [&](int u, int v, uint8_t* p) { grey(p, img[v * 200 + u]); };
+  test::widePathRuns();
   for (const char* w : {"{window: 3}", "{window: 15}"})
     for (int u : {0, 3, 57, 120, 199})
       for (int v : {0, 1, 50, 98, 99}) {

@@ -287,10 +287,12 @@ TEST(Gibbs, VectorSweepsGiveTheSameResultAsOneCellAtATime) {
   const EnergyModel em = test::randomModel(21, s);
   OptimiserHarness h;
   const std::string p = "{sweeps: 60, marginal_sweeps: 10, marginal_burn_in: 2, seed: 4}";
+  test::widePathRuns();
   const auto vec = h.run("gibbs", p, em);
-  setenv("TERRAMRF_SIMD", "sse2", 1);
-  const auto one = h.run("gibbs", p, em);
-  unsetenv("TERRAMRF_SIMD");
+  const auto one = [&] {
+    test::ScopedEnv sse2("TERRAMRF_SIMD", "sse2");
+    return h.run("gibbs", p, em);
+  }();
   EXPECT_EQ(vec.grid_labels, one.grid_labels);
   EXPECT_EQ(vec.report.final_energy, one.report.final_energy);
   for (const char* m : {"gibbs.best_sweep", "gibbs.annealed_energy", "gibbs.last_sweep_changes"})

@@ -208,7 +208,7 @@ double steepestRoadGrade(const World& w, double x_from, double x_to) {
 // hill_height_m up to 20 was accepted and the road followed the hills up a 52° slope; the
 // documented grade (≤ ~11 %) was exceeded by the defaults too (12.2 % at seed 1's start).
 TEST(SimSceneParams, HillsThatMakeTheRoadTooSteepAreRefused) {
-  EXPECT_NEAR(World::roadGradeBound(2.0), 0.1396, 1e-4);
+  EXPECT_NEAR(World::roadGradeBound(2.0), 2.0 * 2 * M_PI / 90, 1e-12);  // hill_height_m · 2π / 90 m
   for (const char* params : {"{hill_height_m: 20}", "{hill_height_m: 2.9}"}) {
     try {
       parseSimulationConfig(params);  // in the declared range
