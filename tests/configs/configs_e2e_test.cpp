@@ -1,17 +1,18 @@
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <yaml-cpp/yaml.h>
 
 #include <array>
 #include <cmath>
-#include <map>
-#include <sstream>
-#include <vector>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <memory>
-#include <sys/wait.h>
+#include <regex>
+#include <sstream>
+#include <vector>
 
 #include "terramrf/atomic_file.hpp"
 #include "test_support.hpp"
@@ -37,12 +38,15 @@ double cellScore(const YAML::Node& s, const std::string& cls, const std::string&
   ADD_FAILURE() << "class " << cls << " not in the summary";
   return 0;
 }
-double cellRecall(const YAML::Node& s, const std::string& cls) { return cellScore(s, cls, "recall"); }
+double cellRecall(const YAML::Node& s, const std::string& cls) {
+  return cellScore(s, cls, "recall");
+}
 }  // namespace
 
 TEST(ConfigsE2E, DemoOnTheSimulator) {
   test::TempDir out;
-  const Result r = sh(test::cli() + " run " + test::sourceDir() + "/configs/demo.yaml --no-progress --out " + out.str());
+  const Result r = sh(test::cli() + " run " + test::sourceDir() +
+                      "/configs/demo.yaml --no-progress --out " + out.str());
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("Per-stage timing"), std::string::npos) << r.out;
   EXPECT_TRUE(std::filesystem::exists(out.str() + "/grid/000000.png"));
@@ -60,15 +64,17 @@ TEST(ConfigsE2E, DemoOnTheSimulator) {
   EXPECT_GE(cellRecall(s, "obstacle"), 0.96);
   EXPECT_GE(cellRecall(s, "rough"), 0.98);
   // The grid table carries each cell's true class for error analysis.
-  EXPECT_NE(terramrf::readFile(out.str() + "/grid_csv/000001.csv").find(",truth,truth_name,truth_points"),
-            std::string::npos);
+  EXPECT_NE(
+      terramrf::readFile(out.str() + "/grid_csv/000001.csv").find(",truth,truth_name,truth_points"),
+      std::string::npos);
 }
 
 TEST(ConfigsE2E, SemanticKittiPrintsTheEvaluation) {
   test::TempDir out;
   const std::string data = test::dataPath("semantickitti_seq00_000000-000005");
-  const Result r = sh(test::cli() + " run " + test::sourceDir() + "/configs/semantickitti.yaml --data " + data +
-                      " --no-progress --out " + out.str());
+  const Result r =
+      sh(test::cli() + " run " + test::sourceDir() + "/configs/semantickitti.yaml --data " + data +
+         " --no-progress --out " + out.str());
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("Cell-wise"), std::string::npos) << r.out;
   const YAML::Node s = YAML::LoadFile(out.str() + "/evaluation/summary.json");
@@ -88,18 +94,21 @@ TEST(ConfigsE2E, SimulateWritesAReadableSequence) {
   test::TempDir out;
   Result r = sh(test::cli() + " simulate --out " + out.str() + "/seq --frames 2");
   ASSERT_EQ(r.status, 0) << r.out;
-  for (const char* f : {"velodyne/000000.bin", "labels/000001.label", "image_2/000000.png", "calib.txt",
-                        "poses.txt", "imu.txt", "gps.txt", "odometry.txt"})
+  for (const char* f : {"velodyne/000000.bin", "labels/000001.label", "image_2/000000.png",
+                        "calib.txt", "poses.txt", "imu.txt", "gps.txt", "odometry.txt"})
     EXPECT_TRUE(std::filesystem::exists(out.str() + "/seq/" + f)) << f;
   // The real-data reader reads it back and the pipeline scores it with the simulator label map.
   const std::string cfg = out.str() + "/c.yaml";
-  std::ofstream(cfg) << "version: 1\nsource: {type: semantickitti, params: {path: seq, label_map: " +
-                            test::sourceDir() + "/configs/label_maps/simulator.yaml}}\n"
-                            "stages:\n  - {name: hdiff, type: height_difference}\n"
-                            "  - {name: mrf, type: potts_gaussian, params: {model: " + test::sourceDir() +
-                            "/configs/models/laser_simulator.yaml, features: [height_diff]}}\n"
-                            "  - {name: solve, type: icm}\n"
-                            "outputs:\n  - {type: evaluation}\n";
+  std::ofstream(cfg)
+      << "version: 1\nsource: {type: semantickitti, params: {path: seq, label_map: " +
+             test::sourceDir() +
+             "/configs/label_maps/simulator.yaml}}\n"
+             "stages:\n  - {name: hdiff, type: height_difference}\n"
+             "  - {name: mrf, type: potts_gaussian, params: {model: " +
+             test::sourceDir() +
+             "/configs/models/laser_simulator.yaml, features: [height_diff]}}\n"
+             "  - {name: solve, type: icm}\n"
+             "outputs:\n  - {type: evaluation}\n";
   r = sh(test::cli() + " run " + cfg + " --no-progress --out " + out.str() + "/o");
   EXPECT_EQ(r.status, 0) << r.out;
   const YAML::Node s = YAML::LoadFile(out.str() + "/o/evaluation/summary.json");
@@ -112,13 +121,16 @@ TEST(ConfigsE2E, BadScanInABatchIsSkippedAndReported) {
   ASSERT_EQ(r.status, 0) << r.out;
   std::ofstream(out.str() + "/seq/velodyne/000001.bin", std::ios::app) << "xyz";  // 3 stray bytes
   const std::string cfg = out.str() + "/c.yaml";
-  std::ofstream(cfg) << "version: 1\nsource: {type: semantickitti, params: {path: seq, label_map: " +
-                            test::sourceDir() + "/configs/label_maps/simulator.yaml}}\n"
-                            "stages:\n  - {name: hdiff, type: height_difference}\n"
-                            "  - {name: mrf, type: potts_gaussian, params: {model: " + test::sourceDir() +
-                            "/configs/models/laser_simulator.yaml, features: [height_diff]}}\n"
-                            "  - {name: solve, type: icm}\n"
-                            "outputs:\n  - {type: grid_csv}\n";
+  std::ofstream(cfg)
+      << "version: 1\nsource: {type: semantickitti, params: {path: seq, label_map: " +
+             test::sourceDir() +
+             "/configs/label_maps/simulator.yaml}}\n"
+             "stages:\n  - {name: hdiff, type: height_difference}\n"
+             "  - {name: mrf, type: potts_gaussian, params: {model: " +
+             test::sourceDir() +
+             "/configs/models/laser_simulator.yaml, features: [height_diff]}}\n"
+             "  - {name: solve, type: icm}\n"
+             "outputs:\n  - {type: grid_csv}\n";
   r = sh(test::cli() + " run " + cfg + " --no-progress --out " + out.str() + "/o");
   EXPECT_EQ(r.status, 3) << r.out;
   EXPECT_NE(r.out.find("000001"), std::string::npos) << r.out;
@@ -195,7 +207,8 @@ std::pair<double, double> scanScore(const std::string& dir, const std::string& f
 void expectAlphaExpansionLowest(const std::string& dir) {
   std::map<std::string, std::map<std::string, double>> energy;  // set/frame → optimiser → E
   for (const auto& r : readCsv(dir + "/energies.csv"))
-    energy[r.at("feature_set") + "/" + r.at("frame")][r.at("optimiser")] = std::stod(r.at("energy"));
+    energy[r.at("feature_set") + "/" + r.at("frame")][r.at("optimiser")] =
+        std::stod(r.at("energy"));
   ASSERT_FALSE(energy.empty());
   for (const auto& [scan, by_opt] : energy) {
     // All three optimisers, or α-expansion would be compared with itself only.
@@ -265,10 +278,12 @@ TEST(SweepsE2E, Open3dMl750AndRellisAgainstPatchwork) {
     double min_precision, min_recall;
   };
   for (const Case& c :
-       {Case{"semantickitti_o3dml.yaml", "semantickitti_o3dml_demo", "L+G", "000750", 0.9725, 0.965},
+       {Case{"semantickitti_o3dml.yaml", "semantickitti_o3dml_demo", "L+G", "000750", 0.9725,
+             0.965},
         Case{"rellis3d.yaml", "rellis3d_example_000104", "L+G", "000104", 0.8795, 0.9315}}) {
     test::TempDir out;
-    const auto [p, rc] = scanScore(runSweep(out, c.sweep, c.data), c.feature_set, "icm", c.frame, "obstacle");
+    const auto [p, rc] =
+        scanScore(runSweep(out, c.sweep, c.data), c.feature_set, "icm", c.frame, "obstacle");
     EXPECT_GE(p, c.min_precision) << c.sweep;
     EXPECT_GE(rc, c.min_recall) << c.sweep;
   }
@@ -397,9 +412,9 @@ TEST(DocsExamplesE2E, OwnDataSweepRunsOnThreeSimulatedDrives) {
   for (const char* f : {"sweep.yaml", "label_map.yaml"})
     std::filesystem::copy_file(example + "/" + f, dir.str() + "/" + f);
   for (const char* seed : {"7", "3", "1"}) {
-    const Result r = sh(test::cli() + " simulate --config " + test::sourceDir() +
-                        "/configs/demo.yaml --out " + dir.str() + "/my_scans/drive_" + seed +
-                        " --seed " + seed + " --frames 3");
+    const Result r =
+        sh(test::cli() + " simulate --config " + test::sourceDir() + "/configs/demo.yaml --out " +
+           dir.str() + "/my_scans/drive_" + seed + " --seed " + seed + " --frames 3");
     ASSERT_EQ(r.status, 0) << r.out;
   }
   const Result r = sh(test::cli() + " compare " + dir.str() + "/sweep.yaml --no-progress --out " +
@@ -407,8 +422,9 @@ TEST(DocsExamplesE2E, OwnDataSweepRunsOnThreeSimulatedDrives) {
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("selected on validation for L: components="), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("selected on validation for L+C: components="), std::string::npos);
-  for (const char* f : {"accuracy.md", "runtime.md", "evaluation.md", "per_scan.csv", "selection.md",
-                        "roc/drive_test__L+C__alpha_expansion.svg", "models/L+C.yaml"})
+  for (const char* f :
+       {"accuracy.md", "runtime.md", "evaluation.md", "per_scan.csv", "selection.md",
+        "roc/drive_test__L+C__alpha_expansion.svg", "models/L+C.yaml"})
     EXPECT_TRUE(std::filesystem::exists(dir.str() + "/out/" + f)) << f;
   // Scored with the example's label map; the laser set finds the obstacles and the road.
   std::size_t checked = 0;
@@ -426,6 +442,22 @@ void expectMeshExport(const std::string& dir) {
   for (const char* f : {"terrain.obj", "terrain.mtl", "terrain.ply", "terrain.glb", "report.md"})
     EXPECT_TRUE(std::filesystem::exists(dir + "/mesh/" + f)) << f;
   EXPECT_FALSE(std::filesystem::is_empty(dir + "/mesh/textures"));
+  // Files alone could be an empty mesh: the report's counts say there is a textured one.
+  std::ifstream in(dir + "/mesh/report.md");
+  const std::string report((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::smatch m;
+  ASSERT_TRUE(
+      std::regex_search(report, m, std::regex("vertices with data: (\\d+), textured: (\\d+)")))
+      << report;
+  const long with_data = std::stol(m[1]), textured = std::stol(m[2]);
+  EXPECT_GT(with_data, 1000) << report;
+  EXPECT_GT(textured, 0) << report;
+  EXPECT_LE(textured, with_data) << report;
+  ASSERT_TRUE(std::regex_search(
+      report, m, std::regex("exported: (\\d+) tiles, (\\d+) vertices, (\\d+) triangles")))
+      << report;
+  EXPECT_GT(std::stol(m[1]), 0) << report;
+  EXPECT_GT(std::stol(m[3]), 1000) << report;
 }
 }  // namespace
 
@@ -435,8 +467,8 @@ TEST(MeshConfigsE2E, KittiObjectAndRellisGiveTexturedMeshes) {
       {"mesh_rellis.yaml", "rellis3d_example_000104"}};
   for (const auto& [cfg, data] : runs) {
     test::TempDir out;
-    const Result r = sh(test::cli() + " mesh " + test::sourceDir() + "/configs/" + cfg + " --data " +
-                        test::dataPath(data) + " --no-progress --out " + out.str());
+    const Result r = sh(test::cli() + " mesh " + test::sourceDir() + "/configs/" + cfg +
+                        " --data " + test::dataPath(data) + " --no-progress --out " + out.str());
     ASSERT_EQ(r.status, 0) << cfg << "\n" << r.out;
     expectMeshExport(out.str());
   }
