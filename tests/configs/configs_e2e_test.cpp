@@ -240,11 +240,34 @@ TEST(SweepsE2E, EveryShippedSweepValidates) {
 // non-ground) scores obstacle P/R 0.979/0.921 on seq 00 frame 0, 0.972/0.973 on Open3D-ML 000750
 // and 0.879/0.931 on the RELLIS-3D frame. These guard the figures of docs/benchmarks.md.
 namespace {
+/// A shipped sweep changed as `edit` says, written with absolute data and label-map paths (its
+/// own are relative to configs/sweeps) to `dir`; returns the new file.
+std::string editedSweep(const std::string& name, const test::TempDir& dir,
+                        const std::vector<std::pair<std::string, std::string>>& edit) {
+  std::string text = terramrf::readFile(test::sourceDir() + "/configs/sweeps/" + name);
+  auto replaceAll = [&](const std::string& from, const std::string& to) {
+    for (std::size_t at = 0; (at = text.find(from, at)) != std::string::npos; at += to.size())
+      text.replace(at, from.size(), to);
+  };
+  replaceAll("../../../shared/data", test::dataDir());
+  replaceAll("../label_maps", test::sourceDir() + "/configs/label_maps");
+  for (const auto& [from, to] : edit) {
+    EXPECT_NE(text.find(from), std::string::npos) << name << ": " << from;
+    replaceAll(from, to);
+  }
+  const std::string path = dir.str() + "/" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
 /// Runs a shipped sweep on its real data folder (the test fails loudly when it is missing) and
-/// checks α-expansion's energies; returns the output folder's path.
+/// checks α-expansion's energies; returns the output folder's path. The sweep is read with its
+/// data paths pointing where the check looked (TERRAMRF_DATA_DIR), not at its own relative ones.
 std::string runSweep(const test::TempDir& out, const std::string& sweep, const std::string& data) {
   test::dataPath(data);
-  const Result r = compare(sweep, out.str());
+  const test::TempDir config;
+  const Result r = sh(test::cli() + " compare " + editedSweep(sweep, config, {}) +
+                      " --no-progress --out " + out.str());
   EXPECT_EQ(r.status, 0) << r.out;
   expectAlphaExpansionLowest(out.str());
   return out.str();
@@ -322,26 +345,6 @@ TEST(SweepsE2E, IntensitySweepOnSeq00) {
       EXPECT_TRUE(g["intensity_std"]["mean"].IsDefined()) << cls;
     }
   }
-}
-
-/// A shipped sweep changed as `edit` says, written with absolute data and label-map paths (its
-/// own are relative to configs/sweeps) to `dir`; returns the new file.
-std::string editedSweep(const std::string& name, const test::TempDir& dir,
-                        const std::vector<std::pair<std::string, std::string>>& edit) {
-  std::string text = terramrf::readFile(test::sourceDir() + "/configs/sweeps/" + name);
-  auto replaceAll = [&](const std::string& from, const std::string& to) {
-    for (std::size_t at = 0; (at = text.find(from, at)) != std::string::npos; at += to.size())
-      text.replace(at, from.size(), to);
-  };
-  replaceAll("../../../shared/data", test::dataDir());
-  replaceAll("../label_maps", test::sourceDir() + "/configs/label_maps");
-  for (const auto& [from, to] : edit) {
-    EXPECT_NE(text.find(from), std::string::npos) << name << ": " << from;
-    replaceAll(from, to);
-  }
-  const std::string path = dir.str() + "/" + name;
-  std::ofstream(path) << text;
-  return path;
 }
 
 // Off the shipped settings, with one Gaussian per class, annealed Gibbs ended below α-expansion
