@@ -2207,5 +2207,40 @@ stages:
             1);
 }
 
+// ---- stage lifecycle -------------------------------------------------------------------------
+
+// compare runs its stages through the same runner: a stage that cannot begin or end a test run
+// fails that run, named, in the report and the exit status; the models, whose runs it began
+// and ended, are trained. Test runs have one frame, training runs two (`fail_runs_of`).
+TEST(SweepRun, AStageFailingToBeginOrEndFailsItsRunByName) {
+  for (const std::string hook : {"begin", "end"}) {
+    test::TempDir dir;
+    std::string text = tinySweep("  icm: {type: icm}");
+    text = test::edited(text, "  - {name: pre, type: eigen_preclass}\n",
+                        "  - {name: pre, type: eigen_preclass}\n  - {name: map, type: "
+                        "test_run_map, params: {fail_in: " +
+                            hook + ", fail_runs_of: 1}}\n");
+    CompareOptions o;
+    o.sweep_path = put(dir, "lifecycle.yaml", text);
+    o.output_dir = dir.str() + "/out";
+    o.progress = false;
+    o.plugin_dirs = {test::pluginDir(), std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/run_map"};
+    std::ostringstream log;
+    o.log = &log;
+    const SweepResult r = runSweep(o);
+    for (const auto& m : r.models) EXPECT_TRUE(m.trained) << hook << ": " << m.reason;
+    ASSERT_EQ(r.runs.size(), 2u) << hook;
+    for (const auto& run : r.runs) {
+      EXPECT_EQ(run.status, RunRecord::Status::kFailed) << hook;
+      EXPECT_NE(run.reason.find(hook == "begin"
+                                    ? "stage 'map' (test_run_map): cannot open the map store"
+                                    : "stage 'map' (test_run_map): disk full while saving the map"),
+                std::string::npos)
+          << hook << ": " << run.reason;
+    }
+    EXPECT_EQ(r.exitCode(), 3) << hook;
+  }
+}
+
 }  // namespace
 }  // namespace terramrf
