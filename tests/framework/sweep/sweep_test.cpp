@@ -2242,5 +2242,45 @@ TEST(SweepRun, AStageFailingToBeginOrEndFailsItsRunByName) {
   }
 }
 
+// train likewise: a stage that fails at the end of a training run fails the training, named,
+// and writes no model (before, train never looked at a run's errors at the end).
+TEST(Train, AStageFailingAtTheEndWritesNoModel) {
+  test::TempDir dir;
+  const std::string config = put(dir, "train.yaml",
+                                 std::string(R"(version: 1
+grid: {size_m: 30, cell_m: 0.5}
+source: {type: simulator, params: {seed: 7, frames: 2, )") +
+                                     kSim + R"(}}
+stages:
+  - {name: pre, type: eigen_preclass}
+  - {name: map, type: test_run_map, params: {fail_in: end}}
+  - {name: hdiff, type: height_difference}
+  - {name: mrf, type: potts_gaussian, params: {model: m.yaml, features: [height_diff]}}
+  - {name: solve, type: icm}
+)");
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/models/sim.yaml";
+  fs::create_directories(dir.str() + "/models");
+  std::ofstream(o.model_out) << "a good model\n";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir(), std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/run_map"};
+  std::ostringstream log;
+  o.log = &log;
+  try {
+    trainModel(o);
+    ADD_FAILURE() << "expected the training to fail";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("stage 'map' (test_run_map): disk full while saving the map"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("no model written (" + o.model_out + " is left as it was)"),
+              std::string::npos)
+        << what;
+  }
+  EXPECT_EQ(readFile(o.model_out), "a good model\n");
+}
+
 }  // namespace
 }  // namespace terramrf
