@@ -18,6 +18,7 @@
 #include "frame_reader.hpp"
 #include "terramrf/atomic_file.hpp"
 #include "terramrf/params.hpp"
+#include "terramrf/run_state.hpp"
 #include "terramrf/stop_request.hpp"
 #include "terramrf/text_format.hpp"
 
@@ -170,6 +171,9 @@ void noteCloudOutsideGrid(const Frame& f, const TerrainGrid& g, RunResult& res, 
          "semantickitti, or store the points relative to the sensor\n";
 }
 
+/// "stage '<name>' (<type>): ", as the config's errors name a stage.
+std::string stageText(const Stage& s) { return "stage '" + s.name() + "' (" + s.type() + "): "; }
+
 /// What the exception being handled says; called inside a catch. Plugins may throw anything (a
 /// type of their own, an int): the run goes on all the same.
 std::string currentExceptionText() {
@@ -229,7 +233,20 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   info.labels = p.labels.get();
   info.grid = p.grid;
   info.cameras = p.source->cameraNames();
+  // Each run its own, even of one Pipeline run twice: a map left from another run would be
+  // taken for this one's.
+  RunState run_state;
+  info.run = &run_state;
   requireDistinctFrameIds(*p.source, first, n);
+  // Stages first: one that cannot begin (a map store that does not open) then fails the run
+  // before any output has begun, so no output is left begun and never ended.
+  for (auto& s : p.stages) {
+    try {
+      s->begin(info);
+    } catch (...) {
+      throw std::runtime_error(stageText(*s) + currentExceptionText());
+    }
+  }
   for (auto& o : p.outputs) o->begin(info);
   removeSummaries();
   // A failed frame's files from the outputs that did not write it this run are an earlier run's
@@ -314,9 +331,11 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
     ctx.labels = p.labels.get();
     ctx.index = i;
     ctx.previous = have_prev ? &ctxs[1 - cur] : nullptr;
+    ctx.run = &run_state;
     std::size_t slot = 0;
     const auto t_frame = Clock::now();
     std::string stage_name = "read";
+    std::size_t stages_done = 0;   // stages that processed this frame, in p.stages' order
     std::size_t outputs_done = 0;  // outputs that wrote this frame
     bool read_ok = false;          // frames[cur] holds this frame (its cameras name files)
     bool taken = false;            // the reader handed this frame over
@@ -344,6 +363,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
         stage_name = p.stages[s]->name();
         t = Clock::now();
         p.stages[s]->process(ctx);
+        ++stages_done;
         slot_ms[slot++] = msSince(t);
       }
       stage_name = "grid";
@@ -356,6 +376,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
         stage_name = p.stages[s]->name();
         t = Clock::now();
         p.stages[s]->process(ctx);
+        ++stages_done;
         slot_ms[slot++] = msSince(t);
       }
       for (auto& o : p.outputs) {
@@ -384,6 +405,15 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       res.summary.failed.push_back({id, why});
       if (opt.progress) std::fprintf(stderr, "%s", ::isatty(2) ? "\n" : "");
       log << "frame " << id << " failed and was skipped: " << why << "\n";
+      // A stateful stage (a map, a filter) takes back what it added for the frame.
+      for (std::size_t s = 0; s < stages_done; ++s) {
+        try {
+          p.stages[s]->frameFailed(ctx);
+        } catch (...) {
+          log << "warning: frame " << id << ": " << stageText(*p.stages[s])
+              << "could not take the failed frame back: " << currentExceptionText() << "\n";
+        }
+      }
       if (id_known) removeStaleFrameFiles(id, read_ok ? &frames[cur] : nullptr, outputs_done);
     }
     progress.update(k + 1, id, msSince(t_frame), res.summary.failed.size());
@@ -396,6 +426,17 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
     log << "run " << interruptionText(res.summary) << "; ending the outputs\n";
   }
 
+  // The stages end before the outputs, so an output's end() exports what a stage finished.
+  res.summary.run = &run_state;
+  for (auto& s : p.stages) {
+    try {
+      s->end(res.summary);
+    } catch (...) {
+      const std::string why = currentExceptionText();
+      res.output_errors.push_back(stageText(*s) + why);
+      log << stageText(*s) << "failed at the end: " << why << "\n";
+    }
+  }
   for (auto& o : p.outputs) {
     try {
       o->end(res.summary);
@@ -405,6 +446,8 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       log << "output '" << o->name() << "' failed at the end: " << why << "\n";
     }
   }
+  // Would dangle once the run returns.
+  res.summary.run = nullptr;
   return res;
 }
 

@@ -243,6 +243,15 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
                                " is left as it was): one learnt from part of the data would "
                                "pass for one learnt from all of it");
     }
+    if (!rr.output_errors.empty()) {
+      // A stage failed at the end of the item's run (its only outputs are ours, which cannot):
+      // that fails `terramrf run` (status 4) and must not pass unseen here.
+      std::string errors;
+      for (const auto& e : rr.output_errors) errors += (errors.empty() ? "" : "; ") + e;
+      progress.breakLine();
+      throw std::runtime_error("training item '" + it->label + "': " + errors +
+                               "; no model written (" + job.model_path + " is left as it was)");
+    }
     rec.failed_frames = rr.summary.failed.size();
     for (const auto& f : rr.summary.failed) r.failed.push_back(f);
     r.frames += rec.frame_ids.size();

@@ -43,6 +43,8 @@ struct RunResult {
   std::vector<StageTiming> timings;
   std::size_t read_ahead = 0;    ///< frames read ahead (0: read when needed)
   std::size_t read_threads = 0;  ///< reader threads (0: read on the calling thread)
+  /// Failures at the end of the run: each output's end() (`output '<name>': <what>`) and each
+  /// stage's end() (`stage '<name>' (<type>): <what>`), in the order they ended.
   std::vector<std::string> output_errors;
   /// Points the source dropped while reading, over the frames read (Frame::dropped_*_points).
   std::size_t points_dropped_nonfinite = 0;
@@ -56,16 +58,19 @@ struct RunResult {
   /// What the stages measured (FrameContext::metrics, e.g. "rough.sorted_rings"), per frame that
   /// completed, in run order; frames whose stages measured nothing are left out.
   std::vector<std::pair<std::string, std::map<std::string, double>>> metrics;
-  /// 0 all frames ok; 3 some frames failed; 4 every frame failed or an output failed at the end;
+  /// 0 all frames ok; 3 some frames failed; 4 every frame failed or a stage or an output failed
+  /// at the end (output_errors);
   /// 128 + the signal (130 SIGINT, 143 SIGTERM, as a shell reports a process the signal ended)
   /// when the run was interrupted (summary.stop_signal), whatever else happened.
   int exitCode() const;
 };
 
 /// Runs every frame, or stops taking frames once a stop is requested (stop_request.hpp: SIGINT,
-/// SIGTERM), after the frame in hand; every output's end() runs either way. Before the first
-/// frame it removes temporaries that killed writers left in the output folder
-/// (removeStaleTemps).
+/// SIGTERM), after the frame in hand; every stage's and output's end() runs either way. Each
+/// call makes a new RunState (run_state.hpp) for the stages and outputs, empty at their begin()
+/// and gone when it returns. Throws, before any frame, if a stage's or an output's begin() does
+/// (a stage's as `stage '<name>' (<type>): <what>`). Before the first frame it removes
+/// temporaries that killed writers left in the output folder (removeStaleTemps).
 RunResult runPipeline(Pipeline& pipeline, const RunOptions& options = {});
 
 /// Per-stage timing table (mean, std, min, max, median per scan [ms]), Markdown.

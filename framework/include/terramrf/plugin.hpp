@@ -13,6 +13,7 @@
 #include "terramrf/frame.hpp"
 #include "terramrf/label_set.hpp"
 #include "terramrf/params.hpp"
+#include "terramrf/run_state.hpp"
 #include "terramrf/terrain_grid.hpp"
 #include "terramrf/version.hpp"
 
@@ -107,19 +108,17 @@ struct FrameContext {
   std::size_t index = 0;  ///< position in the batch
   /// Result of the previous successfully processed frame (temporal fusion), or nullptr: its
   /// frame (pose included), grid (layers, labels, `score.<class>`), energy and report. One frame
-  /// back only (its own `previous` is nullptr); a stage that needs more keeps its own state.
+  /// back only (its own `previous` is nullptr); a stage that needs more keeps its own state, or
+  /// puts it in `run`.
   const FrameContext* previous = nullptr;
   /// Scalars a stage wants reported (e.g. "preclass.obstacle_cells").
   std::map<std::string, double> metrics;
+  /// The run's persistent state (maps built over the frames), the same for every frame of a
+  /// run. Set by the runner for every frame; nullptr only where stages are driven by hand.
+  RunState* run = nullptr;
 };
 
-/// Feature, energy, optimiser and egomotion plugins: one work function per frame.
-class Stage : public Plugin {
- public:
-  virtual void process(FrameContext& ctx) = 0;
-};
-
-/// Information an output gets once per run.
+/// Information a stage and an output get once per run.
 struct RunInfo {
   std::string config_path;
   std::string output_dir;
@@ -128,6 +127,10 @@ struct RunInfo {
   GridGeometry grid;
   /// The source's camera names (Source::cameraNames()); may be empty.
   std::vector<std::string> cameras;
+  /// The run's persistent state, empty at begin(): stages make their maps in it (outputs only
+  /// read). nullptr where an output is driven outside runPipeline (`train`'s feature_stats,
+  /// which spans the runs of several items).
+  RunState* run = nullptr;
 };
 
 struct RunSummary {
@@ -139,6 +142,37 @@ struct RunSummary {
   /// took no frame after its frames_ok + failed.size(). end() still runs: a summary it writes
   /// covers those frames only and should say so (interruptionText()).
   int stop_signal = 0;
+  /// The run's persistent state as the stages' end() left it, so that an output can export a map
+  /// built over every frame, the last included. nullptr where an output is driven outside
+  /// runPipeline (see RunInfo::run).
+  const RunState* run = nullptr;
+};
+
+/// Feature, energy, optimiser and egomotion plugins: one work function per frame, and hooks
+/// around the run for those that keep state over it (a map, a filter). The runner calls, in
+/// order: every stage's begin() (config order), every output's begin(), then per frame
+/// process() of each stage and write() of each output, then every stage's end() (config order)
+/// and every output's end(), so that an output can export at its end what a stage finished.
+class Stage : public Plugin {
+ public:
+  /// Once per run, before the first frame (RunInfo::run: the run's state, where a stage may make
+  /// its maps). A throw fails the run before any frame, as `stage '<name>' (<type>): <what>`,
+  /// and then no stage or output ends.
+  virtual void begin(const RunInfo& /*info*/) {}
+  virtual void process(FrameContext& ctx) = 0;
+  /// Called when a frame this stage processed fails in a later stage or output (not when this
+  /// stage's own process() threw, nor for stages after the failing one): the frame is skipped,
+  /// so what process() added for it (a map update, a filter's prediction) should be taken back.
+  /// `ctx` is that frame's context. The next frame's `previous` stays the last frame that
+  /// succeeded, so a frame missing in between shows as ctx.index − previous->index > 1 (frames
+  /// that fail before any stage, in the read, are never processed and show only that way). A
+  /// throw from here is logged and the run goes on.
+  virtual void frameFailed(const FrameContext& /*ctx*/) {}
+  /// Once per run, after the last frame, also when the run was interrupted (summary.stop_signal)
+  /// and before any output's end(). Files written here must be atomic. A throw is reported as
+  /// the outputs' are (RunResult::output_errors, exit status 4); the other stages and the
+  /// outputs still end.
+  virtual void end(const RunSummary& /*summary*/) {}
 };
 
 class Output : public Plugin {
@@ -211,7 +245,7 @@ constexpr bool derivesFromKindBase(PluginKind k) {
 #define TERRAMRF_PLUGIN_LAYOUT_TYPES(X)                                                            \
   X(PointCloud)                                                                                    \
   X(CameraModel) X(CameraImage) X(Frame) X(GridGeometry) X(TerrainGrid) X(LabelSet) X(EnergyModel) \
-      X(OptimiserReport) X(FrameContext) X(PluginContext) X(RunInfo) X(RunSummary)
+      X(OptimiserReport) X(FrameContext) X(PluginContext) X(RunInfo) X(RunSummary) X(RunState)
 #define TERRAMRF_PLUGIN_LAYOUT_ENTRY(T) \
   ::terramrf::TypeLayout{#T, sizeof(::terramrf::T), alignof(::terramrf::T)},
 

@@ -2207,5 +2207,80 @@ stages:
             1);
 }
 
+// ---- stage lifecycle -------------------------------------------------------------------------
+
+// compare runs its stages through the same runner: a stage that cannot begin or end a test run
+// fails that run, named, in the report and the exit status; the models, whose runs it began
+// and ended, are trained. Test runs have one frame, training runs two (`fail_runs_of`).
+TEST(SweepRun, AStageFailingToBeginOrEndFailsItsRunByName) {
+  for (const std::string hook : {"begin", "end"}) {
+    test::TempDir dir;
+    std::string text = tinySweep("  icm: {type: icm}");
+    text = test::edited(text, "  - {name: pre, type: eigen_preclass}\n",
+                        "  - {name: pre, type: eigen_preclass}\n  - {name: map, type: "
+                        "test_run_map, params: {fail_in: " +
+                            hook + ", fail_runs_of: 1}}\n");
+    CompareOptions o;
+    o.sweep_path = put(dir, "lifecycle.yaml", text);
+    o.output_dir = dir.str() + "/out";
+    o.progress = false;
+    o.plugin_dirs = {test::pluginDir(), std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/run_map"};
+    std::ostringstream log;
+    o.log = &log;
+    const SweepResult r = runSweep(o);
+    for (const auto& m : r.models) EXPECT_TRUE(m.trained) << hook << ": " << m.reason;
+    ASSERT_EQ(r.runs.size(), 2u) << hook;
+    for (const auto& run : r.runs) {
+      EXPECT_EQ(run.status, RunRecord::Status::kFailed) << hook;
+      EXPECT_NE(run.reason.find(hook == "begin"
+                                    ? "stage 'map' (test_run_map): cannot open the map store"
+                                    : "stage 'map' (test_run_map): disk full while saving the map"),
+                std::string::npos)
+          << hook << ": " << run.reason;
+    }
+    EXPECT_EQ(r.exitCode(), 3) << hook;
+  }
+}
+
+// train likewise: a stage that fails at the end of a training run fails the training, named,
+// and writes no model (before, train never looked at a run's errors at the end).
+TEST(Train, AStageFailingAtTheEndWritesNoModel) {
+  test::TempDir dir;
+  const std::string config = put(dir, "train.yaml",
+                                 std::string(R"(version: 1
+grid: {size_m: 30, cell_m: 0.5}
+source: {type: simulator, params: {seed: 7, frames: 2, )") +
+                                     kSim + R"(}}
+stages:
+  - {name: pre, type: eigen_preclass}
+  - {name: map, type: test_run_map, params: {fail_in: end}}
+  - {name: hdiff, type: height_difference}
+  - {name: mrf, type: potts_gaussian, params: {model: m.yaml, features: [height_diff]}}
+  - {name: solve, type: icm}
+)");
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/models/sim.yaml";
+  fs::create_directories(dir.str() + "/models");
+  std::ofstream(o.model_out) << "a good model\n";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir(), std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/run_map"};
+  std::ostringstream log;
+  o.log = &log;
+  try {
+    trainModel(o);
+    ADD_FAILURE() << "expected the training to fail";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("stage 'map' (test_run_map): disk full while saving the map"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("no model written (" + o.model_out + " is left as it was)"),
+              std::string::npos)
+        << what;
+  }
+  EXPECT_EQ(readFile(o.model_out), "a good model\n");
+}
+
 }  // namespace
 }  // namespace terramrf
