@@ -62,8 +62,12 @@ class Fuzzer:
             shutil.copytree(CONFIGS, self.configs)
             shared = os.path.join(self.work, 'shared')
             os.makedirs(shared, exist_ok=True)
-            if not os.path.lexists(os.path.join(shared, 'data')):
-                os.symlink(self.data, os.path.join(shared, 'data'))
+            link = os.path.join(shared, 'data')
+            # A work folder reused with another --data: the old link would be followed silently.
+            if os.path.lexists(link) and os.readlink(link) != self.data:
+                os.remove(link)
+            if not os.path.lexists(link):
+                os.symlink(self.data, link)
         return self.configs
 
     # ---- mutations ---------------------------------------------------------------------------
@@ -358,7 +362,10 @@ class Fuzzer:
             r.write('%s\ncommand: %s\nexit status: %s\n\n%s' % (why, ' '.join(cmd), rc, out[-8000:]))
         print('FLAG %s: %s' % (why, case), flush=True)
 
-    def config_case(self, mode, k):
+    def config_case(self, mode, k, control=False):
+        """One mutated seed file run as `mode`; with `control`, the seed as shipped, which must
+        succeed (exit 0): else every mutant could end in the same clean error (data or a plugin
+        missing) and pass without testing anything."""
         configs = self.config_tree()
         seeds = {
             'config-validate': glob.glob(configs + '/*.yaml') + glob.glob(configs + '/train/*.yaml'),
@@ -383,10 +390,14 @@ class Fuzzer:
                'compare': [self.bin, 'compare', path, '--limit', '1', '--no-progress', '--out',
                            out_dir]}[mode]
         try:
-            text = self.mutate_yaml(open(seed_file, encoding='utf-8').read())
+            original = open(seed_file, encoding='utf-8').read()
+            text = original.encode('utf-8') if control else self.mutate_yaml(original)
             open(path, 'wb').write(text)
             rc, out = self.run(cmd, os.path.dirname(path))
             why = self.judge(rc, out, [])
+            if control and not why and rc != 0:
+                why = 'control case (%s unmutated) failed with exit status %s' % (
+                    os.path.basename(seed_file), rc)
             if (not why and rc == 2 and not re.search(r'\.yaml:\d+', out) and 'usage' not in out
                     and 'the file holds nothing' not in out):
                 why = 'config error without a file:line position'
@@ -403,18 +414,23 @@ class Fuzzer:
                 os.remove(path)
         return rc
 
-    def data_case(self, mode, k):
+    def data_case(self, mode, k, control=False):
+        """One scenario with one or two of its files mutated; with `control`, none mutated,
+        which must succeed (exit 0)."""
         case = os.path.join(self.work, 'case')
         shutil.rmtree(case, ignore_errors=True)
         os.makedirs(case)
         targets = getattr(self, 'scen_' + mode.replace('-', '_'))(case)
-        victims = self.rng.sample(targets, min(len(targets), self.rng.choice([1, 1, 1, 2])))
+        victims = [] if control else self.rng.sample(
+            targets, min(len(targets), self.rng.choice([1, 1, 1, 2])))
         for v in victims:
             self.mutate_file(v)
         cmd = [self.bin, 'run', case + '/config.yaml', '--limit', '2', '--no-progress', '--out',
                case + '/out']
         rc, out = self.run(cmd, case)
         why = self.judge(rc, out, [os.path.basename(v) for v in victims])
+        if control and not why and rc != 0:
+            why = 'control case (%s unmutated) failed with exit status %s' % (mode, rc)
         # Only frame 000000's own files changed: frame 000001 must still be classified.
         if (not why and mode == 'kitti' and rc == 4 and
                 all('/000000.' in v for v in victims)):
@@ -441,6 +457,12 @@ def main():
         sys.exit('fuzz_inputs: %s is not built (scripts/setup.sh, or --bin)' % args.bin)
     f = Fuzzer(args)
     for mode in args.modes:
+        # The control case draws from its own copy of the generator: the mutated cases of a seed
+        # stay the ones earlier runs saw.
+        state = f.rng.getstate()
+        (f.config_case(mode, -1, control=True) if mode in modes[:5]
+         else f.data_case(mode, -1, control=True))
+        f.rng.setstate(state)
         status = collections.Counter()
         for k in range(args.n):
             rc = (f.config_case(mode, k) if mode in modes[:5] else f.data_case(mode, k))
