@@ -121,9 +121,10 @@ std::string signalName(int signo) {
 
 std::string interruptionText(const RunSummary& s) {
   if (s.stop_signal == 0) return "";
+  // A stream has no total (frames_total 0).
   return "interrupted (" + signalName(s.stop_signal) + ") after " +
-         std::to_string(s.frames_ok + s.failed.size()) + " of " + std::to_string(s.frames_total) +
-         " frame(s)";
+         std::to_string(s.frames_ok + s.failed.size()) +
+         (s.frames_total ? " of " + std::to_string(s.frames_total) : std::string()) + " frame(s)";
 }
 
 }  // namespace terramrf
