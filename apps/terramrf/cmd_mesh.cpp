@@ -65,8 +65,7 @@ int cmdMesh(const Args& args) {
               << (ec ? ec.message() : "a file of that name exists") << ")\n";
     return kError;
   }
-  std::cerr << "terramrf: " << p.source->size() << " frame(s) from " << p.source->type()
-            << ", mesh in " << mesh_dirs << "\n";
+  std::cerr << "terramrf: " << framesToRead(*p.source) << ", mesh in " << mesh_dirs << "\n";
   RunResult r;
   try {
     r = runPipeline(p, ro);
@@ -76,7 +75,7 @@ int cmdMesh(const Args& args) {
   }
   const bool exported = r.output_errors.empty();  // before the reports add theirs
   writeReportsOf(p.output_dir, r);
-  std::cout << r.summary.frames_ok << " of " << r.frames_total << " frame(s) ok\n";
+  std::cout << framesOk(r, *p.source) << "\n";
   for (const auto& [id, why] : r.summary.failed) std::cout << "  " << id << ": " << why << "\n";
   for (const auto& e : r.output_errors) std::cout << "error: " << e << "\n";
   printInterruption(r);

@@ -58,7 +58,10 @@ int cmdValidate(const Args& args) {
     // What `train` will check of its split: section.
     const std::vector<std::string> notes = checkTrainSplit(config);
     std::cout << config << ": ok (" << p.stages.size() << " stages, " << p.outputs.size()
-              << " outputs, " << p.source->size() << " frames)\n";
+              << " outputs, "
+              << (p.source->streaming() ? "a stream of frames"
+                                        : std::to_string(p.source->size()) + " frames")
+              << ")\n";
     for (const auto& n : notes) std::cout << "note: " << n << "\n";
     return kOk;
   } catch (const ConfigError& e) {
@@ -109,12 +112,25 @@ bool loadOrReport(const std::string& config, const LoadOptions& options, PluginR
 }
 
 bool firstFrameInRange(const Pipeline& p, const RunOptions& ro, const char* command) {
+  if (p.source->streaming()) return true;
   const std::size_t n = p.source->size();
   if (ro.first == 0 || ro.first < n) return true;
   std::cerr << "terramrf " << command << ": --first " << ro.first << ": the source ("
             << p.source->type() << ") has " << n << " frame(s)"
             << (n ? ", numbered 0 to " + std::to_string(n - 1) : std::string()) << "\n";
   return false;
+}
+
+std::string framesToRead(const Source& source) {
+  if (source.streaming())
+    return "frames from the stream of " + source.type() + " (until it ends; Ctrl-C stops it)";
+  return std::to_string(source.size()) + " frame(s) from " + source.type();
+}
+
+std::string framesOk(const RunResult& r, const Source& source) {
+  return std::to_string(r.summary.frames_ok) +
+         (source.streaming() ? std::string() : " of " + std::to_string(r.frames_total)) +
+         " frame(s) ok";
 }
 
 int cmdRun(const Args& args) {
@@ -126,13 +142,12 @@ int cmdRun(const Args& args) {
   Pipeline p;
   if (!loadOrReport(config, ra.load, reg, p)) return kUsage;
   if (!firstFrameInRange(p, ro, "run")) return kUsage;
-  std::cerr << "terramrf: " << p.source->size() << " frame(s) from " << p.source->type()
-            << ", outputs in " << p.output_dir << "\n";
+  std::cerr << "terramrf: " << framesToRead(*p.source) << ", outputs in " << p.output_dir << "\n";
   RunResult r = runPipeline(p, ro);
   const std::string table = timingTable(r);
   writeReportsOf(p.output_dir, r);
   std::cout << "\nPer-stage timing over " << r.summary.frames_ok << " scan(s):\n" << table;
-  std::cout << "\n" << r.summary.frames_ok << " of " << r.frames_total << " frame(s) ok";
+  std::cout << "\n" << framesOk(r, *p.source);
   if (!r.summary.failed.empty()) {
     std::cout << ", " << r.summary.failed.size() << " failed and skipped:\n";
     for (const auto& [id, why] : r.summary.failed) std::cout << "  " << id << ": " << why << "\n";

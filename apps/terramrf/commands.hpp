@@ -51,7 +51,15 @@ int parseRunArgs(const Args& args, const char* command, RunArgs& out);
 
 /// --first within the source's frames; otherwise prints what the source holds and returns false
 /// (a run past the end would run nothing, exit 0 and overwrite the summaries with empty ones).
+/// A stream's length is unknown: any --first is taken (its frames before are skipped).
 bool firstFrameInRange(const Pipeline& p, const RunOptions& ro, const char* command);
+
+/// What the run will read, for the line before it: "6 frame(s) from simulator", or for a stream
+/// "frames from the stream of lcm_scan (until it ends; Ctrl-C stops it)".
+std::string framesToRead(const Source& source);
+
+/// "5 of 6 frame(s) ok", or "5 frame(s) ok" for a stream (its total is unknown).
+std::string framesOk(const RunResult& r, const Source& source);
 
 /// writeRunReports, whose failure (a full disk) becomes one of the run's errors (exit 4, printed
 /// with the summary) instead of ending the command before it prints what did run.

@@ -30,8 +30,10 @@ const Command kCommands[] = {
     {"run", terramrf::cli::cmdRun, true,
      "run CONFIG [--data DIR] [--out DIR] [--first N] [--limit N] [--read-ahead N]\n"
      "             [--no-progress]\n"
-     "                         classify every frame of the config's source; --read-ahead: frames\n"
-     "                         read on other threads while one is classified (0: none)\n"},
+     "                         classify every frame of the config's source (a stream's until it\n"
+     "                         ends: --first skips its first N, --limit stops after N);\n"
+     "                         --read-ahead: frames read on other threads while one is\n"
+     "                         classified (0: none)\n"},
     {"validate", terramrf::cli::cmdValidate, false,
      "validate CONFIG|SWEEP [--data DIR]\n"
      "                         check a config or a sweep (all errors at once) without running "

@@ -51,7 +51,8 @@ double StageTiming::median() const {
 int RunResult::exitCode() const {
   if (summary.stop_signal != 0) return 128 + summary.stop_signal;
   if (!output_errors.empty()) return 4;
-  if (frames_total > 0 && summary.frames_ok == 0) return 4;
+  // Every frame failed (a stream's total is unknown: frames_total 0).
+  if (summary.frames_ok == 0 && !summary.failed.empty()) return 4;
   if (!summary.failed.empty()) return 3;
   return 0;
 }
@@ -69,9 +70,11 @@ double msSince(Clock::time_point t0) {
 
 class Progress {
  public:
-  Progress(std::size_t total, bool enabled)
-      : total_(total), enabled_(enabled), tty_(::isatty(2) != 0) {}
+  /// `stream`: the total is unknown (0); a count instead of a bar.
+  Progress(std::size_t total, bool stream, bool enabled)
+      : total_(total), stream_(stream), enabled_(enabled), tty_(::isatty(2) != 0) {}
   void update(std::size_t done, const std::string& id, double last_ms, std::size_t failed) {
+    if (enabled_ && stream_) return updateStream(done, id, last_ms, failed);
     if (!enabled_ || total_ == 0) return;
     const std::size_t step = std::max<std::size_t>(1, total_ / 20);
     if (!tty_ && done != total_ && done % step != 0) return;
@@ -87,8 +90,20 @@ class Progress {
   }
 
  private:
+  /// A stream may run for hours: into a log (no terminal) a line every 10 s, not every frame.
+  void updateStream(std::size_t done, const std::string& id, double last_ms, std::size_t failed) {
+    const auto now = Clock::now();
+    if (!tty_ && done > 1 && now - last_line_ < std::chrono::seconds(10)) return;
+    last_line_ = now;
+    std::fprintf(stderr, "%s%zu frame(s) %s %.1f ms/scan%s%s", tty_ ? "\r" : "", done, id.c_str(),
+                 last_ms, failed ? (" (" + std::to_string(failed) + " failed)").c_str() : "",
+                 tty_ ? "\033[K" : "\n");
+    std::fflush(stderr);
+  }
+
   std::size_t total_;
-  bool enabled_, tty_;
+  bool stream_, enabled_, tty_;
+  Clock::time_point last_line_{};
 };
 
 /// Adds the frame's dropped points to the run's counts. Non-finite points mean a damaged or
@@ -220,9 +235,12 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
                  " (give them again to run the same frames)\n";
   writeFileAtomic(p.output_dir + "/resolved_config.yaml", frames_run + p.resolved_yaml);
 
-  const std::size_t n_all = p.source->size();
-  const std::size_t first = std::min(opt.first, n_all);
-  const std::size_t n = opt.limit ? std::min(opt.limit, n_all - first) : n_all - first;
+  // A stream's length is unknown: n is 0, and the run takes frames until it ends (or --limit).
+  const bool stream = p.source->streaming();
+  const std::size_t n_all = stream ? 0 : p.source->size();
+  const std::size_t first = stream ? opt.first : std::min(opt.first, n_all);
+  const std::size_t n =
+      stream ? 0 : (opt.limit ? std::min(opt.limit, n_all - first) : n_all - first);
   res.frames_total = n;
   res.summary.frames_total = n;
 
@@ -237,7 +255,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   // taken for this one's.
   RunState run_state;
   info.run = &run_state;
-  requireDistinctFrameIds(*p.source, first, n);
+  if (!stream) requireDistinctFrameIds(*p.source, first, n);  // a stream's: as they come
   // Stages first: one that cannot begin (a map store that does not open) then fails the run
   // before any output has begun, so no output is left begun and never ended.
   for (auto& s : p.stages) {
@@ -293,29 +311,23 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   FrameContext ctxs[2];
   int cur = 0;
   bool have_prev = false;
-  Progress progress(n, opt.progress);
+  Progress progress(n, stream, opt.progress);
   std::vector<double> slot_ms(slot_names.size());
 
   std::size_t depth = opt.read_ahead;
   if (depth == RunOptions::kAutoReadAhead)
-    depth = p.source->concurrentReads()
+    depth = !stream && p.source->concurrentReads()
                 ? std::clamp<std::size_t>(std::thread::hardware_concurrency(), 1, 8)
                 : 1;
-  std::unique_ptr<FrameReader> reader;
-  if (depth > 0 && n > 1) {
-    // Frames are held `depth` deep, but more threads than cores would only take turns.
-    const std::size_t threads =
-        std::min<std::size_t>(depth, std::max(1u, std::thread::hardware_concurrency()));
-    try {
-      reader = std::make_unique<FrameReader>(*p.source, first, n, depth, threads);
-      res.read_ahead = depth;
-      res.read_threads = reader->threads();
-    } catch (const std::system_error& e) {
-      log << "note: no reader thread (" << e.what() << "); frames are read in place\n";
-    }
-  }
+  // Frames are held `depth` deep, but more threads than cores would only take turns.
+  const std::size_t threads =
+      std::min<std::size_t>(depth, std::max(1u, std::thread::hardware_concurrency()));
+  FrameFeed feed(*p.source, first, stream ? opt.limit : n, depth, threads);
+  res.read_ahead = feed.readAhead();
+  res.read_threads = feed.readThreads();
+  for (const auto& note : feed.notes()) log << "note: " << note << "\n";
 
-  for (std::size_t k = 0; k < n; ++k) {
+  for (std::size_t k = 0;; ++k) {
     // Checked between frames only: a frame half through its outputs would leave some of its
     // files written and others not.
     if (const int sig = stopRequested()) {
@@ -323,7 +335,14 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       break;
     }
     const std::size_t i = first + k;
-    std::string id;  // known once frameId() returns, which a source may make throw
+    const auto t_frame = Clock::now();
+    FrameFeed::Taken got = feed.take(k);  // a stream's may wait for its frame
+    if (got.end) {
+      // A stream that ended because a stop interrupted it: the run was stopped, not complete.
+      if (feed.interrupted()) res.summary.stop_signal = stopRequested();
+      break;
+    }
+    std::string id = got.id;  // "" if frameId() or next() threw
     FrameContext& ctx = ctxs[cur];
     ctx = FrameContext{};
     ctx.frame = &frames[cur];
@@ -333,26 +352,16 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
     ctx.previous = have_prev ? &ctxs[1 - cur] : nullptr;
     ctx.run = &run_state;
     std::size_t slot = 0;
-    const auto t_frame = Clock::now();
     std::string stage_name = "read";
     std::size_t stages_done = 0;   // stages that processed this frame, in p.stages' order
     std::size_t outputs_done = 0;  // outputs that wrote this frame
     bool read_ok = false;          // frames[cur] holds this frame (its cameras name files)
-    bool taken = false;            // the reader handed this frame over
     try {
-      id = p.source->frameId(i);
+      slot_ms[slot++] = got.read_ms;
+      slot_ms[slot++] = got.wait_ms;
+      if (got.error) std::rethrow_exception(got.error);
+      frames[cur] = std::move(got.frame);
       auto t = Clock::now();
-      if (reader) {
-        FrameReader::Result r = reader->take(k);
-        taken = true;
-        slot_ms[slot++] = r.read_ms;
-        if (r.error) std::rethrow_exception(r.error);
-        frames[cur] = std::move(r.frame);
-      } else {
-        frames[cur] = p.source->read(i);
-        slot_ms[slot++] = msSince(t);
-      }
-      slot_ms[slot++] = msSince(t);
       if (frames[cur].id.empty()) frames[cur].id = id;
       read_ok = true;
       noteDroppedPoints(frames[cur], res, log, opt.progress);
@@ -397,11 +406,9 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       cur = 1 - cur;
     } catch (...) {
       const std::string why = "[" + stage_name + "] " + currentExceptionText();
-      // The reader hands frames over in order and reads no further than its depth past the
-      // last one taken: a frame left with it would stall the run.
-      if (reader && !taken) reader->take(k);
-      const bool id_known = !id.empty();
-      if (!id_known) id = "#" + std::to_string(i);  // frameId() itself failed
+      // An id that names an earlier frame's files (a stream's): those are that frame's.
+      const bool id_known = !id.empty() && !got.id_clash;
+      if (id.empty()) id = "#" + std::to_string(i);  // frameId() or next() itself failed
       res.summary.failed.push_back({id, why});
       if (opt.progress) std::fprintf(stderr, "%s", ::isatty(2) ? "\n" : "");
       log << "frame " << id << " failed and was skipped: " << why << "\n";
@@ -418,9 +425,13 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
     }
     progress.update(k + 1, id, msSince(t_frame), res.summary.failed.size());
   }
-  // Reads in progress finish and no other starts: frames read ahead are dropped, and the reader
-  // threads are joined before the outputs end.
-  reader.reset();
+  // Reads in progress finish and no other starts: frames read ahead are dropped, a stream's
+  // next() under way is interrupted, and the reader threads are joined before the outputs end.
+  feed.close();
+  if (stream && first > 0 && res.summary.stop_signal == 0 &&
+      res.summary.frames_ok + res.summary.failed.size() == 0)
+    log << "note: the stream of source '" << p.source->type() << "' ended before frame " << first
+        << " (--first " << first << " skips the frames before it): no frame was run\n";
   if (res.summary.stop_signal != 0) {
     if (opt.progress && ::isatty(2)) std::fprintf(stderr, "\n");
     log << "run " << interruptionText(res.summary) << "; ending the outputs\n";

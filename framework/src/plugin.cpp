@@ -1,6 +1,7 @@
 #include "terramrf/plugin.hpp"
 
 #include <filesystem>
+#include <stdexcept>
 
 namespace terramrf {
 
@@ -14,6 +15,22 @@ const char* toString(PluginKind k) {
     case PluginKind::kOutput: return "output";
   }
   return "?";
+}
+
+std::optional<Frame> Source::next() {
+  throw std::logic_error("source '" + type() +
+                         "' is a batch (streaming() is false): its frames are read by index, "
+                         "never through next()");
+}
+
+std::string StreamSource::frameId(std::size_t) const {
+  throw std::logic_error("source '" + type() +
+                         "' is a stream: its frames have no index, and each carries its own id");
+}
+
+Frame StreamSource::read(std::size_t) {
+  throw std::logic_error("source '" + type() +
+                         "' is a stream: its frames come through next(), not by index");
 }
 
 std::string PluginContext::resolve(const std::string& path) const {

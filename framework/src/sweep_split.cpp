@@ -282,6 +282,19 @@ void prepareItem(Item& it, PluginRegistry& reg, const Frame0& f0, const std::str
     return;
   }
   it.src.reset(static_cast<Source*>(m.plugin.release()));
+  if (it.src->streaming()) {
+    // Training and sweeps read each frame many times and split the frames by index: a stream
+    // (frames as they arrive, how many unknown) gives neither. Said at the entry's type.
+    d.add(detail::valueMark(it.source, "type"),
+          (it.dataset.empty() ? "source '" + it.type + "'"
+                              : "dataset '" + it.dataset + "' (source " + it.type + ")") +
+              " is a stream (Source::streaming(): frames as they arrive, how many unknown); "
+              "train and compare need a batch they can read again and split by frame index: "
+              "give a source (or parameters) that indexes its frames, or run the stream with "
+              "'terramrf run'");
+    it.src.reset();
+    return;
+  }
   if (cache) it.src = std::make_unique<CachedSource>(std::move(it.src), cache);
   it.size = it.src->size();
   // A range past the end is an error, not a shorter range: the split would silently hold fewer

@@ -471,6 +471,111 @@ TEST(MainCli, SigintDuringMeshExportsTheMeshOfTheFramesDoneAndExits130) {
   EXPECT_EQ(temporariesUnder(out), std::vector<std::string>{});
 }
 
+namespace {
+/// labellingConfig on the test-only stream source (test_plugins/synthetic_stream.cpp) with
+/// `params` (a YAML flow map).
+std::string streamConfig(const test::TempDir& dir, const std::string& params,
+                         const std::string& outputs) {
+  const std::string config =
+      labellingConfig(dir, "{type: test_synthetic_stream, params: " + params + "}", outputs);
+  std::string text = fileText(config);
+  text.replace(0, std::string("version: 1\n").size(),
+               "version: 1\nplugin_path: [" + std::string(TERRAMRF_TEST_PLUGIN_DIR) +
+                   "/synthetic_stream]\n");
+  std::ofstream(config) << text;
+  return config;
+}
+}  // namespace
+
+// SIGINT to `terramrf run` while its stream source waits for a message that never comes (a live
+// LCM channel gone quiet). Before, the wait had no stop condition: the first SIGINT changed
+// nothing and the second killed the process, losing every summary. Now the source is
+// interrupted at once, the outputs end, the reports are written, all saying "after 3 frame(s)"
+// with no total, and the status is 130. The stream would wait 60 s were it not interrupted.
+TEST(MainCli, SigintWhileAStreamWaitsEndsTheRunWithEverySummaryAndExits130) {
+  test::TempDir dir;
+  const std::string waiting = dir.str() + "/waiting";
+  const std::string config = streamConfig(
+      dir, "{frames: 3, after: wait, wait_limit_s: 60, waiting_marker: " + waiting + "}",
+      "[{type: grid_csv}, {type: evaluation}]");
+  const std::string out = dir.str() + "/out";
+  const pid_t pid =
+      startShell("exec " + test::cli() + " run " + config + " --out " + out + " --no-progress > " +
+                 dir.str() + "/stdout 2> " + dir.str() + "/stderr");
+  ASSERT_GT(pid, 0);
+  const bool started = waitForFile(waiting, 120);  // the stream has given its 3 frames
+  const auto t_signal = std::chrono::steady_clock::now();
+  ::kill(pid, SIGINT);
+  const int status = waitOrKill(pid, 120);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_signal).count();
+  const std::string said = fileText(dir.str() + "/stdout"), err = fileText(dir.str() + "/stderr");
+  ASSERT_TRUE(started) << err;
+  ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status) << "\n" << err;
+  EXPECT_EQ(WEXITSTATUS(status), 130) << said << err;
+  EXPECT_LT(seconds, 30.0);  // not the stream's own 60 s
+  EXPECT_NE(err.find("terramrf: frames from the stream of test_synthetic_stream (until it ends; "
+                     "Ctrl-C stops it), outputs in " +
+                     out),
+            std::string::npos)
+      << err;
+  EXPECT_NE(said.find("\n3 frame(s) ok\n"), std::string::npos) << said;
+  EXPECT_NE(said.find("run interrupted (SIGINT) after 3 frame(s): the outputs' summaries and "
+                      "timing.md cover those frames only (exit status 130)"),
+            std::string::npos)
+      << said;
+  EXPECT_EQ(fileText(out + "/timing.md").rfind("Run interrupted (SIGINT) after 3 frame(s):", 0),
+            0u);
+  EXPECT_TRUE(fs::exists(out + "/metrics.csv"));
+  EXPECT_TRUE(fs::exists(out + "/grid_csv/s000002.csv"));
+  const std::string json = fileText(out + "/evaluation/summary.json");
+  EXPECT_NE(json.find("\"interrupted\": \"run interrupted (SIGINT) after 3 frame(s)\",\n  "
+                      "\"frames_planned\": null,"),
+            std::string::npos)
+      << json;
+  EXPECT_EQ(temporariesUnder(out), std::vector<std::string>{});
+}
+
+// A stream through `run` and `validate`: --limit stops after N frames, --first skips the first N
+// (no range check: the length is unknown), and the summary counts frames without a total.
+TEST(RunCli, AStreamRunsUntilItEndsOrItsLimitAndSaysNoTotal) {
+  test::TempDir dir;
+  const std::string config = streamConfig(dir, "{frames: 5}", "[{type: grid_csv}]");
+  const std::string out = dir.str() + "/out";
+  struct Case {
+    std::vector<std::string> extra;
+    std::string said;
+    std::size_t count;                ///< frames written
+    std::vector<std::string> frames;  ///< the first and last written
+  };
+  for (const Case& c :
+       {Case{{}, "5 frame(s) ok", 5, {"s000000", "s000004"}},
+        Case{{"--limit", "2"}, "2 frame(s) ok", 2, {"s000000", "s000001"}},
+        Case{{"--first", "3", "--limit", "9"}, "2 frame(s) ok", 2, {"s000003", "s000004"}},
+        Case{{"--first", "7"}, "0 frame(s) ok", 0, {}}}) {
+    fs::remove_all(out);
+    cli::Args args = {config, "--out", out, "--no-progress"};
+    args.insert(args.end(), c.extra.begin(), c.extra.end());
+    testing::internal::CaptureStdout();
+    testing::internal::CaptureStderr();
+    const int rc = cli::cmdRun(args);
+    const std::string said = testing::internal::GetCapturedStdout();
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_EQ(rc, cli::kOk) << said << err;
+    EXPECT_NE(said.find("\n" + c.said + "\n"), std::string::npos) << said;
+    EXPECT_FALSE(std::regex_search(said, std::regex("of [0-9]+ frame"))) << said;  // no total
+    std::size_t csv = 0;
+    if (fs::exists(out + "/grid_csv"))
+      for (const auto& e : fs::directory_iterator(out + "/grid_csv")) csv += e.is_regular_file();
+    EXPECT_EQ(csv, c.count) << said;
+    for (const auto& id : c.frames) EXPECT_TRUE(fs::exists(out + "/grid_csv/" + id + ".csv")) << id;
+  }
+  testing::internal::CaptureStdout();
+  EXPECT_EQ(cli::cmdValidate({config}), cli::kOk);
+  const std::string said = testing::internal::GetCapturedStdout();
+  EXPECT_NE(said.find(": ok (4 stages, 1 outputs, a stream of frames)"), std::string::npos) << said;
+}
+
 // `mesh` on a config that lists no textured_mesh output adds one with its defaults; an output
 // folder that cannot be made is an error before anything runs.
 TEST(MeshCli, AddsTheMeshOutputAndRefusesAFolderThatIsAFile) {

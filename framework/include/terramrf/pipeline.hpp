@@ -24,18 +24,20 @@ struct StageTiming {
 struct RunOptions {
   bool progress = true;          ///< progress bar on stderr
   std::ostream* log = nullptr;   ///< where failures and the summary go (default std::cerr)
-  std::size_t first = 0;         ///< first frame index
-  std::size_t limit = 0;         ///< 0 = all frames
+  /// First frame index; a stream's first `first` frames are read and dropped.
+  std::size_t first = 0;
+  std::size_t limit = 0;  ///< frames to run at most; 0 = all frames (a stream: until it ends)
   /// Frames read ahead of the one being processed, on reader threads: 0 reads each frame on the
   /// calling thread when it is needed; kAutoReadAhead is 1 for a source that reads one frame at
   /// a time and the number of hardware threads (≤ 8) for one that allows concurrent reads.
-  /// Results do not depend on it.
+  /// A stream is read ahead on one thread, whatever the depth. Results do not depend on it.
   std::size_t read_ahead = kAutoReadAhead;
   static constexpr std::size_t kAutoReadAhead = static_cast<std::size_t>(-1);
 };
 
 struct RunResult {
   RunSummary summary;
+  /// Frames the run was to take (RunSummary::frames_total); 0 when unknown (a stream).
   std::size_t frames_total = 0;
   /// read, read wait, egomotion…, grid, stages…, outputs…, total. "read" is the read's own
   /// duration, "read wait" the part of it the run waited for (less when reads ran ahead), and
@@ -58,19 +60,22 @@ struct RunResult {
   /// What the stages measured (FrameContext::metrics, e.g. "rough.sorted_rings"), per frame that
   /// completed, in run order; frames whose stages measured nothing are left out.
   std::vector<std::pair<std::string, std::map<std::string, double>>> metrics;
-  /// 0 all frames ok; 3 some frames failed; 4 every frame failed or a stage or an output failed
-  /// at the end (output_errors);
+  /// 0 all frames ok (or none: an empty batch or stream); 3 some frames failed; 4 every frame
+  /// failed or a stage or an output failed at the end (output_errors);
   /// 128 + the signal (130 SIGINT, 143 SIGTERM, as a shell reports a process the signal ended)
   /// when the run was interrupted (summary.stop_signal), whatever else happened.
   int exitCode() const;
 };
 
-/// Runs every frame, or stops taking frames once a stop is requested (stop_request.hpp: SIGINT,
-/// SIGTERM), after the frame in hand; every stage's and output's end() runs either way. Each
-/// call makes a new RunState (run_state.hpp) for the stages and outputs, empty at their begin()
-/// and gone when it returns. Throws, before any frame, if a stage's or an output's begin() does
-/// (a stage's as `stage '<name>' (<type>): <what>`). Before the first frame it removes
-/// temporaries that killed writers left in the output folder (removeStaleTemps).
+/// Runs every frame (a stream's until next() returns std::nullopt, or --limit), or stops taking
+/// frames once a stop is requested (stop_request.hpp: SIGINT, SIGTERM), after the frame in hand;
+/// a stream waiting for its next frame is interrupted at once (Source::interrupt()). Every
+/// stage's and output's end() runs either way. Each call makes a new RunState (run_state.hpp)
+/// for the stages and outputs, empty at their begin() and gone when it returns. Throws, before
+/// any frame, if a stage's or an output's begin() does (a stage's as
+/// `stage '<name>' (<type>): <what>`), or if two of a batch's frames would write the same files
+/// (a stream frame that would is failed). Before the first frame it removes temporaries that
+/// killed writers left in the output folder (removeStaleTemps).
 RunResult runPipeline(Pipeline& pipeline, const RunOptions& options = {});
 
 /// Per-stage timing table (mean, std, min, max, median per scan [ms]), Markdown.

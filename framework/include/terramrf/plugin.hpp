@@ -4,6 +4,7 @@
 // config against them, calls configure(), and then drives it per frame.
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -77,15 +78,31 @@ class Plugin {
   std::string name_, type_;
 };
 
-/// Yields frames. Random access by index so a batch can skip a bad frame and go on.
+/// Yields frames, as a batch or as a stream (streaming(), asked once the source is configured).
+///
+/// A batch (the default) is finite, indexed before the run and read by index: size(), frameId(i)
+/// without reading, read(i). The runner checks before the first frame that no two ids name the
+/// same files, reads ahead (several frames at once if concurrentReads()), skips a bad frame by
+/// its index and says "k of n". `compare` and `train` take batches only: they read each frame
+/// many times and split the frames by index.
+///
+/// A stream yields frames as they come (LCM channels live, a log replayed by another process):
+/// next() in order, each frame with its own Frame::id, until it returns std::nullopt; how many
+/// there will be is unknown (RunInfo::frames and RunSummary::frames_total are 0). The runner
+/// calls next() from one thread at a time (a reader thread of its own, or its own thread with
+/// --read-ahead 0), checks each id against the earlier frames' as the frame comes, and calls
+/// interrupt() from another thread when a stop is requested (SIGINT, SIGTERM: stop_request.hpp)
+/// so that a next() waiting for a message returns. size(), frameId(), read() and
+/// concurrentReads() are never called on a stream; StreamSource is the base of a stream-only
+/// source.
 class Source : public Plugin {
  public:
-  /// Number of frames.
+  /// Number of frames (a batch).
   virtual std::size_t size() const = 0;
-  /// Short id of frame i (file stem), known without reading it.
+  /// Short id of frame i (file stem), known without reading it (a batch).
   virtual std::string frameId(std::size_t i) const = 0;
-  /// Reads frame i. Throws InputError naming the file on bad data. The pipeline reads ahead on a
-  /// thread of its own, so read() must not touch state the stages or outputs share.
+  /// Reads frame i (a batch). Throws InputError naming the file on bad data. The pipeline reads
+  /// ahead on a thread of its own, so read() must not touch state the stages or outputs share.
   virtual Frame read(std::size_t i) = 0;
   /// True if read(i) and read(j) may run at the same time on different threads (read changes no
   /// state). The pipeline then reads several frames at once; otherwise one after another, in
@@ -96,6 +113,44 @@ class Source : public Plugin {
   /// images with them, so a frame that fails before it is read still has an earlier run's
   /// camera images removed (RunInfo::cameras).
   virtual std::vector<std::string> cameraNames() const { return {}; }
+
+  /// True if the frames come through next() rather than read(i). Asked after configure(), so
+  /// one plugin may be either, as its parameters say (a log indexed in advance, or followed live).
+  virtual bool streaming() const { return false; }
+  /// A stream's next frame, in arrival order, waiting for it if need be; std::nullopt once the
+  /// stream has ended (and on every call after), and promptly once interrupt() was called.
+  /// Frame::id must be set and distinct: a frame whose id names the same files as an earlier
+  /// frame's (safeFileName) fails, so that it cannot write over that frame's outputs. Throws
+  /// (InputError) for a frame that cannot be had, a damaged message: that frame fails, named
+  /// `#<position>`, and next() is called again, so a stream that cannot go on (its log ended
+  /// short, its connection lost for good) returns std::nullopt rather than throw on every call.
+  /// Like read(), it runs on a reader thread and must not touch state the stages or outputs
+  /// share. The default, for a batch, throws std::logic_error: the runner never calls it there.
+  virtual std::optional<Frame> next();
+  /// Ends the stream early: a next() waiting now or called later returns std::nullopt promptly
+  /// (within a fraction of a second). Called from another thread than next(), possibly while it
+  /// waits, possibly more than once or after the stream ended, so it must be thread-safe and
+  /// idempotent (an atomic flag and a condition variable or a self-pipe the wait also watches).
+  /// The runner calls it when a stop is requested and when it wants no further frame while a
+  /// next() is under way. Without it a stream that waits ignores Ctrl-C until a frame comes.
+  /// The default does nothing: enough for a batch and for a stream whose next() never waits.
+  virtual void interrupt() {}
+};
+
+/// Base of a source that is only ever a stream: next() and interrupt() to write, no index. The
+/// batch functions are final here; the runner never calls them on a stream (they throw
+/// std::logic_error should anything else).
+class StreamSource : public Source {
+ public:
+  bool streaming() const final { return true; }
+  std::optional<Frame> next() override = 0;
+  /// Required: a stream that waits for its frames must let a stop request end the wait.
+  void interrupt() override = 0;
+
+  std::size_t size() const final { return 0; }
+  std::string frameId(std::size_t i) const final;
+  Frame read(std::size_t i) final;
+  bool concurrentReads() const final { return false; }
 };
 
 /// Everything a stage sees for one frame. Stages read what earlier stages wrote.
@@ -105,7 +160,7 @@ struct FrameContext {
   const LabelSet* labels = nullptr;
   EnergyModel energy;
   OptimiserReport optimiser;
-  std::size_t index = 0;  ///< position in the batch
+  std::size_t index = 0;  ///< position in the batch, or in the stream (frames skipped included)
   /// Result of the previous successfully processed frame (temporal fusion), or nullptr: its
   /// frame (pose included), grid (layers, labels, `score.<class>`), energy and report. One frame
   /// back only (its own `previous` is nullptr); a stage that needs more keeps its own state, or
@@ -122,6 +177,7 @@ struct FrameContext {
 struct RunInfo {
   std::string config_path;
   std::string output_dir;
+  /// Frames the run is to take; 0 when unknown: a stream (Source::streaming()), or an empty batch.
   std::size_t frames = 0;
   const LabelSet* labels = nullptr;
   GridGeometry grid;
@@ -136,7 +192,8 @@ struct RunInfo {
 struct RunSummary {
   std::size_t frames_ok = 0;
   std::vector<std::pair<std::string, std::string>> failed;  ///< frame id, reason
-  /// Frames the run was to take (RunInfo::frames).
+  /// Frames the run was to take (RunInfo::frames); 0 when unknown (a stream): say "k frames",
+  /// not "k of 0".
   std::size_t frames_total = 0;
   /// Non-zero when the run was asked to stop (the signal: SIGINT, SIGTERM; stop_request.hpp) and
   /// took no frame after its frames_ok + failed.size(). end() still runs: a summary it writes

@@ -15,7 +15,8 @@ namespace terramrf {
 void installStopHandlers();
 
 /// What the handlers do: records `signo` (the first request wins; ≤ 0 is ignored). A running
-/// runPipeline finishes the frame in hand, takes no other and still ends every output.
+/// runPipeline finishes the frame in hand, takes no other and still ends every output; a stream
+/// source waiting for its next frame is interrupted (Source::interrupt()) at once.
 void requestStop(int signo) noexcept;
 
 /// The signal of the stop requested (SIGINT, SIGTERM, or what requestStop() was given); 0 if
@@ -28,7 +29,8 @@ void clearStopRequest() noexcept;
 /// "SIGINT", "SIGTERM", else "signal N".
 std::string signalName(int signo);
 
-/// "interrupted (SIGINT) after 41 of 600 frame(s)", or "" for a run that was not interrupted.
+/// "interrupted (SIGINT) after 41 of 600 frame(s)" ("after 41 frame(s)" for a stream, whose
+/// frames_total is 0), or "" for a run that was not interrupted.
 std::string interruptionText(const RunSummary& summary);
 
 }  // namespace terramrf

@@ -82,12 +82,13 @@ class EvaluationOutput : public Output {
     }
     std::string json = toJson(total, labels_, rules_id_);
     // An interrupted run's totals are those of its first frames only: said first in the table,
-    // and right after the schema in the JSON.
+    // and right after the schema in the JSON. A stream planned no number of frames: null.
     if (const std::string stopped = interruptionText(summary); !stopped.empty()) {
       table = "**Run " + stopped + "**: these totals cover those frames only.\n\n" + table;
-      json.insert(json.find('\n', json.find("\"schema\"")) + 1,
-                  "  \"interrupted\": " + jsonQuote("run " + stopped) +
-                      ",\n  \"frames_planned\": " + std::to_string(summary.frames_total) + ",\n");
+      json.insert(
+          json.find('\n', json.find("\"schema\"")) + 1,
+          "  \"interrupted\": " + jsonQuote("run " + stopped) + ",\n  \"frames_planned\": " +
+              (summary.frames_total ? std::to_string(summary.frames_total) : "null") + ",\n");
     }
     writeFileAtomic(path("summary.json"), json);
     writeFileAtomic(path("summary.md"), table);

@@ -11,7 +11,8 @@ namespace terramrf::test {
 /// A temp folder with a model file, and a registry that sees the real and the test plugins.
 struct ConfigFixture {
   TempDir dir;
-  PluginRegistry registry{{pluginDir(), std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_source"}};
+  PluginRegistry registry{{pluginDir(), std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_source",
+                           std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_stream"}};
 
   ConfigFixture() {
     std::ofstream(dir.str() + "/model.yaml") << R"(provenance: hand-written for tests

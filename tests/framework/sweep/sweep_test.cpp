@@ -546,6 +546,61 @@ TEST(SweepDiagnostics, ADatasetWithAnEmptyTypeIsNamedOnceAtItsPlace) {
   EXPECT_EQ(all.find("'type' is empty", first + want.size()), std::string::npos) << all;
 }
 
+// A stream (Source::streaming(): frames as they arrive, how many unknown) can be neither split by
+// frame index nor read again by every run: compare refuses it at its dataset's type, train at
+// its source's, before anything runs. Before, size() of a stream would have said 0 frames.
+TEST(SweepDiagnostics, AStreamingDatasetIsRefusedAtItsPlace) {
+  test::TempDir dir;
+  const std::string text = test::edited(
+      tinySweep("  icm: {type: icm}"), "sim_test:  {type: simulator",
+      "sim_test:  {type: test_synthetic_stream, params: {frames: 2}}\n  unused: {type: simulator");
+  const std::string sweep = put(dir, "stream.yaml", text);
+  const std::vector<std::string> dirs = {
+      test::pluginDir(), std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_stream"};
+  try {
+    planSweep(sweep, dirs);
+    ADD_FAILURE() << "a streaming dataset was taken";
+  } catch (const ConfigError& e) {
+    ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+    EXPECT_EQ(e.diagnostics()[0].str(),
+              sweep + ":" + test::positionOf(text, "test_synthetic_stream") +
+                  ": dataset 'sim_test' (source test_synthetic_stream) is a stream "
+                  "(Source::streaming(): frames as they arrive, how many unknown); train and "
+                  "compare need a batch they can read again and split by frame index: give a "
+                  "source (or parameters) that indexes its frames, or run the stream with "
+                  "'terramrf run'");
+  }
+
+  const std::string config_text =
+      "version: 1\n"
+      "source: {type: test_synthetic_stream, params: {frames: 2}}\n"
+      "stages:\n"
+      "  - {name: hdiff, type: height_difference}\n"
+      "outputs:\n"
+      "  - {type: feature_stats, params: {features: [height_diff]}}\n";
+  const std::string config = put(dir, "train.yaml", config_text);
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/m.yaml";
+  o.progress = false;
+  o.plugin_dirs = dirs;
+  std::ostringstream log;
+  o.log = &log;
+  try {
+    trainModel(o);
+    ADD_FAILURE() << "trained on a stream";
+  } catch (const ConfigError& e) {
+    ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+    EXPECT_EQ(e.diagnostics()[0].file, config);
+    EXPECT_NE(e.diagnostics()[0].str().find(config + ":" +
+                                            test::positionOf(config_text, "test_synthetic_stream") +
+                                            ": source 'test_synthetic_stream' is a stream"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(o.model_out));
+}
+
 TEST(SweepDiagnostics, UnknownStageParameterPointsIntoTheSweep) {
   test::TempDir dir;
   const std::string sweep = put(dir, "bad2.yaml",
