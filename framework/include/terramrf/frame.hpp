@@ -47,9 +47,10 @@ struct Frame {
   std::vector<OdometrySample> odometry;
   PointLabels truth;                 ///< optional
   /// The LiDAR pose in the world frame (T_world_lidar: maps LiDAR-frame points into the world)
-  /// that the pipeline uses: what the textured mesh, temporal fusion and the KITTI writer place
-  /// the scan with. The source fills it with the pose its data records (truth_pose when that is
-  /// ground truth); an egomotion stage replaces it with its estimate. Absent when unknown.
+  /// that the pipeline uses: what the textured mesh and temporal fusion place the scan with (the
+  /// KITTI writer too, for a frame without truth_pose). The source fills it with the pose its data
+  /// records (truth_pose when that is ground truth); an egomotion stage replaces it with its
+  /// estimate. Absent when unknown.
   std::optional<Eigen::Isometry3d> pose;
   /// Uncertainty of `pose`, when its producer knows it: 6×6 over (x, y, z, roll, pitch, yaw),
   /// the LiDAR origin's position and small rotations about the world's x, y and z axes, both in
