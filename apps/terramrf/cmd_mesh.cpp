@@ -78,6 +78,8 @@ int cmdMesh(const Args& args) {
   std::cout << framesOk(r, *p.source) << "\n";
   for (const auto& [id, why] : r.summary.failed) std::cout << "  " << id << ": " << why << "\n";
   for (const auto& e : r.output_errors) std::cout << "error: " << e << "\n";
+  if (const std::string ego = egomotionErrorText(r); !ego.empty())
+    std::cout << ego << " (per frame in metrics.csv)\n";
   printInterruption(r);
   if (exported) std::cout << "mesh: " << mesh_dirs << " (report.md)\n";
   return r.exitCode();

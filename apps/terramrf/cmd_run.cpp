@@ -166,6 +166,8 @@ int cmdRun(const Args& args) {
     std::cout << r.frames_outside_grid.size()
               << " frame(s) had under 1 % of their points inside the grid (nearly all cells "
                  "unknown; is the cloud in the sensor frame?)\n";
+  if (const std::string ego = egomotionErrorText(r); !ego.empty())
+    std::cout << ego << " (per frame in metrics.csv)\n";
   printInterruption(r);
   std::cout << "outputs: " << p.output_dir << "\n";
   return r.exitCode();

@@ -11,7 +11,9 @@
 #include <map>
 #include <memory>
 #include <numeric>
+#include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <system_error>
 #include <thread>
 
@@ -46,6 +48,29 @@ double StageTiming::median() const {
     m = 0.5 * (m + v[v.size() / 2 - 1]);
   }
   return m;
+}
+
+PoseError poseError(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth) {
+  PoseError e;
+  e.translation_m = (estimate.translation() - truth.translation()).norm();
+  // The angle of the rotation between the two, whatever its axis: 0 to 180°.
+  const Eigen::AngleAxisd d(truth.linear().transpose() * estimate.linear());
+  e.rotation_deg = d.angle() * 180.0 / M_PI;
+  return e;
+}
+
+void PoseErrorSummary::add(const PoseError& e) {
+  ++frames;
+  translation_sum_m += e.translation_m;
+  translation_max_m = std::max(translation_max_m, e.translation_m);
+  rotation_sum_deg += e.rotation_deg;
+  rotation_max_deg = std::max(rotation_max_deg, e.rotation_deg);
+}
+double PoseErrorSummary::translationMean_m() const {
+  return frames ? translation_sum_m / double(frames) : NAN;
+}
+double PoseErrorSummary::rotationMean_deg() const {
+  return frames ? rotation_sum_deg / double(frames) : NAN;
 }
 
 int RunResult::exitCode() const {
@@ -368,12 +393,27 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       // The grid is built after the egomotion stages; until then it would still hold the layers
       // of the frame two back (the slot's last use), which they could take for this frame's.
       if (first_non_ego > 0) grids[cur].reset(p.grid);
+      // The source's truth, which the egomotion stages' pose is scored against: one that changed
+      // it would be scored against itself.
+      const std::optional<Eigen::Isometry3d> truth_pose = frames[cur].truth_pose;
       for (std::size_t s = 0; s < first_non_ego; ++s) {
         stage_name = p.stages[s]->name();
         t = Clock::now();
         p.stages[s]->process(ctx);
         ++stages_done;
         slot_ms[slot++] = msSince(t);
+        const auto& after = frames[cur].truth_pose;
+        if (after.has_value() != truth_pose.has_value() ||
+            (after && after->matrix() != truth_pose->matrix()))
+          throw std::logic_error(
+              "egomotion stage changed Frame::truth_pose, the source's ground truth; an "
+              "estimate belongs in Frame::pose");
+      }
+      std::optional<PoseError> ego_error;
+      if (first_non_ego > 0 && truth_pose && frames[cur].pose) {
+        ego_error = poseError(*frames[cur].pose, *truth_pose);
+        ctx.metrics["egomotion.translation_error_m"] = ego_error->translation_m;
+        ctx.metrics["egomotion.rotation_error_deg"] = ego_error->rotation_deg;
       }
       stage_name = "grid";
       t = Clock::now();
@@ -398,6 +438,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       slot_ms[slot++] = msSince(t_frame);
       for (std::size_t s = 0; s < slot; ++s) res.timings[s].ms.push_back(slot_ms[s]);
       ++res.summary.frames_ok;
+      if (ego_error) res.egomotion_error.add(*ego_error);
       if (!ctx.metrics.empty()) res.metrics.emplace_back(frames[cur].id, ctx.metrics);
       // Only one frame is kept back: its own `previous` is the slot the next frame reuses, so
       // left set it would point at the next frame itself.
@@ -485,6 +526,18 @@ std::string timingTable(const RunResult& r) {
   return o.str();
 }
 
+std::string egomotionErrorText(const RunResult& r) {
+  const PoseErrorSummary& e = r.egomotion_error;
+  if (e.frames == 0) return "";
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "egomotion against truth over %zu frame(s): translation mean %.3f m, max %.3f m; "
+                "rotation mean %.3f°, max %.3f°",
+                e.frames, e.translationMean_m(), e.translation_max_m, e.rotationMean_deg(),
+                e.rotation_max_deg);
+  return buf;
+}
+
 std::string metricsCsv(const RunResult& r) {
   std::ostringstream o;
   o.precision(9);
@@ -497,9 +550,10 @@ std::string metricsCsv(const RunResult& r) {
 
 void writeRunReports(const std::string& dir, const RunResult& r) {
   const std::string stopped = interruptionText(r.summary);
-  writeFileAtomic(
-      dir + "/" + kTimingFile,
-      (stopped.empty() ? "" : "Run " + stopped + ": timings of those only.\n\n") + timingTable(r));
+  writeFileAtomic(dir + "/" + kTimingFile,
+                  (stopped.empty() ? "" : "Run " + stopped + ": timings of those only.\n\n") +
+                      timingTable(r) +
+                      (r.egomotion_error.frames ? "\n" + egomotionErrorText(r) + ".\n" : ""));
   // Always written, if only its header: an earlier run's file would pass for this one's.
   writeFileAtomic(dir + "/" + kMetricsFile, metricsCsv(r));
 }

@@ -42,6 +42,61 @@ TEST(PoseCodec, RoundTripWithAndWithoutCovariance) {
   EXPECT_EQ(*d.covariance, cov);
 }
 
+// A frame's pose and its covariance go out as one pose_t and come back as they were; the
+// covariance's order (x, y, z, roll, pitch, yaw) is the same on both sides, so each entry keeps
+// its place. The truth pose is no part of it.
+TEST(PoseCodec, FramePoseAndCovarianceRoundTrip) {
+  Frame f;
+  f.id = "000042";
+  f.timestamp_s = 4.2;
+  f.pose = Eigen::Translation3d(5, -2, 0.3) * Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ());
+  f.truth_pose = Eigen::Isometry3d(Eigen::Translation3d(5, -2, 0.3));
+  Eigen::Matrix<double, 6, 6> cov;
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) cov(r, c) = r == c ? 0.01 * (r + 1) : 0.001 * (r + c);
+  f.pose_covariance = cov;
+
+  const std::optional<PoseMessage> m = framePoseMessage(f);
+  ASSERT_TRUE(m.has_value());
+  EXPECT_EQ(m->header.frame_id, "000042");
+  EXPECT_EQ(m->header.coordinate_frame, "world");
+  EXPECT_EQ(m->child_frame, "lidar");
+  const MessageBytes b = encodePose(*m);
+  terramrf_msgs::pose_t raw;
+  ASSERT_GT(raw.decode(b.data(), 0, static_cast<int>(b.size())), 0);
+  ASSERT_EQ(raw.num_covariance, 36);
+  EXPECT_EQ(raw.covariance[0 * 6 + 5], cov(0, 5));  // x–yaw, row-major
+  EXPECT_EQ(raw.covariance[5 * 6 + 5], cov(5, 5));  // yaw
+
+  Frame g;
+  g.truth_pose = Eigen::Isometry3d(Eigen::Translation3d(9, 9, 9));
+  setFramePose(g, decodePose(b.data(), b.size()));
+  ASSERT_TRUE(g.pose && g.pose_covariance);
+  EXPECT_TRUE(g.pose->isApprox(*f.pose, 1e-12));
+  EXPECT_EQ(*g.pose_covariance, cov);
+  EXPECT_EQ(g.truth_pose->translation(), Eigen::Vector3d(9, 9, 9));  // left alone
+
+  // Without a covariance none is sent, and one the frame held is cleared: it was another pose's.
+  f.pose_covariance.reset();
+  const MessageBytes bn = encodePose(*framePoseMessage(f));
+  ASSERT_GT(raw.decode(bn.data(), 0, static_cast<int>(bn.size())), 0);
+  EXPECT_EQ(raw.num_covariance, 0);
+  setFramePose(g, decodePose(bn.data(), bn.size()));
+  EXPECT_FALSE(g.pose_covariance.has_value());
+
+  // No pose, no message; and a pose of another child frame is not the scan's.
+  EXPECT_FALSE(framePoseMessage(Frame{}).has_value());
+  PoseMessage cam = *m;
+  cam.child_frame = "camera";
+  try {
+    setFramePose(g, cam, "POSE");
+    FAIL() << "a camera's pose was taken for the LiDAR's";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "POSE");
+    EXPECT_NE(std::string(e.what()).find("child_frame is 'camera'"), std::string::npos) << e.what();
+  }
+}
+
 TEST(PoseCodec, RejectsNonUnitQuaternion) {
   terramrf_msgs::pose_t m{};
   m.orientation[0] = 0.2;

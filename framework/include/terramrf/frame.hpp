@@ -46,7 +46,23 @@ struct Frame {
   std::vector<GpsSample> gps;        ///< since the previous frame
   std::vector<OdometrySample> odometry;
   PointLabels truth;                 ///< optional
-  std::optional<Eigen::Isometry3d> pose;  ///< LiDAR pose in the world frame, when known
+  /// The LiDAR pose in the world frame (T_world_lidar: maps LiDAR-frame points into the world)
+  /// that the pipeline uses: what the textured mesh and temporal fusion place the scan with (the
+  /// KITTI writer too, for a frame without truth_pose). The source fills it with the pose its data
+  /// records (truth_pose when that is ground truth); an egomotion stage replaces it with its
+  /// estimate. Absent when unknown.
+  std::optional<Eigen::Isometry3d> pose;
+  /// Uncertainty of `pose`, when its producer knows it: 6×6 over (x, y, z, roll, pitch, yaw),
+  /// the LiDAR origin's position and small rotations about the world's x, y and z axes, both in
+  /// the world frame (as ROS's PoseWithCovariance and LCM's pose_t) [m², rad², m·rad]. Whoever
+  /// writes `pose` sets or clears it: a covariance of another pose is worse than none.
+  std::optional<Eigen::Matrix<double, 6, 6>> pose_covariance;
+  /// The ground-truth LiDAR pose (T_world_lidar, the world frame of `pose`), when the source has
+  /// one: the simulator's trajectory, SemanticKITTI's poses.txt (the dataset's reference poses).
+  /// Written by sources only, never by an egomotion stage (the runner fails a frame whose
+  /// egomotion stages change it), so that the estimate in `pose` can be scored against it
+  /// (egomotion.*_error metrics). A pose a file merely records (a PCD VIEWPOINT) is `pose` only.
+  std::optional<Eigen::Isometry3d> truth_pose;
   /// Points dropped while reading, reported by the runner (runPipeline): those with NaN/inf in a
   /// coordinate or the intensity — a damaged or badly converted file, warned about per frame —
   /// and no-returns stored at the origin (normal for organised scans: ~52k of 131k in a RELLIS-3D

@@ -21,6 +21,23 @@ struct StageTiming {
   double median() const;
 };
 
+/// How far a pose estimate is from the truth.
+struct PoseError {
+  double translation_m = 0;  ///< distance between the two positions [m]
+  double rotation_deg = 0;   ///< angle of the rotation R_truthᵀ · R_estimate [deg]
+};
+PoseError poseError(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth);
+
+/// Mean and max of the PoseErrors of a run's frames.
+struct PoseErrorSummary {
+  std::size_t frames = 0;  ///< frames scored
+  double translation_sum_m = 0, translation_max_m = 0;
+  double rotation_sum_deg = 0, rotation_max_deg = 0;
+  void add(const PoseError& e);
+  double translationMean_m() const;  ///< NaN when no frame was scored
+  double rotationMean_deg() const;   ///< NaN when no frame was scored
+};
+
 struct RunOptions {
   bool progress = true;          ///< progress bar on stderr
   std::ostream* log = nullptr;   ///< where failures and the summary go (default std::cerr)
@@ -60,6 +77,11 @@ struct RunResult {
   /// What the stages measured (FrameContext::metrics, e.g. "rough.sorted_rings"), per frame that
   /// completed, in run order; frames whose stages measured nothing are left out.
   std::vector<std::pair<std::string, std::map<std::string, double>>> metrics;
+  /// The egomotion stages' poses against the source's truth, over the frames that completed
+  /// with both (Frame::pose after those stages, Frame::truth_pose); also each such frame's
+  /// metrics egomotion.translation_error_m and egomotion.rotation_error_deg. No frame is scored
+  /// in a pipeline without egomotion stages: there `pose` is the source's own.
+  PoseErrorSummary egomotion_error;
   /// 0 all frames ok (or none: an empty batch or stream); 3 some frames failed; 4 every frame
   /// failed or a stage or an output failed at the end (output_errors);
   /// 128 + the signal (130 SIGINT, 143 SIGTERM, as a shell reports a process the signal ended)
@@ -81,11 +103,16 @@ RunResult runPipeline(Pipeline& pipeline, const RunOptions& options = {});
 /// Per-stage timing table (mean, std, min, max, median per scan [ms]), Markdown.
 std::string timingTable(const RunResult& r);
 
+/// "egomotion against truth over N frame(s): translation mean … m, max … m; rotation mean …°,
+/// max …°", or "" when no frame was scored (RunResult::egomotion_error).
+std::string egomotionErrorText(const RunResult& r);
+
 /// The stage metrics as CSV: `frame,metric,value`, one row per frame and metric.
 std::string metricsCsv(const RunResult& r);
 
 /// Writes `timing.md` and `metrics.csv` (if only its header) into `dir` (atomically, like every
-/// output); the timing of an interrupted run says so in its first line.
+/// output); the timing of an interrupted run says so in its first line, and the egomotion's error
+/// against the truth (egomotionErrorText) follows the table when frames were scored.
 void writeRunReports(const std::string& dir, const RunResult& r);
 
 }  // namespace terramrf

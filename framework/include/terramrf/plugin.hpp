@@ -270,7 +270,7 @@ struct PluginDescriptor {
   Plugin* (*create)();
   /// How the plugin's compiler laid out the core types it is handed. Another -m flag (-mavx,
   /// -march=native) raises Eigen's static alignment and so the size of every type holding a
-  /// fixed-size Eigen member (Frame: 528 → 576 bytes), which the version string cannot show;
+  /// fixed-size Eigen member (Frame: 976 → 1056 bytes), which the version string cannot show;
   /// the loader compares these with its own and refuses a library that differs.
   int eigen_max_static_align_bytes;  ///< EIGEN_MAX_STATIC_ALIGN_BYTES [bytes]
   const TypeLayout* layouts;

@@ -65,4 +65,22 @@ PoseMessage decodePose(const void* data, std::size_t size, const std::string& so
   return p;
 }
 
+std::optional<PoseMessage> framePoseMessage(const Frame& frame) {
+  if (!frame.pose) return std::nullopt;
+  PoseMessage m;
+  m.header = {frame.id, "world", frame.timestamp_s};
+  m.child_frame = "lidar";
+  m.pose = *frame.pose;
+  m.covariance = frame.pose_covariance;
+  return m;
+}
+
+void setFramePose(Frame& frame, const PoseMessage& pose, const std::string& source) {
+  if (pose.child_frame != "lidar")
+    throw InputError(source, "pose_t: child_frame is '" + pose.child_frame +
+                                 "'; a scan's pose is the LiDAR's (child_frame \"lidar\")");
+  frame.pose = pose.pose;
+  frame.pose_covariance = pose.covariance;
+}
+
 }  // namespace terramrf

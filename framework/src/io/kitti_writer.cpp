@@ -76,11 +76,14 @@ void KittiSequenceWriter::write(const Frame& f) {
   if (!f.truth.raw.empty() && f.truth.raw.size() != n)
     throw std::runtime_error(name + ": " + std::to_string(f.truth.raw.size()) + " raw labels for " +
                              std::to_string(n) + " points");
+  // A dataset's poses.txt is its reference, read back as truth_pose: the truth where the frame
+  // has one, never an egomotion estimate in its place.
+  const std::optional<Eigen::Isometry3d>& pose = f.truth_pose ? f.truth_pose : f.pose;
   // Pose bookkeeping first so a bad frame leaves nothing behind.
-  if (f.pose ? frames_without_pose_ > 0 : !lidar_poses_.empty())
+  if (pose ? frames_without_pose_ > 0 : !lidar_poses_.empty())
     throw std::runtime_error(name +
-                             (f.pose ? " has a pose but earlier frames had none"
-                                     : " has no pose but earlier frames had one") +
+                             (pose ? " has a pose but earlier frames had none"
+                                   : " has no pose but earlier frames had one") +
                              "; poses.txt needs one pose per frame");
   if (f.cameras.size() > 2)
     throw std::runtime_error(name + " has " + std::to_string(f.cameras.size()) +
@@ -133,8 +136,8 @@ void KittiSequenceWriter::write(const Frame& f) {
   }
 
   times_.push_back(f.timestamp_s);
-  if (f.pose)
-    lidar_poses_.push_back(*f.pose);
+  if (pose)
+    lidar_poses_.push_back(*pose);
   else
     ++frames_without_pose_;
   for (const ImuSample& m : f.imu) {

@@ -472,7 +472,9 @@ class PointCloudFileSource : public Source {
     // The viewpoint is the sensor's pose in the file's frame: for a folder of scans stored in one
     // map frame, the frame's pose in that map. Set for every PCD of a source in which any file
     // has a viewpoint other than the identity (one at the map's origin included), never for one
-    // whose files all have the default: "no pose" then still says so.
+    // whose files all have the default: "no pose" then still says so. Not truth_pose: the file
+    // records whatever pose its writer had (a SLAM or GNSS/INS estimate as often as a surveyed
+    // one), and an egomotion estimate's distance from another estimate is the error of neither.
     if (!ply && poses_from_viewpoints_) f.pose = viewpoint.pose();
     if (f_label) {
       if (map_) {

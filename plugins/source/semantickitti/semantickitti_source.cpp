@@ -54,7 +54,8 @@ class SemanticKittiSource : public Source {
           "principal point must lie within 10 % of the width and height of the image's centre")
         .unit("px");
     d.add("use_poses", use_poses_,
-          "LiDAR pose from poses.txt (Tr^-1 P Tr with Tr from calib.txt) when the file exists");
+          "LiDAR pose and truth pose from poses.txt (Tr^-1 P Tr with Tr from calib.txt) when the "
+          "file exists");
     d.add("drop_no_return", drop_no_return_, "drop points exactly at (0, 0, 0) (counted)");
     d.add("recentre", recentre_,
           "none, or auto: estimate the sensor origin from the innermost ground ring and move the "
@@ -173,7 +174,10 @@ class SemanticKittiSource : public Source {
       if (frame_no < 0 || std::size_t(frame_no) >= poses_.size())
         throw InputError(layout_.poses_file, "has " + std::to_string(poses_.size()) +
                                                  " poses; frame " + f.id + " has none");
-      f.pose = kittiLidarPose(poses_[frame_no], calib(i).T_cam_velo);
+      // The dataset's reference poses (KITTI's GPS/IMU, SemanticKITTI's SLAM-refined ones): the
+      // truth an egomotion estimate is scored against, and `pose` until one replaces it.
+      f.truth_pose = kittiLidarPose(poses_[frame_no], calib(i).T_cam_velo);
+      f.pose = f.truth_pose;
     }
     for (std::size_t c = 0; use_images_ && c < cameras_.size(); ++c) {
       const std::string img = layout_.imagePath(i, cameras_[c]);
@@ -245,6 +249,7 @@ class SemanticKittiSource : public Source {
     undo.translation() = Eigen::Vector3d(-shift.x(), -shift.y(), 0);
     for (auto& cam : f.cameras) cam.model.T_camera_lidar = cam.model.T_camera_lidar * undo;
     if (f.pose) f.pose = *f.pose * undo;
+    if (f.truth_pose) f.truth_pose = *f.truth_pose * undo;
     std::fprintf(stderr,
                  "semantickitti: frame %s: sensor origin estimated at (%s, %s) m from the "
                  "innermost ground ring; cloud shifted by (%s, %s) m\n",

@@ -14,6 +14,7 @@
 #include <initializer_list>
 #include <optional>
 #include <sstream>
+#include <tuple>
 
 #include "config_fixture.hpp"
 #include "terramrf/atomic_file.hpp"
@@ -623,6 +624,145 @@ TEST(Pipeline, EgomotionStagesRunBeforeBinningAndSeeThePreviousFrame) {
               std::string::npos)
         << e.what();
   }
+}
+
+TEST(PoseError, IsTheDistanceAndTheAngleBetweenTheTwoPosesWhateverTheAxis) {
+  const Eigen::Isometry3d truth = Eigen::Translation3d(10, -4, 2) *
+                                  Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized());
+  // Turned 12° about an axis of the world that is no axis of either pose, and moved 3-4-0.
+  Eigen::Isometry3d est = Eigen::Isometry3d::Identity();
+  est.linear() =
+      Eigen::AngleAxisd(12 * M_PI / 180, Eigen::Vector3d(-1, 0, 2).normalized()) * truth.linear();
+  est.translation() = truth.translation() + Eigen::Vector3d(3, 4, 0);
+  const PoseError e = poseError(est, truth);
+  EXPECT_NEAR(e.translation_m, 5.0, 1e-12);
+  EXPECT_NEAR(e.rotation_deg, 12.0, 1e-9);
+  EXPECT_NEAR(poseError(truth, est).rotation_deg, 12.0, 1e-9);  // either way round
+  const PoseError none = poseError(truth, truth);
+  EXPECT_EQ(none.translation_m, 0.0);
+  EXPECT_NEAR(none.rotation_deg, 0.0, 1e-6);
+  // Half a turn is 180°, not 0° or NaN.
+  EXPECT_NEAR(
+      poseError(truth * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY()), truth).rotation_deg,
+      180.0, 1e-6);
+}
+
+namespace {
+/// Each frame's pose and truth pose as the outputs see them.
+struct PosesSeen {
+  std::vector<std::optional<Eigen::Isometry3d>> pose, truth;
+};
+/// An output that keeps them in a PosesSeen the test owns (the output goes with its pipeline).
+struct PoseProbe : Output {
+  explicit PoseProbe(PosesSeen& s) : seen(s) {}
+  PosesSeen& seen;
+  void write(const FrameContext& ctx) override {
+    seen.pose.push_back(ctx.frame->pose);
+    seen.truth.push_back(ctx.frame->truth_pose);
+  }
+};
+}  // namespace
+
+// An egomotion stage replaces Frame::pose with its estimate; the source's truth stays in
+// Frame::truth_pose, and the runner scores the one against the other per frame (metrics.csv)
+// and over the run (timing.md, egomotionErrorText).
+TEST(Pipeline, EgomotionPosesAreScoredAgainstTheSourcesTruth) {
+  test::ConfigFixture f;
+  PluginRegistry reg({test::pluginDir(),
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_source",
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_egomotion"});
+  auto config = [&](const std::string& name, const std::string& source_params,
+                    const std::string& ego_params) {
+    std::string text = test::ConfigFixture::validPipeline(source_params);
+    if (!ego_params.empty())
+      text.insert(text.find("stages:\n") + 8,
+                  "  - {name: ego, type: test_egomotion, params: " + ego_params + "}\n");
+    return f.write(name + ".yaml", text);
+  };
+  auto run = [&](const std::string& yaml, PosesSeen& seen) {
+    LoadOptions lo;
+    lo.output_dir = f.dir.str() + "/out";
+    Pipeline p = loadPipeline(yaml, lo, reg);
+    p.outputs.push_back(std::make_unique<PoseProbe>(seen));
+    RunOptions ro;
+    ro.progress = false;
+    std::ostringstream log;
+    ro.log = &log;
+    RunResult r = runPipeline(p, ro);
+    writeRunReports(lo.output_dir, r);
+    return r;
+  };
+
+  // Truth: x = i m. Estimate: x = 1.5 i m, turned 2° per frame: off by 0.5 i m and 2 i °.
+  PosesSeen seen;
+  const RunResult r =
+      run(config("scored", "{frames: 3, truth_pose: true}", "{step_m: 1.5, yaw_deg: 2}"), seen);
+  ASSERT_EQ(r.summary.frames_ok, 3u);
+  ASSERT_EQ(r.metrics.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_NEAR(r.metrics[k].second.at("egomotion.translation_error_m"), 0.5 * double(k), 1e-12);
+    EXPECT_NEAR(r.metrics[k].second.at("egomotion.rotation_error_deg"), 2.0 * double(k), 1e-6);
+    // The truth reaches the outputs as the source gave it; the pose is the stage's.
+    ASSERT_TRUE(seen.truth[k] && seen.pose[k]) << k;
+    EXPECT_TRUE(
+        seen.truth[k]->isApprox(Eigen::Isometry3d(Eigen::Translation3d(double(k), 0, 0)), 1e-15))
+        << seen.truth[k]->matrix();
+    EXPECT_NEAR(seen.pose[k]->translation().x(), 1.5 * double(k), 1e-12);
+  }
+  const std::string out = f.dir.str() + "/out";
+  const std::string csv = readFile(out + "/metrics.csv");
+  EXPECT_NE(csv.find("\n000002,egomotion.translation_error_m,1\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("\n000002,egomotion.rotation_error_deg,4\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("\n000001,egomotion.translation_error_m,0.5\n"), std::string::npos) << csv;
+  EXPECT_EQ(r.egomotion_error.frames, 3u);
+  EXPECT_NEAR(r.egomotion_error.translationMean_m(), 0.5, 1e-12);
+  EXPECT_NEAR(r.egomotion_error.translation_max_m, 1.0, 1e-12);
+  EXPECT_NEAR(r.egomotion_error.rotationMean_deg(), 2.0, 1e-6);
+  EXPECT_NEAR(r.egomotion_error.rotation_max_deg, 4.0, 1e-6);
+  const std::string line =
+      "egomotion against truth over 3 frame(s): translation mean 0.500 m, max 1.000 m; rotation "
+      "mean 2.000°, max 4.000°";
+  EXPECT_EQ(egomotionErrorText(r), line);
+  EXPECT_NE(readFile(out + "/timing.md").find("\n" + line + ".\n"), std::string::npos)
+      << readFile(out + "/timing.md");
+
+  // Nothing is scored without an egomotion stage (pose is the source's own, the truth itself)
+  // or without a truth; timing.md then says nothing of it.
+  for (const auto& [name, src, ego] : {std::tuple<std::string, std::string, std::string>{
+                                           "no_ego", "{frames: 2, truth_pose: true}", ""},
+                                       {"no_truth", "{frames: 2}", "{step_m: 1.5}"}}) {
+    PosesSeen ignored;
+    const RunResult q = run(config(name, src, ego), ignored);
+    EXPECT_EQ(q.summary.frames_ok, 2u) << name;
+    EXPECT_EQ(q.egomotion_error.frames, 0u) << name;
+    EXPECT_EQ(egomotionErrorText(q), "") << name;
+    for (const auto& [id, m] : q.metrics) EXPECT_FALSE(m.count("egomotion.translation_error_m"));
+    EXPECT_EQ(readFile(out + "/timing.md").find("egomotion"), std::string::npos) << name;
+  }
+
+  // A stage that writes its estimate into truth_pose would be scored against itself (0 m, 0°):
+  // the frame fails instead, naming the stage. Frame 0's estimate is its truth (x = 0 m), so
+  // writing it there changes nothing and that frame is scored.
+  std::ostringstream log;
+  LoadOptions lo;
+  lo.output_dir = f.dir.str() + "/out";
+  Pipeline p = loadPipeline(
+      config("cheat", "{frames: 2, truth_pose: true}", "{step_m: 1.5, overwrite_truth: true}"), lo,
+      reg);
+  RunOptions ro;
+  ro.progress = false;
+  ro.log = &log;
+  const RunResult bad = runPipeline(p, ro);
+  EXPECT_EQ(bad.summary.frames_ok, 1u);
+  ASSERT_EQ(bad.summary.failed.size(), 1u);
+  EXPECT_EQ(bad.summary.failed[0].first, "000001");
+  EXPECT_EQ(bad.summary.failed[0].second,
+            "[ego] egomotion stage changed Frame::truth_pose, the source's ground truth; an "
+            "estimate belongs in Frame::pose");
+  EXPECT_EQ(bad.egomotion_error.frames, 1u);
+  // A source without truth gets none from such a stage either.
+  Pipeline p2 = loadPipeline(config("cheat2", "{frames: 1}", "{overwrite_truth: true}"), lo, reg);
+  EXPECT_EQ(runPipeline(p2, ro).summary.failed.size(), 1u);
 }
 
 // Temporal fusion (a later issue) slots in as a feature stage that reads the previous frame's

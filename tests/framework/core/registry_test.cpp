@@ -82,8 +82,8 @@ std::string loadError(const std::string& lib) {
 }
 }  // namespace
 
-// -mavx or -march=native raise Eigen's static alignment: Frame is 576 bytes in such a plugin and
-// 528 in the core, which the version string cannot show. Before, it loaded and read frames
+// -mavx or -march=native raise Eigen's static alignment: Frame is 1056 bytes in such a plugin and
+// 976 in the core, which the version string cannot show. Before, it loaded and read frames
 // through the wrong offsets.
 TEST(Registry, RejectsLibraryBuiltWithAnotherEigenAlignmentNamingTheSizes) {
   const std::string lib = kTestPlugins + "/layout_mismatch/layout_mismatch.so";

@@ -2,6 +2,8 @@
 // one does, so the runner's side of the contract is tested now: an egomotion stage runs before
 // the grid is binned (it may move the points, e.g. to undo the sweep's motion), sets the frame's
 // pose, and sees the previous frame's result for temporal fusion.
+#include <cmath>
+
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -11,10 +13,16 @@ class SyntheticEgomotion final : public Stage {
   void declare(ParamDecl& d) override {
     d.add("step_m", step_m_, "pose: x advances this far per frame index").unit("m");
     d.add("shift_x_m", shift_x_m_, "subtracted from every point's x before binning").unit("m");
+    d.add("yaw_deg", yaw_deg_, "pose: turned this far about z per frame index").unit("deg");
+    d.add("overwrite_truth", overwrite_truth_,
+          "also sets truth_pose, which egomotion must not (the runner fails the frame)");
   }
   void process(FrameContext& ctx) override {
     Frame& f = *ctx.frame;
-    f.pose = Eigen::Isometry3d(Eigen::Translation3d(step_m_ * double(ctx.index), 0, 0));
+    const double i = double(ctx.index);
+    f.pose = Eigen::Translation3d(step_m_ * i, 0, 0) *
+             Eigen::AngleAxisd(yaw_deg_ * i * M_PI / 180, Eigen::Vector3d::UnitZ());
+    if (overwrite_truth_) f.truth_pose = f.pose;
     for (float& x : f.points.x) x -= static_cast<float>(shift_x_m_);
     const bool prev = ctx.previous && ctx.previous->frame && ctx.previous->frame->pose;
     ctx.metrics[name() + ".previous_pose_x_m"] =
@@ -27,6 +35,8 @@ class SyntheticEgomotion final : public Stage {
  private:
   double step_m_ = 1.0;
   double shift_x_m_ = 0.0;
+  double yaw_deg_ = 0.0;
+  bool overwrite_truth_ = false;
 };
 
 }  // namespace terramrf

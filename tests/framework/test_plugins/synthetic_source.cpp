@@ -25,6 +25,8 @@ class SyntheticSource final : public Source {
     d.add("offset_m", offset_m_,
           "[dx, dy] added to every point, as a cloud stored in a map frame would be; empty: none")
         .unit("m");
+    d.add("truth_pose", truth_pose_,
+          "frame i has the ground-truth pose x = i m (no rotation), as pose and truth_pose");
   }
   std::size_t size() const override { return static_cast<std::size_t>(frames_); }
   std::string frameId(std::size_t i) const override {
@@ -41,6 +43,10 @@ class SyntheticSource final : public Source {
     f.source_path = "synthetic/" + f.id + ".bin";
     f.dropped_nonfinite_points = static_cast<std::size_t>(nonfinite_);
     f.dropped_no_return_points = static_cast<std::size_t>(no_return_);
+    if (truth_pose_) {
+      f.truth_pose = Eigen::Isometry3d(Eigen::Translation3d(double(i), 0, 0));
+      f.pose = f.truth_pose;
+    }
     if (mode_ == "empty") return f;
     std::mt19937 rng(static_cast<unsigned>(i));
     std::normal_distribution<float> noise(0.f, 0.005f);
@@ -78,6 +84,7 @@ class SyntheticSource final : public Source {
   int nonfinite_ = 0, no_return_ = 0;
   int hole_from_ = -1;
   std::vector<double> offset_m_;
+  bool truth_pose_ = false;
 };
 
 }  // namespace terramrf

@@ -13,7 +13,9 @@
 //                            P2 = its P; P3 = the other camera's P · T_camera_lidar · Tr⁻¹ (it may
 //                            be turned: the reader splits the rotation off), else P2
 //   poses.txt                camera-0 poses T_w_cam0 = Tr · T_w_lidar · Tr⁻¹ (so LiDAR pose =
-//                            Tr⁻¹ · P · Tr), in the frames' world frame (first pose not identity)
+//                            Tr⁻¹ · P · Tr), in the frames' world frame (first pose not identity);
+//                            T_w_lidar is the frame's truth_pose, else its pose: the reader takes
+//                            poses.txt for the dataset's truth
 //   times.txt                frame timestamp [s] per line
 //   imu.txt, gps.txt, odometry.txt   all samples, one per line, columns in a '#' header line
 //

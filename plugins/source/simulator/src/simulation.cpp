@@ -289,7 +289,10 @@ Frame Simulation::frame(std::size_t i) const {
   const Trajectory& traj = *trajectory_;
   lidar_->scan([&](double tau) { return traj.pose(t + tau); },
                hashKeys(seed, uint64_t(Stream::kLidar), i), f);
-  f.pose = traj.pose(t);
+  // The trajectory the scan was taken from is the truth; `pose` starts as it too, so that runs
+  // without an egomotion stage place the scan exactly, and one with it is scored against it.
+  f.truth_pose = traj.pose(t);
+  f.pose = f.truth_pose;
   for (std::size_t k = 0; k < cameras_.size(); ++k)  // k = 0: the key of the one-camera rig
     f.cameras.push_back(
         cameras_[k]->render(*f.pose, hashKeys(seed, uint64_t(Stream::kCamera), i, k)));

@@ -286,6 +286,10 @@ TEST_F(PointCloudFileTest, PcdViewpointIsTheFramesPose) {
   EXPECT_TRUE(f0.pose->isApprox(Eigen::Isometry3d::Identity())) << f0.pose->matrix();
   ASSERT_TRUE(f1.pose.has_value());
   EXPECT_EQ(f1.pose->translation(), t);
+  // The pose its writer recorded, not ground truth (docs/plugins/readers.md): nothing to score
+  // an egomotion estimate against.
+  EXPECT_FALSE(f0.truth_pose.has_value());
+  EXPECT_FALSE(f1.truth_pose.has_value());
   EXPECT_TRUE(f1.pose->linear().isApprox(Eigen::Vector3d(-1, -1, 1).asDiagonal().toDenseMatrix()))
       << f1.pose->linear();
   // The points in the sensor frame, where the pose takes them back into the map.

@@ -87,6 +87,11 @@ TEST_F(SemanticKittiSourceTest, Seq00FramesLabelsPosesRings) {
     }
     if (i == 1) EXPECT_NEAR(f.pose->translation().x(), 0.8588, 1e-3);
     if (i == 0) EXPECT_TRUE(f.pose->isApprox(Eigen::Isometry3d::Identity(), 1e-6));
+    // poses.txt holds the dataset's reference poses: the truth, and the pose until an egomotion
+    // stage replaces it.
+    ASSERT_TRUE(f.truth_pose.has_value());
+    EXPECT_TRUE(f.truth_pose->isApprox(*f.pose, 0.0));
+    EXPECT_FALSE(f.pose_covariance.has_value());
     EXPECT_TRUE(f.cameras.empty());
   }
   // README: road 51.3 %, rough 2.2 %, obstacle 44.7 %, unknown 1.7 % (frames 0-2).
@@ -210,6 +215,33 @@ TEST_F(SemanticKittiSourceTest, RecentresTheShiftedOpen3dMlScan) {
   ASSERT_EQ(b1.points.size(), 86139u);
   EXPECT_EQ(b0.points.x, b1.points.x);  // 000750 is centred: left untouched
   EXPECT_EQ(b0.points.y, b1.points.y);
+}
+
+// recentre: auto moves the points; the pose and the truth pose move with them, so that both
+// still take the points to the same place in the world.
+TEST_F(SemanticKittiSourceTest, RecentreKeepsPoseAndTruthPoseOnThePoints) {
+  test::TempDir dir;
+  const std::string demo = test::dataPath("semantickitti_o3dml_demo/converted_semantickitti");
+  const std::string seq = dir.str() + "/seq";
+  std::filesystem::create_directories(seq);
+  std::filesystem::copy(demo + "/velodyne", seq + "/velodyne");
+  std::ofstream(seq + "/calib.txt") << kOdoCalib;
+  {
+    std::ofstream poses(seq + "/poses.txt");  // the scans are frames 700 and 750
+    for (int k = 0; k <= 750; ++k) poses << "1 0 0 " << 0.5 * k << " 0 1 0 0 0 0 1 0\n";
+  }
+  const Frame raw = make("{path: " + seq + ", ring_method: none}")->read(0);
+  const Frame rec = make("{path: " + seq + ", ring_method: none, recentre: auto}")->read(0);
+  ASSERT_TRUE(raw.truth_pose && raw.pose && rec.truth_pose && rec.pose);
+  EXPECT_TRUE(raw.truth_pose->isApprox(*raw.pose, 0.0));
+  EXPECT_TRUE(rec.truth_pose->isApprox(*rec.pose, 0.0));
+  ASSERT_EQ(rec.points.size(), raw.points.size());
+  EXPECT_GT(std::abs(rec.points.y[0] - raw.points.y[0]), 100.0);  // moved (PROVENANCE.md)
+  for (std::size_t k : {std::size_t(0), std::size_t(1000), raw.points.size() - 1}) {
+    const Eigen::Vector3d p_raw(raw.points.x[k], raw.points.y[k], raw.points.z[k]);
+    const Eigen::Vector3d p_rec(rec.points.x[k], rec.points.y[k], rec.points.z[k]);
+    EXPECT_LT((*rec.truth_pose * p_rec - *raw.truth_pose * p_raw).norm(), 1e-4) << k;
+  }
 }
 
 // recentre: auto on a cloud whose sensor origin cannot be estimated: the cloud stays as stored,

@@ -144,6 +144,41 @@ TEST(KittiSequenceWriter, WithoutCameraOrPose) {
   EXPECT_THROW(w2.write(h), std::runtime_error);
 }
 
+// poses.txt is a dataset's reference, which the semantickitti reader takes for truth_pose: a
+// frame's truth goes there, not the estimate an egomotion stage left in its pose. A frame
+// without truth has its pose written.
+TEST(KittiSequenceWriter, PosesTxtHoldsTheTruthPoseWhereThereIsOne) {
+  test::TempDir dir;
+  KittiSequenceWriter w(dir.str());
+  for (int i = 0; i < 2; ++i) {
+    Frame f;
+    f.id = std::to_string(i);
+    f.points.push_back(1, 2, 3, 0.5);
+    f.truth_pose = Eigen::Isometry3d(Eigen::Translation3d(2.0 * i, 0, 0));
+    f.pose = Eigen::Translation3d(2.0 * i + 0.7, 0.2, 0) *
+             Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ());  // an estimate, off the truth
+    w.write(f);
+  }
+  w.finish();
+  const auto poses = readKittiPoses(dir.str() + "/poses.txt");
+  ASSERT_EQ(poses.size(), 2u);
+  // No camera: Tr = identity, so poses.txt holds the LiDAR poses.
+  EXPECT_TRUE(poses[0].isApprox(Eigen::Isometry3d::Identity(), 1e-12)) << poses[0].matrix();
+  EXPECT_TRUE(poses[1].isApprox(Eigen::Isometry3d(Eigen::Translation3d(2, 0, 0)), 1e-12))
+      << poses[1].matrix();
+
+  KittiSequenceWriter only_pose(dir.str() + "/b");
+  Frame g;
+  g.id = "g";
+  g.points.push_back(1, 2, 3, 0.5);
+  g.pose = Eigen::Isometry3d(Eigen::Translation3d(0, 4, 0));
+  only_pose.write(g);
+  only_pose.finish();
+  const auto b = readKittiPoses(dir.str() + "/b/poses.txt");
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_TRUE(b[0].isApprox(*g.pose, 1e-12)) << b[0].matrix();
+}
+
 // calib.txt holds P0..P3 and no distortion: three cameras, a distorted camera, or a frame whose
 // cameras differ from the first frame's are refused, naming the frame, before anything is written.
 TEST(KittiSequenceWriter, RefusesCamerasCalibTxtCannotHold) {

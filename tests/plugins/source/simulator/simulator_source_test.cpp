@@ -49,6 +49,8 @@ void expectSameFrame(const Frame& a, const Frame& b) {
   EXPECT_EQ(a.timestamp_s, b.timestamp_s);
   ASSERT_TRUE(a.pose && b.pose);
   EXPECT_TRUE(a.pose->isApprox(*b.pose, 0.0));
+  ASSERT_TRUE(a.truth_pose && b.truth_pose);
+  EXPECT_TRUE(a.truth_pose->isApprox(*b.truth_pose, 0.0));
   ASSERT_EQ(a.imu.size(), b.imu.size());
   for (std::size_t i = 0; i < a.imu.size(); ++i)
     EXPECT_EQ(a.imu[i].accel_m_s2, b.imu[i].accel_m_s2);
@@ -140,6 +142,24 @@ TEST(SimulatorSource, LibraryRebuildsThePluginsWorld) {
   EXPECT_EQ(sim.world().classAt(at.x(), at.y()), labels::kRoad);
   EXPECT_THROW(sim::parseSimulationConfig("{frames: -1}"), std::exception);
   EXPECT_THROW(sim::parseSimulationConfig("{no_such_param: 1}"), std::exception);
+}
+
+// The simulator knows where the sensor was: the trajectory's pose at the frame's time is the
+// frame's truth_pose (what an egomotion estimate is scored against), and its pose until an
+// egomotion stage replaces it. No covariance: the source estimated nothing.
+TEST(SimulatorSource, TruthPoseIsTheTrajectorysPoseAtTheFramesTime) {
+  const std::string params = "{frames: 4, seed: 3, enable_camera: false, azimuth_step_deg: 1.0}";
+  auto p = makeSource(params);
+  const sim::Simulation sim(sim::parseSimulationConfig(params));
+  for (std::size_t i = 0; i < 4; ++i) {
+    const Frame f = src(p).read(i);
+    ASSERT_TRUE(f.truth_pose.has_value()) << i;
+    const Eigen::Isometry3d want = sim.trajectory().pose(sim.frameTime(i));
+    EXPECT_TRUE(f.truth_pose->isApprox(want, 0.0)) << i << "\n" << f.truth_pose->matrix();
+    ASSERT_TRUE(f.pose.has_value()) << i;
+    EXPECT_TRUE(f.pose->isApprox(*f.truth_pose, 0.0)) << i;
+    EXPECT_FALSE(f.pose_covariance.has_value()) << i;
+  }
 }
 
 TEST(SimulatorSource, Hdl64eRingsAnglesAndScanOrder) {

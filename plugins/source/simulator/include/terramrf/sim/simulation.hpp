@@ -85,8 +85,9 @@ class Simulation {
   const SimulationConfig& config() const { return c_; }
   std::size_t size() const { return std::size_t(c_.frames); }
   double frameTime(std::size_t i) const { return double(i) / c_.frame_rate_hz; }
-  /// Frame i: points + truth, camera, IMU/GPS/odometry since frame i−1, pose. Deterministic and
-  /// independent of call order (all noise derives from seed and i). Thread-safe (const).
+  /// Frame i: points + truth, camera, IMU/GPS/odometry since frame i−1, pose and truth_pose (both
+  /// the trajectory's pose at the frame's time). Deterministic and independent of call order (all
+  /// noise derives from seed and i). Thread-safe (const).
   Frame frame(std::size_t i) const;
 
   const World& world() const { return *world_; }
