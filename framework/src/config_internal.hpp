@@ -137,4 +137,34 @@ bool applyEntryParams(Plugin& plugin, const YAML::Node& e, const PluginContext& 
 /// {…}, inputs: {layer: origin}}, the inputs being the layers it reads that earlier stages wrote.
 void recordLayerOrigins(Plugin& stage, double cell_m, std::map<std::string, std::string>& origins);
 
+/// The check of a pipeline's plugins in the order they run, one for run configs (loadPipeline),
+/// for the pipelines that sweeps and train configs assemble (sweep_detail::assemble) and for a
+/// sweep's feature sets as it is loaded (loadSweep), so that all accept and refuse alike. Walks
+/// the stages, then the outputs, and reports at the entry:
+///  - an egomotion stage after a feature, energy or optimiser stage: the runner runs only the
+///    leading egomotion stages before the grid is built (runPipeline), so a later one's changes
+///    to the points and the pose would never reach the grid;
+///  - a read that nothing before it writes.
+class StageFlow {
+ public:
+  explicit StageFlow(Diags& d);
+  /// The next stage, `kind` being its plugin's kind; `m` is its entry.
+  void stage(const Plugin& p, PluginKind kind, const YAML::Mark& m);
+  /// An output, after every stage.
+  void output(const Plugin& p, const YAML::Mark& m);
+  /// An entry that could not be made: what it would have written is unknown, so reads that miss
+  /// it are no longer reported (they would only repeat its error).
+  void entryFailed() { an_entry_failed_ = true; }
+
+ private:
+  void checkReads(const Plugin& p, const YAML::Mark& m);
+  void addWrite(const std::string& w);
+
+  Diags& d_;
+  bool an_entry_failed_ = false;
+  std::string first_non_ego_;  ///< "'name' (type)" of the first feature/energy/optimiser stage
+  std::set<std::string> available_;
+  std::vector<std::string> available_order_;  ///< for messages, in the order written
+};
+
 }  // namespace terramrf::detail
