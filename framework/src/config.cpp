@@ -610,6 +610,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
 
   // stages + the order and read/write check
   detail::StageFlow flow(c);
+  if (p.source) flow.source(*p.source, root["source"].Mark());
   if (const auto st = root["stages"]) {
     if (!st.IsSequence()) {
       c.add(detail::valueMark(root, "stages"), "'stages' must be a list");

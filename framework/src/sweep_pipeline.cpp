@@ -104,6 +104,7 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
   std::set<std::string> names = {item.src->name()};
   // The same order and read/write check as a run config's.
   detail::StageFlow flow(d);
+  flow.source(*item.src, item.source.Mark().is_null() ? item.mark : item.source.Mark());
   for (const auto& e : stage_entries) {
     Made m = makePlugin(
         reg, e, "stages",

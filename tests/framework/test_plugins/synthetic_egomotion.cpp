@@ -11,10 +11,22 @@ class SyntheticEgomotion final : public Stage {
   void declare(ParamDecl& d) override {
     d.add("step_m", step_m_, "pose: x advances this far per frame index").unit("m");
     d.add("shift_x_m", shift_x_m_, "subtracted from every point's x before binning").unit("m");
+    d.add("set_pose", set_pose_, "sets the frame's pose (and declares '@pose' written)");
+    d.add("declared_reads", declared_reads_,
+          "declared read (tests of the read/write check; nothing is read)");
+    d.add("declared_writes", declared_writes_,
+          "declared written besides the pose (tests of the read/write check; nothing is written)");
+  }
+  std::vector<std::string> reads() const override { return declared_reads_; }
+  std::vector<std::string> writes() const override {
+    std::vector<std::string> w = declared_writes_;
+    if (set_pose_) w.push_back(artefacts::kPose);
+    return w;
   }
   void process(FrameContext& ctx) override {
     Frame& f = *ctx.frame;
-    f.pose = Eigen::Isometry3d(Eigen::Translation3d(step_m_ * double(ctx.index), 0, 0));
+    if (set_pose_)
+      f.pose = Eigen::Isometry3d(Eigen::Translation3d(step_m_ * double(ctx.index), 0, 0));
     for (float& x : f.points.x) x -= static_cast<float>(shift_x_m_);
     const bool prev = ctx.previous && ctx.previous->frame && ctx.previous->frame->pose;
     ctx.metrics[name() + ".previous_pose_x_m"] =
@@ -27,6 +39,8 @@ class SyntheticEgomotion final : public Stage {
  private:
   double step_m_ = 1.0;
   double shift_x_m_ = 0.0;
+  bool set_pose_ = true;
+  std::vector<std::string> declared_reads_, declared_writes_;
 };
 
 }  // namespace terramrf

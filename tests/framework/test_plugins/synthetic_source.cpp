@@ -25,6 +25,15 @@ class SyntheticSource final : public Source {
     d.add("offset_m", offset_m_,
           "[dx, dy] added to every point, as a cloud stored in a map frame would be; empty: none")
         .unit("m");
+    d.add("poses", poses_,
+          "every frame has a pose (the identity), and '@pose' is declared written");
+    d.add("declared_writes", declared_writes_,
+          "declared written besides the pose (tests of the read/write check; nothing is written)");
+  }
+  std::vector<std::string> writes() const override {
+    std::vector<std::string> w = declared_writes_;
+    if (poses_) w.push_back(artefacts::kPose);
+    return w;
   }
   std::size_t size() const override { return static_cast<std::size_t>(frames_); }
   std::string frameId(std::size_t i) const override {
@@ -41,6 +50,7 @@ class SyntheticSource final : public Source {
     f.source_path = "synthetic/" + f.id + ".bin";
     f.dropped_nonfinite_points = static_cast<std::size_t>(nonfinite_);
     f.dropped_no_return_points = static_cast<std::size_t>(no_return_);
+    if (poses_) f.pose = Eigen::Isometry3d::Identity();
     if (mode_ == "empty") return f;
     std::mt19937 rng(static_cast<unsigned>(i));
     std::normal_distribution<float> noise(0.f, 0.005f);
@@ -78,6 +88,8 @@ class SyntheticSource final : public Source {
   int nonfinite_ = 0, no_return_ = 0;
   int hole_from_ = -1;
   std::vector<double> offset_m_;
+  bool poses_ = false;
+  std::vector<std::string> declared_writes_;
 };
 
 }  // namespace terramrf
