@@ -624,6 +624,42 @@ TEST(SweepDiagnostics, AnEgomotionStageAfterTheCommonFeatureStagesIsRefused) {
   EXPECT_NO_THROW(planSweep(put(dir, "first_ego.yaml", first), {test::pluginDir()}));
 }
 
+// Each run's pipeline counts what its source writes: a stage that reads the frame's pose runs
+// over the simulator, which gives every frame one, and fails the runs over a source without
+// poses, at the stage's entry in the sweep. The check never asked the source, so every run and
+// the training failed ("reads '@pose', which no earlier stage writes").
+TEST(SweepDiagnostics, AStageThatReadsThePoseRunsWhereTheSourceWritesIt) {
+  test::TempDir dir;
+  const std::string plugins = std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_egomotion, " +
+                              TERRAMRF_TEST_PLUGIN_DIR + "/synthetic_source";
+  std::string text = "plugin_path: [" + plugins + "]\n" + tinySweep("  icm: {type: icm}");
+  text = test::edited(text, "datasets:\n",
+                      "datasets:\n  flat: {type: test_synthetic, params: {frames: 1}}\n");
+  text = test::edited(text, "test: [sim_test]", "test: [sim_test, flat]");
+  text = test::edited(text, "common_stages:\n",
+                      "common_stages:\n  - {name: ego, type: test_egomotion, params: {step_m: 0, "
+                      "declared_reads: ['@pose']}}\n");
+  const std::string sweep = put(dir, "pose.yaml", text);
+  std::ostringstream log;
+  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
+  ASSERT_EQ(r.runs.size(), 4u) << log.str();
+  for (const auto& x : r.runs) {
+    if (x.dataset == "sim_test") {
+      EXPECT_EQ(x.status, RunRecord::Status::kOk) << x.key() << ": " << x.reason;
+      continue;
+    }
+    EXPECT_EQ(x.status, RunRecord::Status::kFailed) << x.key();
+    EXPECT_EQ(x.reason.rfind(sweep + ":" + test::positionOf(text, "{name: ego") +
+                                 ": stage 'ego' (test_egomotion): reads '@pose', which neither "
+                                 "source '",
+                             0),
+              0u)
+        << x.reason;
+    EXPECT_NE(x.reason.find("(test_synthetic) nor an earlier stage writes"), std::string::npos)
+        << x.reason;
+  }
+}
+
 TEST(SweepDiagnostics, RepeatedNamesAreRejectedBecauseOneWouldBeIgnoredOrOverwritten) {
   test::TempDir dir;
   // A repeated key: yaml-cpp keeps both, lookups find the first.
