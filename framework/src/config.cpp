@@ -608,31 +608,13 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
     if (pl) p.source.reset(static_cast<Source*>(pl.release()));
   }
 
-  // stages + the read/write check
-  std::set<std::string> available = {artefacts::kPoints};
-  std::vector<std::string> available_order = {artefacts::kPoints};
-  // After an entry that could not be made, what it would have written is unknown: reads that
-  // miss it would only repeat its error.
-  bool an_entry_failed = false;
-  auto checkReads = [&](Plugin& pl, const YAML::Node& e) {
-    if (an_entry_failed) return;
-    for (const auto& r : pl.reads()) {
-      if (available.count(r)) continue;
-      std::string have;
-      for (const auto& a : available_order) have += (have.empty() ? "" : ", ") + a;
-      c.add(e.Mark(), "reads '" + r + "', which no earlier stage writes (available here: " + have + ")",
-            pl.name(), pl.type());
-    }
-  };
-  auto addWrites = [&](Plugin& pl) {
-    for (const auto& w : pl.writes())
-      if (available.insert(w).second) available_order.push_back(w);
-  };
+  // stages + the order and read/write check
+  detail::StageFlow flow(c);
+  if (p.source) flow.source(*p.source, root["source"].Mark());
   if (const auto st = root["stages"]) {
     if (!st.IsSequence()) {
       c.add(detail::valueMark(root, "stages"), "'stages' must be a list");
     } else {
-      bool seen_non_ego = false;
       for (std::size_t i = 0; i < st.size(); ++i) {
         PluginKind kind = PluginKind::kFeature;
         auto pl = make(st[i], "stages",
@@ -640,17 +622,10 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
                         PluginKind::kOptimiser},
                        &kind, {}, resolved["stages"][i]);
         if (!pl) {
-          an_entry_failed = true;
+          flow.entryFailed();
           continue;
         }
-        if (kind == PluginKind::kEgomotion && seen_non_ego)
-          c.add(st[i].Mark(),
-                "egomotion stages must come before feature/energy/optimiser stages (the grid is "
-                "built after the pose is known)",
-                pl->name(), pl->type());
-        if (kind != PluginKind::kEgomotion) seen_non_ego = true;
-        checkReads(*pl, st[i]);
-        addWrites(*pl);
+        flow.stage(*pl, kind, st[i].Mark());
         detail::recordLayerOrigins(*pl, p.grid.cell_m, p.layer_origins);
         p.stage_kinds.push_back(kind);
         p.stages.emplace_back(static_cast<Stage*>(pl.release()));
@@ -667,7 +642,7 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
       for (std::size_t i = 0; i < out.size(); ++i) {
         auto pl = make(out[i], "outputs", {PluginKind::kOutput}, nullptr, {}, resolved["outputs"][i]);
         if (!pl) continue;
-        checkReads(*pl, out[i]);
+        flow.output(*pl, out[i].Mark());
         p.outputs.emplace_back(static_cast<Output*>(pl.release()));
       }
     }

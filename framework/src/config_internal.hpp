@@ -137,4 +137,49 @@ bool applyEntryParams(Plugin& plugin, const YAML::Node& e, const PluginContext& 
 /// {…}, inputs: {layer: origin}}, the inputs being the layers it reads that earlier stages wrote.
 void recordLayerOrigins(Plugin& stage, double cell_m, std::map<std::string, std::string>& origins);
 
+/// The check of a pipeline's plugins in the order they run, one for run configs (loadPipeline),
+/// for the pipelines that sweeps and train configs assemble (sweep_detail::assemble) and for a
+/// sweep's feature sets as it is loaded (loadSweep), so that all accept and refuse alike. Walks
+/// the source, the stages, then the outputs, as the runner runs them: the frame is read, the
+/// leading egomotion stages change it, the grid is built from its points (`@points`), the other
+/// stages fill the grid. Reports at the entry:
+///  - an egomotion stage after a feature, energy or optimiser stage: the runner runs only the
+///    leading egomotion stages before the grid is built (runPipeline), so a later one's changes
+///    to the points and the pose would never reach the grid;
+///  - a read that nothing before it writes. The source's writes count from the first stage on;
+///    before the grid is built only frame artefacts (artefacts::isFrameArtefact: the pose) exist;
+///  - a read or write of anything but a frame artefact by an egomotion stage (the grid does not
+///    exist yet, and is built anew after it), and a source that declares one (it makes frames).
+class StageFlow {
+ public:
+  explicit StageFlow(Diags& d);
+  /// The pipeline's source, `m` its entry. Not called when the source is not known (a sweep's
+  /// feature sets are checked as it loads, before their items' sources are made, and again with
+  /// each run's source; a source that could not be made): reads of frame artefacts are then not
+  /// judged.
+  void source(const Source& s, const YAML::Mark& m);
+  /// The next stage, `kind` being its plugin's kind; `m` is its entry.
+  void stage(const Plugin& p, PluginKind kind, const YAML::Mark& m);
+  /// An output, after every stage.
+  void output(const Plugin& p, const YAML::Mark& m);
+  /// An entry that could not be made: what it would have written is unknown, so reads that miss
+  /// it are no longer reported (they would only repeat its error).
+  void entryFailed() { an_entry_failed_ = true; }
+
+ private:
+  void checkRead(const Plugin& p, const std::string& r, const YAML::Mark& m);
+  void addWrite(const std::string& w);
+  /// From the first stage that is not a leading egomotion stage on: the grid and its point lists.
+  void buildGrid();
+  std::string availableText() const;
+
+  Diags& d_;
+  bool an_entry_failed_ = false;
+  bool grid_built_ = false;
+  std::string source_;         ///< "source 'name' (type)"; empty while the source is not known
+  std::string first_non_ego_;  ///< "'name' (type)" of the first feature/energy/optimiser stage
+  std::set<std::string> available_;
+  std::vector<std::string> available_order_;  ///< for messages, in the order written
+};
+
 }  // namespace terramrf::detail

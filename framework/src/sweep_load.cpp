@@ -527,17 +527,26 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
         if (!fs::exists(f.model))
           d.add(v["model"].Mark(), what + ": model '" + f.model + "' does not exist");
       }
-      // Every feature must be written by a stage (checked when every stage type is installed).
+      // The stages' order and reads, as a run config's (a feature set's stages run after the
+      // common ones), and every feature must be written by a stage: checked when every stage
+      // type is installed. Problems of the common stages are the same for every set; Diags
+      // reports each once.
       if (f.unavailable.empty() && s->common_unavailable.empty()) {
         std::set<std::string> written;
         Diags quiet;
         quiet.file = path;
+        std::vector<std::pair<Made, YAML::Mark>> made;
         for (const auto* list : {&s->common_stages, &f.stages})
           for (const auto& e : *list) {
             Made m = makePlugin(reg, e, "stages", stage_kinds, ctx, quiet, true);
             if (m.ok())
               for (const auto& w : m.plugin->writes()) written.insert(w);
+            made.emplace_back(std::move(m), e.Mark());
           }
+        if (quiet.list.empty()) {
+          detail::StageFlow flow(d);
+          for (const auto& [m, mark] : made) flow.stage(*m.plugin, m.kind, mark);
+        }
         if (quiet.list.empty())
           for (const auto& feat : f.features)
             if (!written.count(feat)) {

@@ -101,30 +101,23 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
   if (f0.custom_labels) resolved["labels"] = f0.labels_node;
   for (const auto& dir : f0.plugin_dirs) resolved["plugin_path"].push_back(dir);
   resolved["source"] = resolvedEntry(*item.src);
-  std::set<std::string> available = {artefacts::kPoints}, names = {item.src->name()};
-  // After an entry that could not be made, what it would have written is unknown: reads that
-  // miss it would only repeat its error.
-  bool an_entry_failed = false;
-  auto checkReads = [&](Plugin& pl, const YAML::Mark& mark) {
-    if (an_entry_failed) return;
-    for (const auto& r : pl.reads())
-      if (!available.count(r))
-        d.add(mark, "reads '" + r + "', which no earlier stage writes", pl.name(), pl.type());
-  };
+  std::set<std::string> names = {item.src->name()};
+  // The same order and read/write check as a run config's.
+  detail::StageFlow flow(d);
+  flow.source(*item.src, item.source.Mark().is_null() ? item.mark : item.source.Mark());
   for (const auto& e : stage_entries) {
     Made m = makePlugin(
         reg, e, "stages",
         {PluginKind::kEgomotion, PluginKind::kFeature, PluginKind::kEnergy, PluginKind::kOptimiser},
         ctx, d, false);
     if (!m.ok()) {
-      an_entry_failed = true;
+      flow.entryFailed();
       continue;
     }
     if (!names.insert(m.plugin->name()).second)
       d.add(e.Mark(), "duplicate stage name '" + m.plugin->name() + "' (give each a unique name:)",
             m.plugin->name(), m.plugin->type());
-    checkReads(*m.plugin, e.Mark());
-    for (const auto& w : m.plugin->writes()) available.insert(w);
+    flow.stage(*m.plugin, m.kind, e.Mark());
     detail::recordLayerOrigins(*m.plugin, f0.grid.cell_m, p.layer_origins);
     resolved["stages"].push_back(resolvedEntry(*m.plugin));
     p.stage_kinds.push_back(m.kind);
@@ -133,12 +126,12 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
   for (const auto& e : output_entries) {
     Made m = makePlugin(reg, e, "outputs", {PluginKind::kOutput}, ctx, d, false);
     if (!m.ok()) continue;
-    checkReads(*m.plugin, e.Mark());
+    flow.output(*m.plugin, e.Mark());
     resolved["outputs"].push_back(resolvedEntry(*m.plugin));
     p.outputs.emplace_back(static_cast<Output*>(m.plugin.release()));
   }
   for (auto& o : extra_outputs) {
-    checkReads(*o, YAML::Mark::null_mark());
+    flow.output(*o, YAML::Mark::null_mark());
     p.outputs.push_back(std::move(o));
   }
   d.throwIfAny();

@@ -24,13 +24,25 @@ enum class PluginKind { kSource, kEgomotion, kFeature, kEnergy, kOptimiser, kOut
 const char* toString(PluginKind k);
 
 /// Pseudo-layers for the read/write check: the grid's point lists (written by the runner's grid
-/// builder), the energy model (written by an energy stage) and the label layer.
+/// builder), the energy model (written by an energy stage), the label layer, the cameras' pixels
+/// per cell, and the frame's pose.
+///
+/// The pose is a frame artefact: it lives on the Frame, which exists from the source on. The
+/// others, like every grid layer, exist only once the grid is built, after the egomotion stages.
+/// So a source can provide frame artefacts only, and an egomotion stage can read and write frame
+/// artefacts only; the loaders refuse the rest (docs/architecture.md, "Reads and writes").
+///
+/// A plugin that lists `@pose` in writes() sets Frame::pose on every frame (a source that cannot
+/// for some frame throws InputError for it), so a stage that lists `@pose` in reads() may rely on
+/// it: the loaders refuse it when neither the source nor an earlier stage writes one.
 namespace artefacts {
 inline constexpr const char* kPoints = "@points";
 inline constexpr const char* kEnergy = "@energy";
 inline constexpr const char* kLabels = "@labels";
-inline constexpr const char* kPose = "@pose";
+inline constexpr const char* kPose = "@pose";               ///< Frame::pose, set on every frame
 inline constexpr const char* kCellPixels = "@cell_pixels";  ///< TerrainGrid::cellPixels()
+/// True for what lives on the Frame rather than on the grid (the pose).
+inline bool isFrameArtefact(const std::string& name) { return name == kPose; }
 }  // namespace artefacts
 
 /// Layer names by convention. An optimiser that can score its labelling writes one layer per

@@ -343,6 +343,16 @@ class PointCloudFileSource : public Source {
       }
   }
 
+  /// A pose for every frame only when its PCDs give them (a moved VIEWPOINT in any) and it has
+  /// no PLY, which never has one: a pose for some frames only is not declared, as stages that
+  /// read the pose rely on having it for every frame.
+  std::vector<std::string> writes() const override {
+    for (const auto& file : files_)
+      if (lowerExt(file) == ".ply") return {};
+    return poses_from_viewpoints_ ? std::vector<std::string>{artefacts::kPose}
+                                  : std::vector<std::string>{};
+  }
+
   std::size_t size() const override { return files_.size(); }
   std::string frameId(std::size_t i) const override {
     return fs::path(files_.at(i)).stem().string();

@@ -140,6 +140,12 @@ class SemanticKittiSource : public Source {
     return use_images_ ? cameras_ : std::vector<std::string>{};
   }
 
+  /// With a poses.txt read, every frame has its pose: one past the file's end is an InputError,
+  /// never a frame without one. Stages that read the pose are checked against this.
+  std::vector<std::string> writes() const override {
+    return poses_.empty() ? std::vector<std::string>{} : std::vector<std::string>{artefacts::kPose};
+  }
+
   Frame read(std::size_t i) override {
     if (i >= size())
       throw std::out_of_range("semantickitti: frame " + std::to_string(i) + " of " +

@@ -776,7 +776,9 @@ TEST(Pipeline, EvidenceFromThePreviousFrameFillsCellsWithoutPoints) {
                       std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_egomotion",
                       std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_carry_over"});
   // Frames 1 and 2 lose the ground points of 5 ≤ x < 7 m, 3 ≤ y < 5 m.
-  std::string text = test::ConfigFixture::validPipeline("{frames: 4, hole_from_frame: 1}");
+  // The carry-over reads the frames' poses: the source gives each the identity.
+  std::string text =
+      test::ConfigFixture::validPipeline("{frames: 4, hole_from_frame: 1, poses: true}");
   const std::string mrf = "preclass_layer: preclass}}";
   auto run = [&](const std::string& name, const std::string& config) {
     LoadOptions lo;
@@ -1009,5 +1011,127 @@ TEST(Pipeline, TemporariesOfKilledWritersAreRemovedWhenTheFolderIsUsedAgain) {
             std::string::npos)
       << log.str();
 }
+
+namespace {
+/// The diagnostics of loading `text` (as `name`) with `reg`, each as file:line:col: … text.
+std::vector<std::string> loadErrors(test::ConfigFixture& f, PluginRegistry& reg,
+                                    const std::string& name, const std::string& text) {
+  LoadOptions lo;
+  lo.output_dir = f.dir.str() + "/out_" + name;
+  try {
+    loadPipeline(f.write(name, text), lo, reg);
+  } catch (const ConfigError& e) {
+    std::vector<std::string> v;
+    for (const auto& d : e.diagnostics()) v.push_back(d.str());
+    return v;
+  }
+  return {};
+}
+std::string joinedLines(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += x + "\n";
+  return s;
+}
+}  // namespace
+
+// An egomotion stage runs on the frame before the grid is built: no grid layer and none of the
+// grid's point lists (`@points`) exist then, and the grid is built anew after it, so a layer it
+// wrote would be gone. The check counted `@points` and such writes as available to it, and let a
+// later egomotion stage read them; they are refused at the entry. The frame's pose, which lives
+// on the frame, passes from one egomotion stage to the next.
+TEST(Pipeline, AnEgomotionStageHasTheFrameNotTheGrid) {
+  test::ConfigFixture f;
+  PluginRegistry reg({test::pluginDir(),
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_source",
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_egomotion"});
+  const std::string base = test::ConfigFixture::validPipeline("{frames: 1}");
+  std::string text = base;
+  text.insert(text.find("stages:\n") + 8,
+              "  - {name: ego, type: test_egomotion, params: {declared_reads: ['@points'], "
+              "declared_writes: [ego_layer]}}\n"
+              "  - {name: ego2, type: test_egomotion, params: {declared_reads: [ego_layer, "
+              "'@pose']}}\n");
+  const std::string path = f.dir.str() + "/grid.yaml";
+  const auto errs = loadErrors(f, reg, "grid.yaml", text);
+  const std::string at_ego =
+      path + ":" + test::positionOf(text, "{name: ego,") + ": stage 'ego' (test_egomotion): ";
+  const std::string at_ego2 =
+      path + ":" + test::positionOf(text, "{name: ego2") + ": stage 'ego2' (test_egomotion): ";
+  EXPECT_EQ(errs,
+            (std::vector<std::string>{
+                at_ego + "reads '@points', which an egomotion stage cannot: it runs before the "
+                         "grid is built, when no grid layer and none of the grid's point lists "
+                         "('@points') exist; it has the frame (FrameContext::frame: its points, "
+                         "pose, IMU, GPS, odometry)",
+                at_ego + "writes 'ego_layer', which would be lost: the grid is built anew from "
+                         "the frame's points after the egomotion stages; an egomotion stage "
+                         "changes the frame (its points, its pose: '@pose')",
+                at_ego2 + "reads 'ego_layer', which an egomotion stage cannot: it runs before "
+                          "the grid is built, when no grid layer and none of the grid's point "
+                          "lists ('@points') exist; it has the frame (FrameContext::frame: its "
+                          "points, pose, IMU, GPS, odometry)"}))
+      << joinedLines(errs);
+  // The pose one writes the next one reads.
+  std::string ok = base;
+  ok.insert(ok.find("stages:\n") + 8,
+            "  - {name: ego, type: test_egomotion}\n"
+            "  - {name: ego2, type: test_egomotion, params: {declared_reads: ['@pose']}}\n");
+  const auto ok_errs = loadErrors(f, reg, "ok.yaml", ok);
+  EXPECT_TRUE(ok_errs.empty()) << joinedLines(ok_errs);
+}
+
+
+// A stage that reads the frame's pose (temporal fusion) was refused over any source, since the
+// check never asked the source what it writes, and the test carry-over took a missing pose for
+// the identity. The source's writes now count from the first stage on, a reader of `@pose` with
+// neither the source nor an earlier stage writing it is refused at its entry, and a source can
+// only declare what lives on the frame: a grid layer it "writes" is refused at the source.
+TEST(Pipeline, AStageThatReadsThePoseNeedsASourceOrStageThatWritesIt) {
+  test::ConfigFixture f;
+  PluginRegistry reg({test::pluginDir(),
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_source",
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_egomotion",
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_carry_over"});
+  auto withCarry = [](const std::string& source_params) {
+    std::string t = test::ConfigFixture::validPipeline(source_params);
+    t.insert(t.find("  - {name: mrf"), "  - {name: carry, type: test_carry_over}\n");
+    return t;
+  };
+  const std::string text = withCarry("{frames: 2}");
+  const auto errs = loadErrors(f, reg, "nopose.yaml", text);
+  ASSERT_EQ(errs.size(), 1u) << joinedLines(errs);
+  EXPECT_EQ(errs[0].rfind(f.dir.str() + "/nopose.yaml:" + test::positionOf(text, "{name: carry") +
+                              ": stage 'carry' (test_carry_over): reads '@pose', which neither "
+                              "source 'test_synthetic' (test_synthetic) nor an earlier stage "
+                              "writes (available here: @points, ",
+                          0),
+            0u)
+      << errs[0];
+  EXPECT_NE(errs[0].find("; a pose comes from a source that has one for every frame (simulator, "
+                         "semantickitti with poses.txt, pointcloud_file PCDs with VIEWPOINTs) or "
+                         "from an egomotion stage before it"),
+            std::string::npos)
+      << errs[0];
+  // A source with poses, or an egomotion stage, provides it.
+  const auto with_poses = loadErrors(f, reg, "poses.yaml", withCarry("{frames: 2, poses: true}"));
+  EXPECT_TRUE(with_poses.empty()) << joinedLines(with_poses);
+  std::string ego = text;
+  ego.insert(ego.find("stages:\n") + 8, "  - {name: ego, type: test_egomotion}\n");
+  const auto with_ego = loadErrors(f, reg, "ego.yaml", ego);
+  EXPECT_TRUE(with_ego.empty()) << joinedLines(with_ego);
+  // A source declaring a grid layer: refused at the source (the stage after it writes it too).
+  const std::string layer =
+      test::ConfigFixture::validPipeline("{frames: 2, declared_writes: [height_diff]}");
+  const auto layer_errs = loadErrors(f, reg, "layer.yaml", layer);
+  EXPECT_EQ(layer_errs,
+            std::vector<std::string>{
+                f.dir.str() + "/layer.yaml:" + test::positionOf(layer, "{type: test_synthetic") +
+                ": stage 'test_synthetic' (test_synthetic): declares that it writes "
+                "'height_diff', which a source cannot: the grid (its layers and point lists) is "
+                "built from each frame after it is read, so a source provides the frame only (its "
+                "points, and frame artefacts such as '@pose')"})
+      << joinedLines(layer_errs);
+}
+
 
 }  // namespace terramrf

@@ -650,6 +650,71 @@ optimisers: {icm: {type: icm}}
       << e.what();
 }
 
+// A feature set's stages run after common_stages, and the runner runs only the leading
+// egomotion stages before it builds the grid: one listed in a feature set after a common feature
+// stage ran after binning, and the pose and points it set never reached the grid. Run configs
+// refused that order; sweeps ran it. Now refused as the sweep is loaded, at the stage's entry,
+// by the check run configs use.
+TEST(SweepDiagnostics, AnEgomotionStageAfterTheCommonFeatureStagesIsRefused) {
+  test::TempDir dir;
+  const std::string ego_dir = std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_egomotion";
+  const std::string text = test::edited(
+      "plugin_path: [" + ego_dir + "]\n" + tinySweep("  icm: {type: icm}"),
+      "    stages: [{name: hdiff, type: height_difference}]",
+      "    stages: [{name: ego, type: test_egomotion}, {name: hdiff, type: height_difference}]");
+  const std::string sweep = put(dir, "late_ego.yaml", text);
+  const ConfigError e = expectConfigError(sweep);
+  // Once, though feature set L extends L0 and so has the stage too.
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  EXPECT_EQ(e.diagnostics()[0].str(),
+            sweep + ":" + test::positionOf(text, "{name: ego") +
+                ": stage 'ego' (test_egomotion): egomotion stages must come before "
+                "feature/energy/optimiser stages (the grid is built after the pose is known); "
+                "this one follows 'pre' (eigen_preclass), so it would run on a grid already "
+                "built without it");
+  // First in common_stages it runs before the grid: accepted.
+  const std::string first =
+      test::edited("plugin_path: [" + ego_dir + "]\n" + tinySweep("  icm: {type: icm}"),
+                   "common_stages:\n", "common_stages:\n  - {name: ego, type: test_egomotion}\n");
+  EXPECT_NO_THROW(planSweep(put(dir, "first_ego.yaml", first), {test::pluginDir()}));
+}
+
+// Each run's pipeline counts what its source writes: a stage that reads the frame's pose runs
+// over the simulator, which gives every frame one, and fails the runs over a source without
+// poses, at the stage's entry in the sweep. The check never asked the source, so every run and
+// the training failed ("reads '@pose', which no earlier stage writes").
+TEST(SweepDiagnostics, AStageThatReadsThePoseRunsWhereTheSourceWritesIt) {
+  test::TempDir dir;
+  const std::string plugins = std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_egomotion, " +
+                              TERRAMRF_TEST_PLUGIN_DIR + "/synthetic_source";
+  std::string text = "plugin_path: [" + plugins + "]\n" + tinySweep("  icm: {type: icm}");
+  text = test::edited(text, "datasets:\n",
+                      "datasets:\n  flat: {type: test_synthetic, params: {frames: 1}}\n");
+  text = test::edited(text, "test: [sim_test]", "test: [sim_test, flat]");
+  text = test::edited(text, "common_stages:\n",
+                      "common_stages:\n  - {name: ego, type: test_egomotion, params: {step_m: 0, "
+                      "declared_reads: ['@pose']}}\n");
+  const std::string sweep = put(dir, "pose.yaml", text);
+  std::ostringstream log;
+  const SweepResult r = runQuiet(sweep, dir.str() + "/out", log);
+  ASSERT_EQ(r.runs.size(), 4u) << log.str();
+  for (const auto& x : r.runs) {
+    if (x.dataset == "sim_test") {
+      EXPECT_EQ(x.status, RunRecord::Status::kOk) << x.key() << ": " << x.reason;
+      continue;
+    }
+    EXPECT_EQ(x.status, RunRecord::Status::kFailed) << x.key();
+    EXPECT_EQ(x.reason.rfind(sweep + ":" + test::positionOf(text, "{name: ego") +
+                                 ": stage 'ego' (test_egomotion): reads '@pose', which neither "
+                                 "source '",
+                             0),
+              0u)
+        << x.reason;
+    EXPECT_NE(x.reason.find("(test_synthetic) nor an earlier stage writes"), std::string::npos)
+        << x.reason;
+  }
+}
+
 TEST(SweepDiagnostics, RepeatedNamesAreRejectedBecauseOneWouldBeIgnoredOrOverwritten) {
   test::TempDir dir;
   // A repeated key: yaml-cpp keeps both, lookups find the first.
@@ -1803,6 +1868,46 @@ split:
     EXPECT_EQ(e.diagnostics()[0].file, config);
     EXPECT_EQ(e.diagnostics()[0].line, 9);
     EXPECT_NE(e.diagnostics()[0].message.find("frame 2 in both"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(o.model_out));
+}
+
+// `terramrf train` assembles its pipeline as a sweep does: an egomotion stage after a feature
+// stage ran after the grid was built, and the features were learnt on points it had not yet
+// moved. Refused at the entry, as `terramrf run` refuses the same config.
+TEST(Train, AnEgomotionStageAfterAFeatureStageIsRefused) {
+  test::TempDir dir;
+  const std::string text = "version: 1\nplugin_path: [" + std::string(TERRAMRF_TEST_PLUGIN_DIR) +
+                           "/synthetic_egomotion]\n" +
+                           R"(source: {type: simulator, params: {seed: 7, frames: 2, )" + kSim +
+                           R"(}}
+stages:
+  - {name: hdiff, type: height_difference}
+  - {name: ego, type: test_egomotion}
+outputs:
+  - {type: feature_stats, params: {features: [height_diff]}}
+split:
+  train: [{frames: [0, 1]}]
+)";
+  const std::string config = put(dir, "train.yaml", text);
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/m.yaml";
+  o.progress = false;
+  o.plugin_dirs = {test::pluginDir()};
+  std::ostringstream log;
+  o.log = &log;
+  try {
+    trainModel(o);
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+    EXPECT_EQ(e.diagnostics()[0].str().rfind(
+                  config + ":" + test::positionOf(text, "{name: ego") +
+                      ": stage 'ego' (test_egomotion): egomotion stages must come before",
+                  0),
+              0u)
+        << e.what();
   }
   EXPECT_FALSE(fs::exists(o.model_out));
 }

@@ -3,6 +3,7 @@
 // this one does; the core's side (the previous frame's grid and pose stay readable, the energy
 // takes evidence and classifies cells without points from it) is tested with it now.
 #include <cmath>
+#include <stdexcept>
 
 #include "terramrf/grid_warp.hpp"
 #include "terramrf/plugin.hpp"
@@ -19,6 +20,10 @@ class SyntheticCarryOver final : public Stage {
     for (std::size_t id = 1; id < ctx.labels->size(); ++id)
       layers_.push_back("evidence." + ctx.labels->name(static_cast<LabelId>(id)));
   }
+  /// The two frames' poses: declared, so a config whose source and stages give none is refused
+  /// (a carry-over by the identity would put the previous labels in the wrong cells once the
+  /// vehicle moves).
+  std::vector<std::string> reads() const override { return {artefacts::kPose}; }
   std::vector<std::string> writes() const override { return layers_; }
 
   void process(FrameContext& ctx) override {
@@ -28,10 +33,11 @@ class SyntheticCarryOver final : public Stage {
     const FrameContext* prev = ctx.previous;
     ctx.metrics[name() + ".chain_depth"] = chainDepth(ctx);
     if (!prev || !prev->grid || prev->grid->labels().empty()) return;
-    // Current cell centre → world (this frame's pose) → the previous frame's grid.
-    Eigen::Isometry3d to_prev = Eigen::Isometry3d::Identity();
-    if (ctx.frame->pose && prev->frame && prev->frame->pose)
-      to_prev = prev->frame->pose->inverse() * *ctx.frame->pose;
+    // Current cell centre → world (this frame's pose) → the previous frame's grid. The poses
+    // were checked to be written (reads()); a missing one is a writer's broken promise.
+    if (!ctx.frame->pose || !prev->frame || !prev->frame->pose)
+      throw std::logic_error(name() + ": a frame without its pose ('@pose' was declared written)");
+    const Eigen::Isometry3d to_prev = prev->frame->pose->inverse() * *ctx.frame->pose;
     const std::vector<LabelId> carried_labels = resampleLabels(
         prev->grid->labels(), cellsUnder(g.geometry(), prev->grid->geometry(), to_prev));
     std::size_t carried = 0;

@@ -26,7 +26,17 @@ class SyntheticSource final : public Source {
           "[dx, dy] added to every point, as a cloud stored in a map frame would be; empty: none")
         .unit("m");
     d.add("truth_pose", truth_pose_,
-          "frame i has the ground-truth pose x = i m (no rotation), as pose and truth_pose");
+          "frame i has the ground-truth pose x = i m (no rotation), as pose and truth_pose "
+          "(and '@pose' is declared written)");
+    d.add("poses", poses_,
+          "every frame has a pose (the identity), and '@pose' is declared written");
+    d.add("declared_writes", declared_writes_,
+          "declared written besides the pose (tests of the read/write check; nothing is written)");
+  }
+  std::vector<std::string> writes() const override {
+    std::vector<std::string> w = declared_writes_;
+    if (poses_ || truth_pose_) w.push_back(artefacts::kPose);
+    return w;
   }
   std::size_t size() const override { return static_cast<std::size_t>(frames_); }
   std::string frameId(std::size_t i) const override {
@@ -37,12 +47,14 @@ class SyntheticSource final : public Source {
   Frame read(std::size_t i) override {
     for (double b : bad_)
       if (static_cast<std::size_t>(b) == i)
-        throw InputError("synthetic/" + frameId(i) + ".bin", "size 13 bytes is not a multiple of 16");
+        throw InputError("synthetic/" + frameId(i) + ".bin",
+                         "size 13 bytes is not a multiple of 16");
     Frame f;
     f.id = frameId(i);
     f.source_path = "synthetic/" + f.id + ".bin";
     f.dropped_nonfinite_points = static_cast<std::size_t>(nonfinite_);
     f.dropped_no_return_points = static_cast<std::size_t>(no_return_);
+    if (poses_) f.pose = Eigen::Isometry3d::Identity();
     if (truth_pose_) {
       f.truth_pose = Eigen::Isometry3d(Eigen::Translation3d(double(i), 0, 0));
       f.pose = f.truth_pose;
@@ -85,6 +97,8 @@ class SyntheticSource final : public Source {
   int hole_from_ = -1;
   std::vector<double> offset_m_;
   bool truth_pose_ = false;
+  bool poses_ = false;
+  std::vector<std::string> declared_writes_;
 };
 
 }  // namespace terramrf

@@ -45,6 +45,10 @@ class SimulatorSource : public Source {
     return f;
   }
 
+  /// Every frame has the vehicle's pose on its trajectory (Simulation::frame). Stages that read
+  /// the pose are checked against this.
+  std::vector<std::string> writes() const override { return {artefacts::kPose}; }
+
   /// Simulation::frame is const and seeds all noise from the frame index.
   bool concurrentReads() const override { return true; }
 

@@ -300,15 +300,22 @@ TEST_F(PointCloudFileTest, PcdViewpointIsTheFramesPose) {
     EXPECT_NEAR(f1.points.z[k], pts[k].z(), 1e-3) << k;
   }
   EXPECT_NE(err.find("the frames' poses are their VIEWPOINTs"), std::string::npos) << err;
+  // Every frame has one, so the pose is declared written (stages that read it are checked
+  // against that); the source used to declare nothing.
+  EXPECT_EQ(src->writes(), std::vector<std::string>{artefacts::kPose});
   // A source whose files all have the default VIEWPOINT gives no pose: the files say nothing
   // about one.
-  EXPECT_FALSE(make("{path: " + dir.str() + "/map/scan0.pcd}")->read(0).pose.has_value());
-  // Nor does a PLY (no viewpoint is read from it).
+  auto single = make("{path: " + dir.str() + "/map/scan0.pcd}");
+  EXPECT_FALSE(single->read(0).pose.has_value());
+  EXPECT_TRUE(single->writes().empty());
+  // Nor does a PLY (no viewpoint is read from it): with one among the PCDs some frames have no
+  // pose, and none is declared.
   const std::string ply = dir.str() + "/map/scan2.ply";
   ASSERT_EQ(pcl::io::savePLYFile(ply, makeCloud(kPoints, false, false)), 0);
   auto mixed = make("{path: " + dir.str() + "/map}");
   ASSERT_EQ(mixed->size(), 3u);
   EXPECT_FALSE(mixed->read(2).pose.has_value());
+  EXPECT_TRUE(mixed->writes().empty());
 }
 
 // PCL writes VIEWPOINT with 6 significant digits, so a UTM northing 5812345.68 is stored as

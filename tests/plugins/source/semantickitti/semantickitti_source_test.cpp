@@ -612,6 +612,18 @@ TEST_F(SemanticKittiSourceTest, PosesFileShorterThanTheSequenceNamesFileAndFrame
   }
 }
 
+// The pose is declared written (stages that read it, such as a temporal one, are checked against
+// the declaration) exactly when every frame has one: with a poses.txt read. The source declared
+// nothing, so a stage that reads the pose was refused even over a sequence with poses.
+TEST_F(SemanticKittiSourceTest, DeclaresThePoseWrittenWhenItReadsAPosesFile) {
+  test::TempDir dir;
+  const std::string seq = tinySequence(dir);
+  EXPECT_TRUE(make("{path: " + seq + "}")->writes().empty());  // no poses.txt
+  std::ofstream(seq + "/poses.txt") << "1 0 0 0 0 1 0 0 0 0 1 0\n";
+  EXPECT_EQ(make("{path: " + seq + "}")->writes(), std::vector<std::string>{artefacts::kPose});
+  EXPECT_TRUE(make("{path: " + seq + ", use_poses: false}")->writes().empty());
+}
+
 // A times.txt shorter than the sequence: the frame past its end is an InputError naming the
 // file, its count and the frame (it used to get frame number x 0.1 s, silently on another time
 // base than the frames before it). Without times.txt the 10 Hz rule stays.

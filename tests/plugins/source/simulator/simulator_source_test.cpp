@@ -91,6 +91,15 @@ TEST(SimulatorSource, DeterministicAndIndependentOfReadOrder) {
 // last bits (the lattices' origins
 // follow the strip, so a hit can differ by ~1e-14 m inside the float output). Seed 4 alone was
 // tested and passed exactly; seeds 13 and 40 flip 2 and 8 labels (1–40: at most 8 of ~235k).
+// Every simulated frame has the vehicle's pose, and the source says so: stages that read the
+// pose (a temporal one) are checked against what the source declares. It declared nothing, so
+// such a stage was refused over the simulator.
+TEST(SimulatorSource, DeclaresThePoseEveryFrameHas) {
+  auto p = makeSource("{frames: 2, enable_camera: false}");
+  EXPECT_EQ(src(p).writes(), std::vector<std::string>{artefacts::kPose});
+  EXPECT_TRUE(defaultFrame0().pose.has_value());
+}
+
 TEST(SimulatorSource, SeedMeansOneWorldWhateverTheFrameCountOrCamera) {
   const std::string tiny_camera = "camera_width: 64, camera_height: 64, camera_fx: 40";
   for (const auto& [seed, other] :
