@@ -7,22 +7,30 @@
 #include <utility>
 
 namespace terramrf {
+namespace {
 
-std::vector<int32_t> cellsUnder(const GridGeometry& dst, const GridGeometry& src,
-                                const Eigen::Isometry3d& T_src_dst) {
+// Calls f(k, q) for each cell k of `dst` (row-major) with its centre q in src's frame. The
+// centres of a row are equally spaced, so their images are too: one transform per row and a step
+// along it instead of a matrix product per cell.
+template <class F>
+void forEachCentre(const GridGeometry& dst, const Eigen::Isometry3d& T_src_dst, F f) {
   const int rows = dst.rows(), cols = dst.cols();
-  std::vector<int32_t> out(std::size_t(rows) * cols, -1);
-  // The centres of a row are equally spaced, so their images are too: one transform per row and
-  // a step along it instead of a matrix product per cell.
   const Eigen::Vector3d step = T_src_dst.linear() * Eigen::Vector3d(0, dst.cell_m, 0);
   for (int r = 0; r < rows; ++r) {
     const Eigen::Vector2d m = dst.cellCentre(r, 0);
     const Eigen::Vector3d q0 = T_src_dst * Eigen::Vector3d(m.x(), m.y(), 0);
-    for (int c = 0; c < cols; ++c) {
-      const Eigen::Vector3d q = q0 + double(c) * step;
-      out[std::size_t(r) * cols + c] = src.cellOf(q.x(), q.y());
-    }
+    for (int c = 0; c < cols; ++c) f(std::size_t(r) * cols + c, q0 + double(c) * step);
   }
+}
+
+}  // namespace
+
+std::vector<int32_t> cellsUnder(const GridGeometry& dst, const GridGeometry& src,
+                                const Eigen::Isometry3d& T_src_dst) {
+  std::vector<int32_t> out(dst.cells(), -1);
+  forEachCentre(dst, T_src_dst, [&](std::size_t k, const Eigen::Vector3d& q) {
+    out[k] = src.cellOf(q.x(), q.y());
+  });
   return out;
 }
 
@@ -48,36 +56,29 @@ Layer resampleBilinear(const Layer& src, const GridGeometry& src_geom, const Gri
     throw std::invalid_argument("resampleBilinear: the layer has " + std::to_string(src.size()) +
                                 " cells, its geometry " + std::to_string(srows) + " x " +
                                 std::to_string(scols));
-  const int rows = dst.rows(), cols = dst.cols();
-  Layer out(std::size_t(rows) * cols, kNoData);
+  Layer out(dst.cells(), kNoData);
   const Eigen::Vector2d o = src_geom.origin();
   const double inv = 1.0 / src_geom.cell_m;
-  const Eigen::Vector3d step = T_src_dst.linear() * Eigen::Vector3d(0, dst.cell_m, 0);
-  for (int r = 0; r < rows; ++r) {
-    const Eigen::Vector2d m = dst.cellCentre(r, 0);
-    const Eigen::Vector3d q0 = T_src_dst * Eigen::Vector3d(m.x(), m.y(), 0);
-    for (int c = 0; c < cols; ++c) {
-      const Eigen::Vector3d q = q0 + double(c) * step;
-      // Continuous cell coordinates with integers at the cell centres.
-      const double fr = (q.x() - o.x()) * inv - 0.5, fc = (q.y() - o.y()) * inv - 0.5;
-      if (!(fr > -1.0 && fc > -1.0 && fr < srows && fc < scols)) continue;  // NaN too
-      const int r0 = int(std::floor(fr)), c0 = int(std::floor(fc));
-      const double tr = fr - r0, tc = fc - c0;
-      double sum = 0, wsum = 0;
-      for (int dr = 0; dr < 2; ++dr)
-        for (int dc = 0; dc < 2; ++dc) {
-          const int sr = r0 + dr, sc = c0 + dc;
-          if (sr < 0 || sc < 0 || sr >= srows || sc >= scols) continue;
-          const float v = src[std::size_t(sr) * scols + sc];
-          if (std::isnan(v)) continue;
-          const double w = (dr ? tr : 1 - tr) * (dc ? tc : 1 - tc);
-          sum += w * v;
-          wsum += w;
-        }
-      // wsum == 0 also when the point sits exactly on a cell centre whose value is missing.
-      if (wsum > 0) out[std::size_t(r) * cols + c] = float(sum / wsum);
-    }
-  }
+  forEachCentre(dst, T_src_dst, [&](std::size_t k, const Eigen::Vector3d& q) {
+    // Continuous cell coordinates with integers at the cell centres.
+    const double fr = (q.x() - o.x()) * inv - 0.5, fc = (q.y() - o.y()) * inv - 0.5;
+    if (!(fr > -1.0 && fc > -1.0 && fr < srows && fc < scols)) return;  // NaN too
+    const int r0 = int(std::floor(fr)), c0 = int(std::floor(fc));
+    const double tr = fr - r0, tc = fc - c0;
+    double sum = 0, wsum = 0;
+    for (int dr = 0; dr < 2; ++dr)
+      for (int dc = 0; dc < 2; ++dc) {
+        const int sr = r0 + dr, sc = c0 + dc;
+        if (sr < 0 || sc < 0 || sr >= srows || sc >= scols) continue;
+        const float v = src[std::size_t(sr) * scols + sc];
+        if (std::isnan(v)) continue;
+        const double w = (dr ? tr : 1 - tr) * (dc ? tc : 1 - tc);
+        sum += w * v;
+        wsum += w;
+      }
+    // wsum == 0 also when the point sits exactly on a cell centre whose value is missing.
+    if (wsum > 0) out[k] = float(sum / wsum);
+  });
   return out;
 }
 
