@@ -2,6 +2,7 @@
 // [--no-progress]:
 // runs the config with the textured_mesh output (paper 004) ensured — added with its defaults
 // when the config does not list one — and prints where the mesh went.
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <variant>
@@ -73,7 +74,10 @@ int cmdMesh(const Args& args) {
     std::cerr << "terramrf mesh: " << e.what() << "\n";
     return kError;
   }
-  const bool exported = r.output_errors.empty();  // before the reports add theirs
+  // Before the reports add theirs; a stage's end() error ("stage '…'") exports nothing less.
+  const bool exported =
+      std::none_of(r.output_errors.begin(), r.output_errors.end(),
+                   [](const std::string& e) { return e.rfind("output '", 0) == 0; });
   writeReportsOf(p.output_dir, r);
   std::cout << framesOk(r, *p.source) << "\n";
   for (const auto& [id, why] : r.summary.failed) std::cout << "  " << id << ": " << why << "\n";

@@ -36,8 +36,12 @@ double StageTiming::stddev() const {
   for (double v : ms) s += (v - m) * (v - m);
   return std::sqrt(s / (ms.size() - 1));
 }
-double StageTiming::min() const { return ms.empty() ? NAN : *std::min_element(ms.begin(), ms.end()); }
-double StageTiming::max() const { return ms.empty() ? NAN : *std::max_element(ms.begin(), ms.end()); }
+double StageTiming::min() const {
+  return ms.empty() ? NAN : *std::min_element(ms.begin(), ms.end());
+}
+double StageTiming::max() const {
+  return ms.empty() ? NAN : *std::max_element(ms.begin(), ms.end());
+}
 double StageTiming::median() const {
   if (ms.empty()) return NAN;
   std::vector<double> v = ms;
@@ -322,9 +326,15 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   std::size_t first_non_ego = 0;
   while (first_non_ego < p.stages.size() && p.stage_kinds[first_non_ego] == PluginKind::kEgomotion)
     ++first_non_ego;
+  // Only a pose an egomotion stage wrote is its estimate: a stage that leaves the source's own
+  // (one that only de-skews the points) would be scored as exact against the truth it equals.
+  bool ego_sets_pose = false;
+  for (std::size_t s = 0; s < first_non_ego; ++s)
+    for (const auto& w : p.stages[s]->writes()) ego_sets_pose |= w == artefacts::kPose;
   for (std::size_t s = 0; s < first_non_ego; ++s) slot_names.push_back(p.stages[s]->name());
   slot_names.push_back("grid");
-  for (std::size_t s = first_non_ego; s < p.stages.size(); ++s) slot_names.push_back(p.stages[s]->name());
+  for (std::size_t s = first_non_ego; s < p.stages.size(); ++s)
+    slot_names.push_back(p.stages[s]->name());
   for (auto& o : p.outputs) slot_names.push_back("output:" + o->name());
   slot_names.push_back("total");
   res.timings.resize(slot_names.size());
@@ -410,7 +420,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
               "estimate belongs in Frame::pose");
       }
       std::optional<PoseError> ego_error;
-      if (first_non_ego > 0 && truth_pose && frames[cur].pose) {
+      if (ego_sets_pose && truth_pose && frames[cur].pose) {
         ego_error = poseError(*frames[cur].pose, *truth_pose);
         ctx.metrics["egomotion.translation_error_m"] = ego_error->translation_m;
         ctx.metrics["egomotion.rotation_error_deg"] = ego_error->rotation_deg;

@@ -150,8 +150,8 @@ class Source : public Plugin {
 };
 
 /// Base of a source that is only ever a stream: next() and interrupt() to write, no index. The
-/// batch functions are final here; the runner never calls them on a stream (they throw
-/// std::logic_error should anything else).
+/// batch functions are final here and the runner never calls them on a stream: size() is 0,
+/// concurrentReads() false, and frameId() and read() throw std::logic_error.
 class StreamSource : public Source {
  public:
   bool streaming() const final { return true; }
@@ -226,7 +226,8 @@ class Stage : public Plugin {
  public:
   /// Once per run, before the first frame (RunInfo::run: the run's state, where a stage may make
   /// its maps). A throw fails the run before any frame, as `stage '<name>' (<type>): <what>`,
-  /// and then no stage or output ends.
+  /// and then no stage or output ends (nor when an output's begin() throws after the stages
+  /// began): a stage that takes a resource in begin() releases it in its destructor too.
   virtual void begin(const RunInfo& /*info*/) {}
   virtual void process(FrameContext& ctx) = 0;
   /// Called when a frame this stage processed fails in a later stage or output (not when this
