@@ -326,17 +326,32 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   std::size_t first_non_ego = 0;
   while (first_non_ego < p.stages.size() && p.stage_kinds[first_non_ego] == PluginKind::kEgomotion)
     ++first_non_ego;
-  // Only a pose an egomotion stage wrote is its estimate: a stage that leaves the source's own
-  // (one that only de-skews the points) would be scored as exact against the truth it equals.
-  bool ego_sets_pose = false;
-  for (std::size_t s = 0; s < first_non_ego; ++s)
-    for (const auto& w : p.stages[s]->writes()) ego_sets_pose |= w == artefacts::kPose;
   for (std::size_t s = 0; s < first_non_ego; ++s) slot_names.push_back(p.stages[s]->name());
   slot_names.push_back("grid");
   for (std::size_t s = first_non_ego; s < p.stages.size(); ++s)
     slot_names.push_back(p.stages[s]->name());
   for (auto& o : p.outputs) slot_names.push_back("output:" + o->name());
   slot_names.push_back("total");
+  // A writer of `@pose` promises a pose for every frame, and the stages that read it were let
+  // through on that promise (the loaders' check): a frame it leaves without one fails, naming it,
+  // rather than reaching them without a pose.
+  auto declaresPose = [](const Plugin& pl) {
+    const auto w = pl.writes();
+    return std::find(w.begin(), w.end(), artefacts::kPose) != w.end();
+  };
+  const bool source_poses = declaresPose(*p.source);
+  std::vector<bool> stage_poses;
+  for (const auto& s : p.stages) stage_poses.push_back(declaresPose(*s));
+  // Only a pose an egomotion stage wrote is its estimate: a stage that leaves the source's own
+  // (one that only de-skews the points) would be scored as exact against the truth it equals.
+  bool ego_sets_pose = false;
+  for (std::size_t s = 0; s < first_non_ego; ++s) ego_sets_pose = ego_sets_pose || stage_poses[s];
+  auto requirePose = [](const Frame& f) {
+    if (!f.pose)
+      throw std::runtime_error(
+          "left frame " + f.id + " without a pose, though it declares that it writes '" +
+          artefacts::kPose + "' (a pose for every frame, which later stages rely on)");
+  };
   res.timings.resize(slot_names.size());
   for (std::size_t k = 0; k < slot_names.size(); ++k) res.timings[k].name = slot_names[k];
 
@@ -399,6 +414,11 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       auto t = Clock::now();
       if (frames[cur].id.empty()) frames[cur].id = id;
       read_ok = true;
+      if (source_poses && !frames[cur].pose)
+        throw InputError(frames[cur].source_path,
+                         "has no pose, though source '" + p.source->name() + "' (" +
+                             p.source->type() + ") declares that it writes '" + artefacts::kPose +
+                             "' (a pose for every frame, which stages rely on)");
       noteDroppedPoints(frames[cur], res, log, opt.progress);
       // The grid is built after the egomotion stages; until then it would still hold the layers
       // of the frame two back (the slot's last use), which they could take for this frame's.
@@ -411,6 +431,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
         t = Clock::now();
         p.stages[s]->process(ctx);
         ++stages_done;
+        if (stage_poses[s]) requirePose(frames[cur]);
         slot_ms[slot++] = msSince(t);
         const auto& after = frames[cur].truth_pose;
         if (after.has_value() != truth_pose.has_value() ||
@@ -436,6 +457,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
         t = Clock::now();
         p.stages[s]->process(ctx);
         ++stages_done;
+        if (stage_poses[s]) requirePose(frames[cur]);
         slot_ms[slot++] = msSince(t);
       }
       for (auto& o : p.outputs) {

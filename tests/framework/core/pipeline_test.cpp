@@ -1138,4 +1138,43 @@ TEST(Pipeline, AStageThatReadsThePoseNeedsASourceOrStageThatWritesIt) {
 }
 
 
+// A writer of `@pose` promises a pose for every frame: the stages that read it were let through
+// on that promise. A frame that comes out of the source, or out of an egomotion stage, without
+// one fails, naming the writer; it used to go on without a pose.
+TEST(Pipeline, AFrameLeftWithoutThePoseItsWriterDeclaredFails) {
+  test::ConfigFixture f;
+  PluginRegistry reg({test::pluginDir(),
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_source",
+                      std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_egomotion"});
+  auto run = [&](const std::string& name, const std::string& text) {
+    LoadOptions lo;
+    lo.output_dir = f.dir.str() + "/out_" + name;
+    Pipeline p = loadPipeline(f.write(name + ".yaml", text), lo, reg);
+    RunOptions ro;
+    ro.progress = false;
+    std::ostringstream log;
+    ro.log = &log;
+    return runPipeline(p, ro);
+  };
+  const RunResult src =
+      run("src", test::ConfigFixture::validPipeline("{frames: 2, declared_writes: ['@pose']}"));
+  EXPECT_EQ(src.summary.frames_ok, 0u);
+  ASSERT_EQ(src.summary.failed.size(), 2u);
+  EXPECT_EQ(src.summary.failed[0].second,
+            "[read] synthetic/000000.bin: has no pose, though source 'test_synthetic' "
+            "(test_synthetic) declares that it writes '@pose' (a pose for every frame, which "
+            "stages rely on)");
+  std::string text = test::ConfigFixture::validPipeline("{frames: 2}");
+  text.insert(text.find("stages:\n") + 8,
+              "  - {name: ego, type: test_egomotion, params: {set_pose: false, declared_writes: "
+              "['@pose']}}\n");
+  const RunResult ego = run("ego", text);
+  EXPECT_EQ(ego.summary.frames_ok, 0u);
+  ASSERT_EQ(ego.summary.failed.size(), 2u);
+  EXPECT_EQ(ego.summary.failed[1].second,
+            "[ego] left frame 000001 without a pose, though it declares that it writes '@pose' "
+            "(a pose for every frame, which later stages rely on)");
+}
+
+
 }  // namespace terramrf
