@@ -101,7 +101,12 @@ void GridPublisher::publish(const TerrainGrid& grid, const LabelSet& labels,
 }
 
 void GridPublisher::publishPoints(const PointCloud& cloud, const MessageHeader& header) {
-  publishBytes(pointsChannel(), encodePointCloud(cloud, header), logTime(header));
+  publishForScan(pointsChannel(), encodePointCloud(cloud, header), header);
+}
+
+void GridPublisher::publishForScan(const std::string& channel, const MessageBytes& bytes,
+                                   const MessageHeader& header) {
+  publishBytes(channel, bytes, logTime(header));
 }
 
 std::optional<int64_t> GridPublisher::logTime(const MessageHeader& header) const {

@@ -11,17 +11,15 @@
 #include <stdexcept>
 #include <vector>
 
+#include "log_format.hpp"
+
 namespace terramrf {
 namespace {
 
-// LCM's log format (lcm/eventlog.c): per event, big-endian
-//   int32 magic 0xEDA1DA01, int64 event number, int64 timestamp [µs],
-//   int32 channel length, int32 data length, then the channel (no NUL) and the data.
-constexpr std::uint32_t kMagic = 0xEDA1DA01u;
-constexpr std::size_t kHeaderBytes = 4 + 8 + 8 + 4 + 4;
-// lcm_eventlog_read_next_event refuses channel lengths outside 1..999 and negative data lengths.
-constexpr std::size_t kMaxChannel = 999;
-constexpr std::size_t kMaxData = 0x7fffffff;
+using lcm_log_format::kHeaderBytes;
+using lcm_log_format::kMagic;
+using lcm_log_format::kMaxChannel;
+using lcm_log_format::kMaxData;
 
 void putBigEndian(std::vector<std::uint8_t>& out, std::uint64_t v, int bytes) {
   for (int i = bytes - 1; i >= 0; --i) out.push_back(static_cast<std::uint8_t>(v >> (8 * i)));

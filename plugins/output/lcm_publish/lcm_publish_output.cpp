@@ -1,6 +1,6 @@
-// Output "lcm_publish": publishes each labelled grid as terramrf_msgs.terrain_grid_t (and, if
-// asked, the scan's points as point_cloud_t on <channel>_POINTS). Writes nothing to disk, except
-// the LCM log a file:// URL names.
+// Output "lcm_publish": publishes each labelled grid as terramrf_msgs.terrain_grid_t and, if
+// asked, the scan's pose, ground truth and points, so that a log it writes can be read back as a
+// source (lcm_log). Writes nothing to disk, except the LCM log a file:// URL names.
 #include <memory>
 #include <set>
 #include <stdexcept>
@@ -8,7 +8,9 @@
 #include <vector>
 
 #include "terramrf/lcm/grid_publisher.hpp"
+#include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/log_writer.hpp"
+#include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -24,6 +26,13 @@ class LcmPublishOutput : public Output {
     d.add("layers", layers_, "float layers to send; empty = every layer of the grid").unique();
     d.add("publish_points", publish_points_,
           "also publish the scan's points as point_cloud_t on <channel>_POINTS");
+    d.add("publish_pose", publish_pose_,
+          "also publish the scan's pose (Frame::pose, with its covariance) as pose_t on "
+          "<channel>_POSE, for scans that have one");
+    d.add("publish_truth", publish_truth_,
+          "also publish the scan's ground truth, for scans that have it: per-point classes as "
+          "point_labels_t on <channel>_LABELS, the ground-truth pose as pose_t on "
+          "<channel>_TRUTH_POSE");
     d.add("log_time", log_time_,
           "time of each event in a file:// log: 'wall' (when it was written, as LCM's logger "
           "records) or 'frame' (the frame's own timestamp, so lcm-logplayer replays a dataset "
@@ -87,8 +96,27 @@ class LcmPublishOutput : public Output {
     MessageHeader header;
     header.frame_id = ctx.frame->id;
     header.timestamp_s = ctx.frame->timestamp_s;
-    publisher_->publish(*ctx.grid, ctx.labels ? *ctx.labels : labels_, header, layers_);
-    if (publish_points_) publisher_->publishPoints(ctx.frame->points, header);
+    const LabelSet& labels = ctx.labels ? *ctx.labels : labels_;
+    const Frame& f = *ctx.frame;
+    publisher_->publish(*ctx.grid, labels, header, layers_);
+    // The points go last: a receiver assembling scans takes the cloud as the scan's end.
+    if (publish_pose_) {
+      if (const auto pose = framePoseMessage(f))
+        publisher_->publishForScan(channel_ + "_POSE", encodePose(*pose), header);
+    }
+    if (publish_truth_) {
+      if (f.truth_pose) {
+        PoseMessage truth;
+        truth.header = header;
+        truth.header.coordinate_frame = "world";
+        truth.pose = *f.truth_pose;
+        publisher_->publishForScan(channel_ + "_TRUTH_POSE", encodePose(truth), header);
+      }
+      if (!f.truth.empty())
+        publisher_->publishForScan(channel_ + "_LABELS", encodePointLabels(f.truth, labels, header),
+                                   header);
+    }
+    if (publish_points_) publisher_->publishPoints(f.points, header);
   }
 
   // Closing a log saves its last bytes: a failure there is the run's output error, not lost.
@@ -109,6 +137,8 @@ class LcmPublishOutput : public Output {
   std::string channel_ = "TERRAMRF_GRID";
   std::vector<std::string> layers_;
   bool publish_points_ = false;
+  bool publish_pose_ = false;
+  bool publish_truth_ = false;
   std::string log_time_ = "wall";
 
   LabelSet labels_ = LabelSet::defaults();

@@ -50,6 +50,10 @@ class GridPublisher {
                const std::vector<std::string>& layers = {});
   /// Encodes (see encodePointCloud) and publishes on pointsChannel().
   void publishPoints(const PointCloud& cloud, const MessageHeader& header);
+  /// Publishes an encoded message of the scan `header` names on `channel`, stamped in a log as
+  /// publish() stamps its grids (stampLogWithMessageTime).
+  void publishForScan(const std::string& channel, const MessageBytes& bytes,
+                      const MessageHeader& header);
   /// Publishes an already encoded message on any channel. `log_utime` [µs]: the event's time in
   /// a log; none = the wall clock now (what LCM's logger records). Live providers ignore it.
   void publishBytes(const std::string& channel, const MessageBytes& bytes,

@@ -1,0 +1,51 @@
+#pragma once
+// Groups the events of an LCM log into scans: a point cloud per scan, with the labels and poses
+// that name the same scan (frame_id) and the IMU, GPS and odometry samples since the scan before.
+// Built in one pass over the log, keeping positions, not data, so that a log of any length is
+// indexed in little memory and each scan read on its own (LcmLogReader::readAt). LCM-free header.
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace terramrf {
+
+/// Channels to read; "" = not read. Only `points` is required.
+struct LogChannels {
+  std::string points;      ///< point_cloud_t: one per scan, in scan order
+  std::string labels;      ///< point_labels_t, matched to a scan by frame_id
+  std::string pose;        ///< pose_t (the pose the pipeline is to use), by frame_id
+  std::string truth_pose;  ///< pose_t (ground truth), by frame_id
+  std::string imu, gps, odometry;  ///< samples, attached by time
+};
+
+/// Where one scan's messages are in the log (byte offsets of their events).
+struct LogFrame {
+  std::string id;              ///< the cloud's frame_id; "event<N>" if it has none
+  std::int64_t utime = 0;      ///< the cloud's time [µs]
+  std::int64_t eventnum = 0;   ///< the cloud's event number (for messages)
+  std::int64_t points = 0;
+  std::optional<std::int64_t> labels, pose, truth_pose;
+  /// Samples with a time after the previous scan's cloud, up to and including this one's.
+  std::vector<std::int64_t> imu, gps, odometry;
+};
+
+struct LogFrameIndex {
+  std::vector<LogFrame> frames;  ///< in log order
+  /// Events seen per channel of the whole log, read or not (to name what a log holds).
+  std::map<std::string, std::size_t> channel_events;
+  /// Why some events of the channels read belong to no scan (a label or pose naming a scan
+  /// without a cloud, a message of another type, samples after the last scan), one line each;
+  /// empty if none.
+  std::vector<std::string> notes;
+  std::int64_t skipped_bytes = 0;  ///< LcmLogReader::skippedBytes() after the pass
+};
+
+/// Throws InputError naming the log if it cannot be read, if two clouds (or two label or pose
+/// messages) name the same scan (their event numbers given), or if sample channels are read and
+/// the clouds are not in time order (samples could not be told which scan they precede).
+LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& channels);
+
+}  // namespace terramrf

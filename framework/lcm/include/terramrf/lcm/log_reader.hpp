@@ -1,0 +1,64 @@
+#pragma once
+// Reads LCM log files (lcm-logger's, LCM's file:// provider's, LcmLogWriter's) with each event's
+// place in the file, so that a log can be indexed once and an event read again later by its
+// offset. LCM-free header.
+//
+// Why not LCM's own reader (lcm_eventlog_read_next_event, lcm::LogFile): in liblcm 1.3, when the
+// bytes after an event are not the next event's sync word (a damaged stretch, a second writer's
+// bytes), it drops that whole event and returns NULL as at the end of the log, so everything
+// from there on is lost, with only "Invalid header after log data" on stderr. This reader keeps
+// every whole event and goes on at the next sync word, counting what it passed over.
+#include <cstdint>
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace terramrf {
+
+struct LcmLogEvent {
+  std::int64_t offset = 0;     ///< byte position of the event's sync word in the file
+  std::int64_t eventnum = 0;   ///< as its writer numbered it
+  std::int64_t log_utime = 0;  ///< the event's time in the log [µs]
+  std::string channel;
+  std::vector<std::uint8_t> data;  ///< the encoded message
+};
+
+/// Not thread-safe; open one reader per thread (opening costs one fopen).
+class LcmLogReader {
+ public:
+  /// Throws InputError naming the file if it cannot be opened for reading.
+  explicit LcmLogReader(const std::string& path);
+  ~LcmLogReader();
+  LcmLogReader(const LcmLogReader&) = delete;
+  LcmLogReader& operator=(const LcmLogReader&) = delete;
+
+  const std::string& path() const { return path_; }
+
+  /// The next whole event in file order; nullopt once no whole event is left.
+  std::optional<LcmLogEvent> next();
+  /// The event whose sync word is at `offset` (an earlier LcmLogEvent::offset). Throws
+  /// InputError naming the file and the offset if no whole event starts there (the file changed
+  /// since it was indexed). next() then goes on after that event.
+  LcmLogEvent readAt(std::int64_t offset);
+
+  /// Bytes next() passed over so far that belong to no whole event: damage between events (the
+  /// reader goes on at the next sync word that starts a whole event) and, once next() returned
+  /// nullopt, a cut event at the end of the file (a writer killed mid-event).
+  std::int64_t skippedBytes() const { return skipped_; }
+  /// Offset just past the last whole event next() returned.
+  std::int64_t endOfLastEvent() const { return end_; }
+
+ private:
+  /// The whole event starting at `at`, if one does (`at` is then left past it).
+  std::optional<LcmLogEvent> eventAt(std::int64_t at);
+
+  std::string path_;
+  std::FILE* file_ = nullptr;
+  std::int64_t size_ = 0;
+  std::int64_t end_ = 0;
+  std::int64_t skipped_ = 0;
+  bool at_end_ = false;
+};
+
+}  // namespace terramrf

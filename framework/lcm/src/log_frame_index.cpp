@@ -1,0 +1,181 @@
+#include "terramrf/lcm/log_frame_index.hpp"
+
+#include <algorithm>
+#include <unordered_map>
+
+#include "terramrf/errors.hpp"
+#include "terramrf/lcm/log_reader.hpp"
+#include "terramrf/lcm/message_peek.hpp"
+
+namespace terramrf {
+namespace {
+
+struct Keyed {
+  std::int64_t offset = 0;
+  std::int64_t eventnum = 0;
+};
+
+struct Sample {
+  std::int64_t utime = 0;
+  std::int64_t offset = 0;
+};
+
+// Messages of one channel that name their scan: frame_id → event. Two for one scan are refused:
+// which one the sender meant cannot be told.
+class ByScan {
+ public:
+  ByScan(std::string channel, std::string type, std::string path)
+      : channel_(std::move(channel)), type_(std::move(type)), path_(std::move(path)) {}
+  const std::string& channel() const { return channel_; }
+
+  void add(const LcmLogEvent& e) {
+    const auto stamp = peekMessageStamp(e.data.data(), e.data.size());
+    if (!stamp || stamp->type != type_) {
+      ++foreign_;
+      return;
+    }
+    if (stamp->frame_id.empty()) {
+      ++unnamed_;
+      return;
+    }
+    const auto [it, fresh] = events_.emplace(stamp->frame_id, Keyed{e.offset, e.eventnum});
+    if (!fresh) {
+      throw InputError(path_, "events " + std::to_string(it->second.eventnum) + " and " +
+                                  std::to_string(e.eventnum) + " on channel " + channel_ +
+                                  " both carry " + type_ + " for scan '" + stamp->frame_id +
+                                  "'; expected one per scan");
+    }
+  }
+
+  std::optional<std::int64_t> take(const std::string& id) {
+    const auto it = events_.find(id);
+    if (it == events_.end()) return std::nullopt;
+    const std::int64_t offset = it->second.offset;
+    events_.erase(it);
+    return offset;
+  }
+
+  void notes(std::vector<std::string>& out) const {
+    if (foreign_)
+      out.push_back(std::to_string(foreign_) + " event(s) on " + channel_ + " are not " + type_ +
+                    " and were ignored");
+    if (unnamed_)
+      out.push_back(std::to_string(unnamed_) + " " + type_ + " message(s) on " + channel_ +
+                    " name no scan (empty frame_id) and were ignored");
+    if (!events_.empty())
+      out.push_back(std::to_string(events_.size()) + " " + type_ + " message(s) on " + channel_ +
+                    " name a scan with no point cloud (e.g. '" + events_.begin()->first +
+                    "') and were ignored");
+  }
+
+ private:
+  std::string channel_, type_, path_;
+  std::unordered_map<std::string, Keyed> events_;
+  std::size_t foreign_ = 0, unnamed_ = 0;
+};
+
+// Samples of one channel, attached by time once every cloud is known.
+struct Samples {
+  std::string channel, type;
+  std::vector<Sample> samples;
+  std::size_t foreign = 0;
+
+  void add(const LcmLogEvent& e) {
+    const auto stamp = peekMessageStamp(e.data.data(), e.data.size());
+    if (!stamp || stamp->type != type) {
+      ++foreign;
+      return;
+    }
+    samples.push_back({stamp->utime, e.offset});
+  }
+};
+
+}  // namespace
+
+LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
+  if (ch.points.empty()) throw std::invalid_argument("indexLogFrames: no points channel");
+  LcmLogReader reader(path);
+  LogFrameIndex index;
+  ByScan labels(ch.labels, "point_labels_t", path), pose(ch.pose, "pose_t", path),
+      truth(ch.truth_pose, "pose_t", path);
+  Samples imu{ch.imu, "imu_t"}, gps{ch.gps, "gps_t"}, odometry{ch.odometry, "odometry_t"};
+  std::unordered_map<std::string, std::int64_t> cloud_event;  // scan id → event number
+
+  while (std::optional<LcmLogEvent> e = reader.next()) {
+    ++index.channel_events[e->channel];
+    const std::string& c = e->channel;
+    if (c == ch.points) {
+      LogFrame f;
+      f.points = e->offset;
+      f.eventnum = e->eventnum;
+      // A cloud that cannot be peeked stays a scan of its own: its read fails, naming the event,
+      // and the run reports it and goes on, as for a damaged file in a folder.
+      const auto stamp = peekMessageStamp(e->data.data(), e->data.size());
+      const bool named = stamp && stamp->type == "point_cloud_t" && !stamp->frame_id.empty();
+      f.id = named ? stamp->frame_id : "event" + std::to_string(e->eventnum);
+      f.utime = stamp ? stamp->utime : e->log_utime;
+      const auto [it, fresh] = cloud_event.emplace(f.id, e->eventnum);
+      if (!fresh) {
+        throw InputError(path, "events " + std::to_string(it->second) + " and " +
+                                   std::to_string(e->eventnum) + " on channel " + ch.points +
+                                   " both carry the point cloud of scan '" + f.id +
+                                   "'; expected one cloud per scan");
+      }
+      index.frames.push_back(std::move(f));
+    }
+    // One channel may carry several kinds (a pose and a truth pose on the same channel would be
+    // ambiguous, but a sender may put samples wherever it likes): test each.
+    if (!ch.labels.empty() && c == ch.labels) labels.add(*e);
+    if (!ch.pose.empty() && c == ch.pose) pose.add(*e);
+    if (!ch.truth_pose.empty() && c == ch.truth_pose) truth.add(*e);
+    if (!ch.imu.empty() && c == ch.imu) imu.add(*e);
+    if (!ch.gps.empty() && c == ch.gps) gps.add(*e);
+    if (!ch.odometry.empty() && c == ch.odometry) odometry.add(*e);
+  }
+  index.skipped_bytes = reader.skippedBytes();
+
+  for (LogFrame& f : index.frames) {
+    f.labels = labels.take(f.id);
+    f.pose = pose.take(f.id);
+    f.truth_pose = truth.take(f.id);
+  }
+  for (const ByScan* b : {&labels, &pose, &truth})
+    if (!b->channel().empty()) b->notes(index.notes);
+
+  const bool any_samples = !imu.samples.empty() || !gps.samples.empty() ||
+                           !odometry.samples.empty();
+  for (std::size_t i = 1; any_samples && i < index.frames.size(); ++i) {
+    if (index.frames[i].utime < index.frames[i - 1].utime) {
+      throw InputError(path, "the point clouds on " + ch.points + " are not in time order (event " +
+                                 std::to_string(index.frames[i].eventnum) + ", scan '" +
+                                 index.frames[i].id + "', is older than the one before it), so "
+                                 "the IMU, GPS and odometry samples cannot be given to scans");
+    }
+  }
+  using Member = std::vector<std::int64_t> LogFrame::*;
+  const std::pair<Samples*, Member> kinds[] = {
+      {&imu, &LogFrame::imu}, {&gps, &LogFrame::gps}, {&odometry, &LogFrame::odometry}};
+  for (const auto& [s, member] : kinds) {
+    std::size_t after_last = 0;
+    for (const Sample& smp : s->samples) {
+      // The first scan at or after the sample: the sample happened since the scan before it.
+      const auto it = std::lower_bound(
+          index.frames.begin(), index.frames.end(), smp.utime,
+          [](const LogFrame& f, std::int64_t t) { return f.utime < t; });
+      if (it == index.frames.end()) {
+        ++after_last;
+        continue;
+      }
+      ((*it).*member).push_back(smp.offset);
+    }
+    if (s->foreign)
+      index.notes.push_back(std::to_string(s->foreign) + " event(s) on " + s->channel +
+                            " are not " + s->type + " and were ignored");
+    if (after_last)
+      index.notes.push_back(std::to_string(after_last) + " " + s->type + " sample(s) on " +
+                            s->channel + " come after the last scan and were ignored");
+  }
+  return index;
+}
+
+}  // namespace terramrf

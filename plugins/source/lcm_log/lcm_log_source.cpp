@@ -1,0 +1,182 @@
+// Source plugin "lcm_log": scans from an LCM log (terramrf_msgs point_cloud_t, with point_labels_t,
+// pose_t and IMU/GPS/odometry samples on further channels), such as `lcm_publish` writes with a
+// file:// URL or lcm-logger records from live publishers. The log is indexed once at configure()
+// (LogFrameIndex), so it is a batch: `compare` and `train` can use it, frames are read ahead on
+// several threads, and a damaged scan fails alone.
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "terramrf/errors.hpp"
+#include "terramrf/lcm/labels_codec.hpp"
+#include "terramrf/lcm/log_frame_index.hpp"
+#include "terramrf/lcm/log_reader.hpp"
+#include "terramrf/lcm/pose_codec.hpp"
+#include "terramrf/lcm/sensor_codec.hpp"
+#include "terramrf/plugin.hpp"
+
+namespace terramrf {
+namespace {
+
+class LcmLogSource : public Source {
+ public:
+  void declare(ParamDecl& d) override {
+    d.add("path", log_, "LCM log file to read (lcm-logger's, or lcm_publish's with a file:// url)")
+        .required()
+        .existingPath();
+    d.add("points_channel", ch_.points,
+          "channel of the point_cloud_t messages: one per scan, the scan's id its frame_id "
+          "(lcm_publish: <channel>_POINTS)");
+    d.add("labels_channel", ch_.labels,
+          "channel of point_labels_t ground truth, matched to scans by frame_id (lcm_publish "
+          "with publish_truth: <channel>_LABELS); empty = no ground truth");
+    d.add("pose_channel", ch_.pose,
+          "channel of pose_t LiDAR poses for the pipeline (Frame::pose), matched by frame_id "
+          "(lcm_publish with publish_pose: <channel>_POSE); every scan must have one; empty = "
+          "no pose");
+    d.add("truth_pose_channel", ch_.truth_pose,
+          "channel of pose_t ground-truth poses (Frame::truth_pose), matched by frame_id "
+          "(lcm_publish with publish_truth: <channel>_TRUTH_POSE); empty = none");
+    d.add("imu_channel", ch_.imu,
+          "channel of imu_t samples; each scan gets those after the previous scan's time, up to "
+          "its own; empty = none");
+    d.add("gps_channel", ch_.gps, "channel of gps_t samples, given to scans as imu_channel's");
+    d.add("odometry_channel", ch_.odometry,
+          "channel of odometry_t samples, given to scans as imu_channel's");
+  }
+
+  void configure(const PluginContext& ctx) override {
+    if (ch_.points.empty())
+      throw ParamError("points_channel", "is empty; expected e.g. TERRAMRF_GRID_POINTS");
+    if (!ch_.pose.empty() && ch_.pose == ch_.truth_pose)
+      throw ParamError("truth_pose_channel",
+                       "is pose_channel's (" + ch_.pose +
+                           "); the pose to use and the ground truth must come on different "
+                           "channels, or they could not be told apart");
+    labels_ = ctx.labels ? *ctx.labels : LabelSet::defaults();
+    try {
+      index_ = indexLogFrames(log_, ch_);
+    } catch (const InputError& e) {
+      throw ParamError("path", e.what());
+    }
+    // A channel that the log does not carry at all is a typo or the wrong log, not "no data".
+    const std::pair<const char*, const std::string*> asked[] = {
+        {"points_channel", &ch_.points},     {"labels_channel", &ch_.labels},
+        {"pose_channel", &ch_.pose},         {"truth_pose_channel", &ch_.truth_pose},
+        {"imu_channel", &ch_.imu},           {"gps_channel", &ch_.gps},
+        {"odometry_channel", &ch_.odometry}};
+    for (const auto& [param, channel] : asked) {
+      if (channel->empty() || index_.channel_events.count(*channel)) continue;
+      std::string have;
+      for (const auto& [c, n] : index_.channel_events)
+        have += (have.empty() ? "" : ", ") + c + " (" + std::to_string(n) + ")";
+      throw ParamError(param, "'" + log_ + "' has no event on channel " + *channel +
+                                  "; its channels (events): " +
+                                  (have.empty() ? "none, the log is empty" : have));
+    }
+    for (const std::string& n : index_.notes)
+      std::fprintf(stderr, "lcm: %s: %s\n", log_.c_str(), n.c_str());
+    if (index_.skipped_bytes > 0)
+      std::fprintf(stderr,
+                   "lcm: %s: %lld byte(s) belong to no whole event (damage, or a writer stopped "
+                   "mid-event); the events around them are read\n",
+                   log_.c_str(), static_cast<long long>(index_.skipped_bytes));
+  }
+
+  /// Every scan has a pose when a pose channel is read: one without fails (read()).
+  std::vector<std::string> writes() const override {
+    return ch_.pose.empty() ? std::vector<std::string>{}
+                            : std::vector<std::string>{artefacts::kPose};
+  }
+
+  std::size_t size() const override { return index_.frames.size(); }
+  std::string frameId(std::size_t i) const override { return index_.frames.at(i).id; }
+  bool concurrentReads() const override { return true; }  // each read opens its own reader
+
+  Frame read(std::size_t i) override {
+    const LogFrame& lf = index_.frames.at(i);
+    LcmLogReader reader(log_);
+    Frame f;
+    f.id = lf.id;
+    f.source_path = log_;
+    {
+      const LcmLogEvent e = reader.readAt(lf.points);
+      DecodedPointCloud cloud = decodePointCloud(e.data.data(), e.data.size(), where(e));
+      if (cloud.header.coordinate_frame != "lidar") {
+        throw InputError(where(e), "point cloud in frame '" + cloud.header.coordinate_frame +
+                                       "'; expected \"lidar\" (x forward, y left, z up): the "
+                                       "grid is centred on the sensor");
+      }
+      f.timestamp_s = cloud.header.timestamp_s;
+      f.points = std::move(cloud.cloud);
+    }
+    if (lf.labels) {
+      const LcmLogEvent e = reader.readAt(*lf.labels);
+      f.truth = mapPointLabels(decodePointLabels(e.data.data(), e.data.size(), where(e)),
+                               labels_, where(e));
+      if (f.truth.label.size() != f.points.size()) {
+        throw InputError(where(e), "point_labels_t has " + std::to_string(f.truth.label.size()) +
+                                       " labels for the " + std::to_string(f.points.size()) +
+                                       " points of scan '" + f.id +
+                                       "'; expected one per point, in the cloud's order");
+      }
+    }
+    if (lf.pose) {
+      const LcmLogEvent e = reader.readAt(*lf.pose);
+      setFramePose(f, decodePose(e.data.data(), e.data.size(), where(e)), where(e));
+    } else if (!ch_.pose.empty()) {
+      throw InputError(log_, "no pose_t on channel " + ch_.pose + " for scan '" + f.id +
+                                 "' (event " + std::to_string(lf.eventnum) +
+                                 "); pose_channel is set, so every scan needs its pose");
+    }
+    if (lf.truth_pose) {
+      const LcmLogEvent e = reader.readAt(*lf.truth_pose);
+      const PoseMessage p = decodePose(e.data.data(), e.data.size(), where(e));
+      if (p.child_frame != "lidar")
+        throw InputError(where(e), "ground-truth pose of '" + p.child_frame +
+                                       "'; expected the LiDAR's (child_frame \"lidar\")");
+      f.truth_pose = p.pose;
+    }
+    for (std::int64_t at : lf.imu) {
+      const LcmLogEvent e = reader.readAt(at);
+      f.imu.push_back(decodeImu(e.data.data(), e.data.size(), where(e)));
+    }
+    for (std::int64_t at : lf.gps) {
+      const LcmLogEvent e = reader.readAt(at);
+      f.gps.push_back(decodeGps(e.data.data(), e.data.size(), where(e)));
+    }
+    for (std::int64_t at : lf.odometry) {
+      const LcmLogEvent e = reader.readAt(at);
+      f.odometry.push_back(decodeOdometry(e.data.data(), e.data.size(), where(e)));
+    }
+    // In time order, as the other sources give them, whatever order the publishers' events
+    // reached the log in.
+    const auto byTime = [](const auto& a, const auto& b) { return a.t_s < b.t_s; };
+    std::stable_sort(f.imu.begin(), f.imu.end(), byTime);
+    std::stable_sort(f.gps.begin(), f.gps.end(), byTime);
+    std::stable_sort(f.odometry.begin(), f.odometry.end(), byTime);
+    return f;
+  }
+
+ private:
+  /// "<log> event <N> (<channel>)": where a message came from, for errors.
+  std::string where(const LcmLogEvent& e) const {
+    return log_ + " event " + std::to_string(e.eventnum) + " (" + e.channel + ")";
+  }
+
+  std::string log_;
+  LogChannels ch_{"TERRAMRF_GRID_POINTS"};
+  LabelSet labels_ = LabelSet::defaults();
+  LogFrameIndex index_;
+};
+
+}  // namespace
+}  // namespace terramrf
+
+TERRAMRF_PLUGIN(terramrf::LcmLogSource, terramrf::PluginKind::kSource, "lcm_log",
+                "scans from an LCM log: point clouds with their labels, poses and IMU/GPS/"
+                "odometry samples")

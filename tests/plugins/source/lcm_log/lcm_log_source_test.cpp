@@ -1,0 +1,236 @@
+// The "lcm_log" source on logs written here with LcmLogWriter (lcm_publish's writer). The round
+// trip through lcm_publish and the CLI is in tests/configs (LcmConfigsE2E).
+#include <gtest/gtest.h>
+
+#include <memory>
+
+#include "terramrf/errors.hpp"
+#include "terramrf/lcm/labels_codec.hpp"
+#include "terramrf/lcm/log_writer.hpp"
+#include "terramrf/lcm/pose_codec.hpp"
+#include "terramrf/lcm/sensor_codec.hpp"
+#include "terramrf/param_values.hpp"
+#include "terramrf/registry.hpp"
+#include "test_support.hpp"
+
+namespace terramrf {
+namespace {
+
+PointCloud threePoints() {
+  PointCloud c;
+  c.push_back(1, 2, 0.5f, 0.1f, 3);
+  c.push_back(-4, 1, 0.2f, 0.2f, 4);
+  c.push_back(6, -3, 1.5f, 0.3f, 5);
+  return c;
+}
+
+class LcmLogSourceTest : public ::testing::Test {
+ protected:
+  LcmLogSourceTest() : reg_({test::pluginDir()}) { ctx_.labels = &labels_; }
+  std::string log() const { return dir_.str() + "/run.lcm"; }
+  std::unique_ptr<Source> make(const std::string& extra = "") {
+    auto p = reg_.create("lcm_log");
+    setParams(*p, "{path: " + log() + (extra.empty() ? "" : ", " + extra) + "}", ctx_);
+    return std::unique_ptr<Source>(dynamic_cast<Source*>(p.release()));
+  }
+  void put(LcmLogWriter& w, const std::string& channel, const MessageBytes& b) {
+    w.write(channel, b.data(), b.size(), 0);
+  }
+  MessageBytes cloud(const std::string& id, double t_s) {
+    return encodePointCloud(threePoints(), {id, "lidar", t_s});
+  }
+  MessageBytes labels(const std::string& id, std::size_t n = 3) {
+    PointLabels t;
+    t.label.assign(n, labels::kRoad);
+    t.label[0] = labels::kObstacle;
+    t.raw.assign(n, 40);
+    return encodePointLabels(t, labels_, {id, "lidar", 0});
+  }
+  MessageBytes pose(const std::string& id, double x) {
+    PoseMessage p;
+    p.header = {id, "world", 0};
+    p.pose = Eigen::Translation3d(x, 0, 0);
+    return encodePose(p);
+  }
+  /// Scans "a" and "b" with labels, poses, truth poses and IMU samples on the channels
+  /// lcm_publish uses.
+  void writeTwoScans() {
+    LcmLogWriter w(log(), false);
+    ImuSample s;
+    s.t_s = 0.05;
+    put(w, "IMU", encodeImu(s));
+    put(w, "G_POSE", pose("a", 1));
+    put(w, "G_TRUTH_POSE", pose("a", 1.5));
+    put(w, "G_LABELS", labels("a"));
+    put(w, "G_POINTS", cloud("a", 0.1));
+    s.t_s = 0.15;
+    put(w, "IMU", encodeImu(s));
+    put(w, "G_POSE", pose("b", 2));
+    put(w, "G_POINTS", cloud("b", 0.2));
+    w.close();
+  }
+  const std::string kAll =
+      "points_channel: G_POINTS, labels_channel: G_LABELS, pose_channel: G_POSE, "
+      "truth_pose_channel: G_TRUTH_POSE, imu_channel: IMU";
+
+  test::TempDir dir_;
+  PluginRegistry reg_;
+  LabelSet labels_ = LabelSet::defaults();
+  PluginContext ctx_;
+};
+
+TEST_F(LcmLogSourceTest, ReadsScansWithTheirTruthPosesAndSamples) {
+  writeTwoScans();
+  auto src = make(kAll);
+  EXPECT_FALSE(src->streaming());
+  EXPECT_TRUE(src->concurrentReads());
+  ASSERT_EQ(src->size(), 2u);
+  EXPECT_EQ(src->frameId(0), "a");
+  EXPECT_EQ(src->frameId(1), "b");
+  EXPECT_EQ(src->writes(), std::vector<std::string>{artefacts::kPose});
+
+  const Frame a = src->read(0);
+  EXPECT_EQ(a.id, "a");
+  EXPECT_EQ(a.source_path, log());
+  EXPECT_DOUBLE_EQ(a.timestamp_s, 0.1);
+  ASSERT_EQ(a.points.size(), 3u);
+  EXPECT_EQ(a.points.x, threePoints().x);
+  EXPECT_EQ(a.points.ring, threePoints().ring);
+  ASSERT_EQ(a.truth.label.size(), 3u);
+  EXPECT_EQ(a.truth.label[0], labels::kObstacle);
+  EXPECT_EQ(a.truth.raw[2], 40u);
+  ASSERT_TRUE(a.pose && a.truth_pose);
+  EXPECT_DOUBLE_EQ(a.pose->translation().x(), 1.0);
+  EXPECT_DOUBLE_EQ(a.truth_pose->translation().x(), 1.5);
+  ASSERT_EQ(a.imu.size(), 1u);
+  EXPECT_DOUBLE_EQ(a.imu[0].t_s, 0.05);
+
+  const Frame b = src->read(1);  // no labels, no truth pose: not scored, not an error
+  EXPECT_TRUE(b.truth.empty());
+  EXPECT_FALSE(b.truth_pose);
+  ASSERT_TRUE(b.pose);
+  EXPECT_DOUBLE_EQ(b.pose->translation().x(), 2.0);
+  ASSERT_EQ(b.imu.size(), 1u);
+  EXPECT_DOUBLE_EQ(b.imu[0].t_s, 0.15);
+}
+
+TEST_F(LcmLogSourceTest, WithoutAPoseChannelItWritesNoPose) {
+  writeTwoScans();
+  auto src = make("points_channel: G_POINTS");
+  EXPECT_TRUE(src->writes().empty());
+  const Frame a = src->read(0);
+  EXPECT_FALSE(a.pose);
+  EXPECT_TRUE(a.truth.empty());
+}
+
+// A channel the log does not carry is a typo or the wrong log: refused, naming the parameter's
+// channel and listing the log's channels.
+TEST_F(LcmLogSourceTest, ChannelTheLogLacksIsRefusedListingItsChannels) {
+  writeTwoScans();
+  try {
+    make("points_channel: G_POINTS, pose_channel: G_POSES");
+    FAIL() << "expected an error";
+  } catch (const std::exception& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("pose_channel"), std::string::npos) << w;
+    EXPECT_NE(w.find("no event on channel G_POSES"), std::string::npos) << w;
+    EXPECT_NE(w.find("G_POSE (2)"), std::string::npos) << w;
+    EXPECT_NE(w.find(log()), std::string::npos) << w;
+  }
+  try {
+    make();  // default points channel TERRAMRF_GRID_POINTS
+    FAIL() << "expected an error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("TERRAMRF_GRID_POINTS"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(LcmLogSourceTest, PoseAndTruthOnOneChannelAreRefused) {
+  writeTwoScans();
+  EXPECT_THROW(make("points_channel: G_POINTS, pose_channel: G_POSE, truth_pose_channel: G_POSE"),
+               std::exception);
+}
+
+// With a pose channel every scan needs its pose: one without fails alone, named.
+TEST_F(LcmLogSourceTest, ScanWithoutItsPoseFailsAlone) {
+  {
+    LcmLogWriter w(log(), false);
+    put(w, "G_POSE", pose("a", 1));
+    put(w, "G_POINTS", cloud("a", 0.1));
+    put(w, "G_POINTS", cloud("b", 0.2));
+    w.close();
+  }
+  auto src = make("points_channel: G_POINTS, pose_channel: G_POSE");
+  EXPECT_NO_THROW(src->read(0));
+  try {
+    src->read(1);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    const std::string w = e.what();
+    EXPECT_EQ(e.file(), log());
+    EXPECT_NE(w.find("no pose_t on channel G_POSE for scan 'b' (event 2)"), std::string::npos)
+        << w;
+  }
+}
+
+// Damaged or mismatched messages fail their scan with the event and channel named; the other
+// scans read.
+TEST_F(LcmLogSourceTest, DamagedMessagesFailTheirScanNamingTheEvent) {
+  {
+    LcmLogWriter w(log(), false);
+    put(w, "G_POINTS", cloud("a", 0.1));
+    put(w, "G_LABELS", labels("b", 2));  // two labels for three points
+    put(w, "G_POINTS", cloud("b", 0.2));
+    ImuSample s;
+    put(w, "G_POINTS", encodeImu(s));  // not a point cloud
+    MessageBytes cut = cloud("d", 0.4);
+    cut.resize(cut.size() - 5);
+    put(w, "G_POINTS", cut);
+    w.close();
+  }
+  auto src = make("points_channel: G_POINTS, labels_channel: G_LABELS");
+  ASSERT_EQ(src->size(), 4u);
+  EXPECT_NO_THROW(src->read(0));
+  const auto refused = [&](std::size_t i, const std::string& expect) {
+    try {
+      src->read(i);
+      ADD_FAILURE() << "scan " << i << " read; expected: " << expect;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+    }
+  };
+  refused(1, log() + " event 1 (G_LABELS): point_labels_t has 2 labels for the 3 points");
+  EXPECT_EQ(src->frameId(2), "event3");
+  refused(2, log() + " event 3 (G_POINTS)");
+  EXPECT_EQ(src->frameId(3), "d");
+  refused(3, log() + " event 4 (G_POINTS)");
+}
+
+TEST_F(LcmLogSourceTest, CloudOutsideTheLidarFrameIsRefused) {
+  {
+    LcmLogWriter w(log(), false);
+    const MessageBytes c = encodePointCloud(threePoints(), {"a", "world", 0.1});
+    put(w, "G_POINTS", c);
+    w.close();
+  }
+  try {
+    make("points_channel: G_POINTS")->read(0);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("in frame 'world'; expected \"lidar\""),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST_F(LcmLogSourceTest, MissingLogIsRefusedNamingIt) {
+  try {
+    make("points_channel: G_POINTS");
+    FAIL() << "expected an error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find(log()), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace terramrf
