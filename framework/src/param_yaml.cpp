@@ -248,7 +248,12 @@ std::vector<ParamIssue> applyParams(Plugin& plugin, const YAML::Node& params,
           continue;
         }
         seen[key] = mark;
-        setOne(*spec, it->second, it->second.Mark());
+        // --data replaces the config's path, which need not exist where the override is used
+        // (a config naming the author's data, run on another machine's).
+        const bool overridden =
+            std::any_of(overrides.begin(), overrides.end(),
+                        [&](const std::pair<std::string, std::string>& o) { return o.first == key; });
+        if (!overridden) setOne(*spec, it->second, it->second.Mark());
       }
     }
   }

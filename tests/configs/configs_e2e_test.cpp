@@ -69,6 +69,34 @@ TEST(ConfigsE2E, DemoOnTheSimulator) {
       std::string::npos);
 }
 
+// configs/lcm_record.yaml writes the demo's scans, ground truth and poses to an LCM log as it
+// classifies them; configs/lcm_replay.yaml classifies them again from the log. Both evaluations
+// are the demo's, to the byte: nothing the stages use is lost on the way through LCM.
+TEST(LcmConfigsE2E, RecordedLogReplaysToTheSameEvaluation) {
+  test::TempDir dir;
+  const std::string log = dir.str() + "/demo.lcm";
+  const std::string record = dir.str() + "/lcm_record.yaml";
+  std::ofstream(record) << test::edited(
+      test::edited(terramrf::readFile(test::sourceDir() + "/configs/lcm_record.yaml"),
+                   "file://out/lcm_demo.lcm", "file://" + log),
+      "models/laser_simulator.yaml", test::sourceDir() + "/configs/models/laser_simulator.yaml");
+  const Result rec =
+      sh(test::cli() + " run " + record + " --no-progress --out " + dir.str() + "/rec");
+  ASSERT_EQ(rec.status, 0) << rec.out;
+  ASSERT_TRUE(std::filesystem::exists(log));
+  const Result rep = sh(test::cli() + " run " + test::sourceDir() +
+                        "/configs/lcm_replay.yaml --no-progress --data " + log + " --out " +
+                        dir.str() + "/rep");
+  ASSERT_EQ(rep.status, 0) << rep.out;
+  EXPECT_NE(rep.out.find("5 of 5 frame(s) ok"), std::string::npos) << rep.out;
+  const std::string a = terramrf::readFile(dir.str() + "/rec/evaluation/summary.json");
+  EXPECT_EQ(a, terramrf::readFile(dir.str() + "/rep/evaluation/summary.json"));
+  // Scored, not empty: the ground truth came through the log.
+  const YAML::Node s = YAML::LoadFile(dir.str() + "/rep/evaluation/summary.json");
+  EXPECT_GE(cellRecall(s, "obstacle"), 0.96);
+  EXPECT_TRUE(std::filesystem::exists(dir.str() + "/rep/grid/000004.png"));
+}
+
 TEST(ConfigsE2E, SemanticKittiPrintsTheEvaluation) {
   test::TempDir out;
   const std::string data = test::dataPath("semantickitti_seq00_000000-000005");
