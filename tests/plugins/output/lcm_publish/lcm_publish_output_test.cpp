@@ -11,6 +11,8 @@
 
 #include "output_test_support.hpp"
 #include "terramrf/lcm/grid_codec.hpp"
+#include "terramrf/lcm/labels_codec.hpp"
+#include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
 
 namespace terramrf {
@@ -63,6 +65,8 @@ TEST_F(LcmPublishTest, DefaultsAreDocumentedOnes) {
   EXPECT_NE(d["url"].find("udpm://239.255.76.67:7667?ttl=0"), std::string::npos) << d["url"];
   EXPECT_NE(d["channel"].find("TERRAMRF_GRID"), std::string::npos);
   EXPECT_EQ(d["publish_points"], "false");
+  EXPECT_EQ(d["publish_pose"], "false");
+  EXPECT_EQ(d["publish_truth"], "false");
   EXPECT_TRUE(d.count("layers"));
 }
 
@@ -112,6 +116,65 @@ TEST_F(LcmPublishTest, WhatIsPublishedDecodesToTheGrid) {
   ASSERT_EQ(pc.cloud.size(), 1u);
   EXPECT_EQ(pc.cloud.z[0], 0.3f);
   EXPECT_EQ(pc.cloud.ring[0], 12);
+}
+
+// With publish_pose and publish_truth the scan's pose, ground-truth pose and per-point classes
+// go out too, before the points: a receiver takes the cloud as the scan's last message.
+TEST_F(LcmPublishTest, PublishesPoseAndTruthBeforeThePoints) {
+  frame.pose = Eigen::Isometry3d(Eigen::Translation3d(1, 2, 3));
+  Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Identity() * 0.01;
+  frame.pose_covariance = cov;
+  frame.truth_pose = Eigen::Isometry3d(Eigen::Translation3d(1, 2.5, 3));
+  frame.truth.label = {labels::kObstacle};
+  frame.truth.raw = {50};
+  const std::string log = dir.str() + "/run.lcmlog";
+  auto out = test::makeOutput("lcm_publish",
+                              "{url: 'file://" + log +
+                                  "?mode=w', channel: G, publish_points: true, "
+                                  "publish_pose: true, publish_truth: true, log_time: frame}",
+                              pctx());
+  ASSERT_TRUE(out);
+  out->begin(info());
+  out->write(ctx());
+  Frame bare;  // no pose, no truth: only the grid and the points
+  bare.id = "000006";
+  bare.points = frame.points;
+  FrameContext c = ctx();
+  c.frame = &bare;
+  out->write(c);
+  out->end(RunSummary{});
+
+  lcm::LogFile file(log, "r");
+  ASSERT_TRUE(file.good());
+  std::vector<std::pair<std::string, MessageBytes>> events;
+  std::vector<int64_t> times;
+  while (const lcm::LogEvent* e = file.readNextEvent()) {
+    const auto* p = static_cast<const uint8_t*>(e->data);
+    events.emplace_back(e->channel, MessageBytes(p, p + e->datalen));
+    times.push_back(e->timestamp);
+  }
+  std::vector<std::string> channels;
+  for (const auto& e : events) channels.push_back(e.first);
+  EXPECT_EQ(channels, (std::vector<std::string>{"G", "G_POSE", "G_TRUTH_POSE", "G_LABELS",
+                                                "G_POINTS", "G", "G_POINTS"}));
+  ASSERT_EQ(events.size(), 7u);
+  EXPECT_EQ(times[1], 500000);  // the scan's time (log_time: frame)
+
+  const PoseMessage pose = decodePose(events[1].second.data(), events[1].second.size());
+  EXPECT_EQ(pose.header.frame_id, "000005");
+  EXPECT_TRUE(pose.pose.isApprox(*frame.pose));
+  ASSERT_TRUE(pose.covariance);
+  EXPECT_EQ(*pose.covariance, cov);
+  const PoseMessage truth = decodePose(events[2].second.data(), events[2].second.size());
+  EXPECT_TRUE(truth.pose.isApprox(*frame.truth_pose));
+  EXPECT_EQ(truth.child_frame, "lidar");
+  EXPECT_FALSE(truth.covariance);
+  const DecodedPointLabels l =
+      decodePointLabels(events[3].second.data(), events[3].second.size());
+  EXPECT_EQ(l.header.frame_id, "000005");
+  EXPECT_EQ(l.truth.label, frame.truth.label);
+  EXPECT_EQ(l.truth.raw, frame.truth.raw);
+  EXPECT_EQ(l.label_names, labels.names());
 }
 
 // LCM's own file provider returned 0 from lcm_publish when the write failed (and dropped the
