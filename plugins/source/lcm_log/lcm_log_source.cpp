@@ -4,6 +4,7 @@
 // (LogFrameIndex), so it is a batch: `compare` and `train` can use it, frames are read ahead on
 // several threads, and a damaged scan fails alone.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -47,6 +48,7 @@ class LcmLogSource : public Source {
     d.add("gps_channel", ch_.gps, "channel of gps_t samples, given to scans as imu_channel's");
     d.add("odometry_channel", ch_.odometry,
           "channel of odometry_t samples, given to scans as imu_channel's");
+    d.add("drop_no_return", drop_no_return_, "drop points exactly at (0, 0, 0) (counted)");
   }
 
   void configure(const PluginContext& ctx) override {
@@ -141,6 +143,7 @@ class LcmLogSource : public Source {
                                        "'; expected the LiDAR's (child_frame \"lidar\")");
       f.truth_pose = p.pose;
     }
+    dropUnusablePoints(f);
     for (std::int64_t at : lf.imu) {
       const LcmLogEvent e = reader.readAt(at);
       f.imu.push_back(decodeImu(e.data.data(), e.data.size(), where(e)));
@@ -168,7 +171,47 @@ class LcmLogSource : public Source {
     return log_ + " event " + std::to_string(e.eventnum) + " (" + e.channel + ")";
   }
 
+  /// As every reader: points with a NaN/inf coordinate or intensity, and no-returns stored at
+  /// (0, 0, 0), are dropped and counted, their labels with them. A log of another publisher's
+  /// driver may hold either; lcm_publish's logs hold neither.
+  void dropUnusablePoints(Frame& f) const {
+    PointCloud& c = f.points;
+    const bool labelled = !f.truth.label.empty(), raw = !f.truth.raw.empty();
+    const bool rings = c.hasRing(), times = !c.time_s.empty();
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < c.size(); ++i) {
+      if (!std::isfinite(c.x[i]) || !std::isfinite(c.y[i]) || !std::isfinite(c.z[i]) ||
+          !std::isfinite(c.intensity[i])) {
+        ++f.dropped_nonfinite_points;
+        continue;
+      }
+      if (drop_no_return_ && c.x[i] == 0 && c.y[i] == 0 && c.z[i] == 0) {
+        ++f.dropped_no_return_points;
+        continue;
+      }
+      c.x[kept] = c.x[i];
+      c.y[kept] = c.y[i];
+      c.z[kept] = c.z[i];
+      c.intensity[kept] = c.intensity[i];
+      if (rings) c.ring[kept] = c.ring[i];
+      if (times) c.time_s[kept] = c.time_s[i];
+      if (labelled) f.truth.label[kept] = f.truth.label[i];
+      if (raw) f.truth.raw[kept] = f.truth.raw[i];
+      ++kept;
+    }
+    if (kept == c.size()) return;
+    c.x.resize(kept);
+    c.y.resize(kept);
+    c.z.resize(kept);
+    c.intensity.resize(kept);
+    if (rings) c.ring.resize(kept);
+    if (times) c.time_s.resize(kept);
+    if (labelled) f.truth.label.resize(kept);
+    if (raw) f.truth.raw.resize(kept);
+  }
+
   std::string log_;
+  bool drop_no_return_ = true;
   LogChannels ch_{"TERRAMRF_GRID_POINTS"};
   LabelSet labels_ = LabelSet::defaults();
   LogFrameIndex index_;

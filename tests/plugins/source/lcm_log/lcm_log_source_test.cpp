@@ -2,6 +2,7 @@
 // trip through lcm_publish and the CLI is in tests/configs (LcmConfigsE2E).
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <memory>
 
 #include "terramrf/errors.hpp"
@@ -204,6 +205,38 @@ TEST_F(LcmLogSourceTest, DamagedMessagesFailTheirScanNamingTheEvent) {
   refused(2, log() + " event 3 (G_POINTS)");
   EXPECT_EQ(src->frameId(3), "d");
   refused(3, log() + " event 4 (G_POINTS)");
+}
+
+// As every reader: NaN/inf points and no-returns at the origin are dropped and counted, their
+// rings, times and labels with them.
+TEST_F(LcmLogSourceTest, DropsNonFinitePointsAndNoReturnsWithTheirLabels) {
+  PointCloud c = threePoints();
+  c.push_back(std::numeric_limits<float>::quiet_NaN(), 0, 0, 0, 7);
+  c.push_back(0, 0, 0, 0.4f, 8);
+  c.push_back(2, 2, 2, std::numeric_limits<float>::infinity(), 9);
+  c.push_back(3, 3, 3, 0.5f, 10);
+  c.time_s = {0, 0.01f, 0.02f, 0.03f, 0.04f, 0.05f, 0.06f};
+  PointLabels t;
+  t.label = {1, 2, 3, 1, 2, 3, 3};
+  t.raw = {10, 20, 30, 40, 50, 60, 70};
+  {
+    LcmLogWriter w(log(), false);
+    put(w, "L", encodePointLabels(t, labels_, {"a", "lidar", 0}));
+    put(w, "P", encodePointCloud(c, {"a", "lidar", 0.1}));
+    w.close();
+  }
+  const Frame f = make("points_channel: P, labels_channel: L")->read(0);
+  EXPECT_EQ(f.dropped_nonfinite_points, 2u);
+  EXPECT_EQ(f.dropped_no_return_points, 1u);
+  ASSERT_EQ(f.points.size(), 4u);
+  EXPECT_EQ(f.points.ring, (std::vector<uint16_t>{3, 4, 5, 10}));
+  EXPECT_EQ(f.points.time_s, (std::vector<float>{0, 0.01f, 0.02f, 0.06f}));
+  EXPECT_EQ(f.truth.label, (std::vector<LabelId>{1, 2, 3, 3}));
+  EXPECT_EQ(f.truth.raw, (std::vector<uint32_t>{10, 20, 30, 70}));
+
+  const Frame kept = make("points_channel: P, labels_channel: L, drop_no_return: false")->read(0);
+  EXPECT_EQ(kept.points.size(), 5u);
+  EXPECT_EQ(kept.dropped_no_return_points, 0u);
 }
 
 TEST_F(LcmLogSourceTest, CloudOutsideTheLidarFrameIsRefused) {
