@@ -95,6 +95,7 @@ TEST(LcmConfigsE2E, RecordedLogReplaysToTheSameEvaluation) {
   const YAML::Node s = YAML::LoadFile(dir.str() + "/rep/evaluation/summary.json");
   EXPECT_GE(cellRecall(s, "obstacle"), 0.96);
   EXPECT_TRUE(std::filesystem::exists(dir.str() + "/rep/grid/000004.png"));
+  EXPECT_EQ(rep.out.find("lcm: "), std::string::npos) << rep.out;  // no message went unused
 }
 
 TEST(ConfigsE2E, SemanticKittiPrintsTheEvaluation) {

@@ -1,6 +1,8 @@
 #include "terramrf/lcm/log_frame_index.hpp"
 
 #include <algorithm>
+#include <limits>
+#include <map>
 #include <unordered_map>
 
 #include "terramrf/errors.hpp"
@@ -14,6 +16,11 @@ struct Keyed {
   std::int64_t offset = 0;
   std::int64_t eventnum = 0;
 };
+
+// Event numbers restart at 0 in a log appended to (mode=a), so errors give the byte too.
+std::string eventName(std::int64_t eventnum, std::int64_t offset) {
+  return "event " + std::to_string(eventnum) + " (byte " + std::to_string(offset) + ")";
+}
 
 struct Sample {
   std::int64_t utime = 0;
@@ -39,12 +46,19 @@ class ByScan {
       return;
     }
     const auto [it, fresh] = events_.emplace(stamp->frame_id, Keyed{e.offset, e.eventnum});
-    if (!fresh) {
-      throw InputError(path_, "events " + std::to_string(it->second.eventnum) + " and " +
-                                  std::to_string(e.eventnum) + " on channel " + channel_ +
-                                  " both carry " + type_ + " for scan '" + stamp->frame_id +
-                                  "'; expected one per scan");
+    if (!fresh && !conflicts_.count(stamp->frame_id)) {
+      conflicts_[stamp->frame_id] = eventName(it->second.eventnum, it->second.offset) + " and " +
+                                    eventName(e.eventnum, e.offset) + " on channel " + channel_ +
+                                    " both carry " + type_ + " for scan '" + stamp->frame_id +
+                                    "'; expected one per scan";
     }
+  }
+
+  /// Why the scan cannot be read ("" if it can): two messages for it, of which the one meant
+  /// cannot be told. Only that scan fails.
+  std::string conflict(const std::string& id) const {
+    const auto it = conflicts_.find(id);
+    return it == conflicts_.end() ? "" : it->second;
   }
 
   std::optional<std::int64_t> take(const std::string& id) {
@@ -70,7 +84,8 @@ class ByScan {
 
  private:
   std::string channel_, type_, path_;
-  std::unordered_map<std::string, Keyed> events_;
+  std::map<std::string, Keyed> events_;  // ordered: the notes' example is the same every run
+  std::map<std::string, std::string> conflicts_;
   std::size_t foreign_ = 0, unnamed_ = 0;
 };
 
@@ -99,7 +114,7 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
   ByScan labels(ch.labels, "point_labels_t", path), pose(ch.pose, "pose_t", path),
       truth(ch.truth_pose, "pose_t", path);
   Samples imu{ch.imu, "imu_t"}, gps{ch.gps, "gps_t"}, odometry{ch.odometry, "odometry_t"};
-  std::unordered_map<std::string, std::int64_t> cloud_event;  // scan id → event number
+  std::unordered_map<std::string, std::string> cloud_event;  // scan id → its event, named
 
   while (std::optional<LcmLogEvent> e = reader.next()) {
     ++index.channel_events[e->channel];
@@ -111,13 +126,20 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
       // A cloud that cannot be peeked stays a scan of its own: its read fails, naming the event,
       // and the run reports it and goes on, as for a damaged file in a folder.
       const auto stamp = peekMessageStamp(e->data.data(), e->data.size());
-      const bool named = stamp && stamp->type == "point_cloud_t" && !stamp->frame_id.empty();
-      f.id = named ? stamp->frame_id : "event" + std::to_string(e->eventnum);
-      f.utime = stamp ? stamp->utime : e->log_utime;
-      const auto [it, fresh] = cloud_event.emplace(f.id, e->eventnum);
+      const bool cloud = stamp && stamp->type == "point_cloud_t";
+      f.id = cloud && !stamp->frame_id.empty() ? stamp->frame_id
+                                               : "event" + std::to_string(e->eventnum);
+      // A cloud of unknown time takes its predecessor's, so that it neither breaks the time
+      // order that samples need nor draws samples to itself.
+      f.utime = cloud ? stamp->utime
+                      : (index.frames.empty() ? std::numeric_limits<std::int64_t>::min()
+                                              : index.frames.back().utime);
+      const auto [it, fresh] = cloud_event.emplace(f.id, eventName(e->eventnum, e->offset));
       if (!fresh) {
-        throw InputError(path, "events " + std::to_string(it->second) + " and " +
-                                   std::to_string(e->eventnum) + " on channel " + ch.points +
+        // Which of the two is the scan cannot be told, and both cannot run (one id, one set of
+        // output files): the log is refused.
+        throw InputError(path, it->second + " and " + eventName(e->eventnum, e->offset) +
+                                   " on channel " + ch.points +
                                    " both carry the point cloud of scan '" + f.id +
                                    "'; expected one cloud per scan");
       }
@@ -135,6 +157,8 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
   index.skipped_bytes = reader.skippedBytes();
 
   for (LogFrame& f : index.frames) {
+    for (const ByScan* b : {&labels, &pose, &truth})
+      if (f.error.empty()) f.error = b->conflict(f.id);
     f.labels = labels.take(f.id);
     f.pose = pose.take(f.id);
     f.truth_pose = truth.take(f.id);

@@ -38,28 +38,60 @@ LcmLogReader::~LcmLogReader() {
   if (file_) std::fclose(file_);
 }
 
-std::optional<LcmLogEvent> LcmLogReader::eventAt(std::int64_t at) {
+std::optional<LcmLogReader::Header> LcmLogReader::headerAt(std::int64_t at) {
   unsigned char h[kHeaderBytes];
   if (at < 0 || at + static_cast<std::int64_t>(kHeaderBytes) > size_ ||
       ::fseeko(file_, at, SEEK_SET) != 0 || std::fread(h, 1, kHeaderBytes, file_) != kHeaderBytes)
     return std::nullopt;
   if (bigEndian(h, 4) != kMagic) return std::nullopt;
-  const auto channel_len = static_cast<std::int32_t>(bigEndian(h + 20, 4));
-  const auto data_len = static_cast<std::int32_t>(bigEndian(h + 24, 4));
+  Header r;
+  r.eventnum = static_cast<std::int64_t>(bigEndian(h + 4, 8));
+  r.utime = static_cast<std::int64_t>(bigEndian(h + 12, 8));
+  r.channel_len = static_cast<std::int32_t>(bigEndian(h + 20, 4));
+  r.data_len = static_cast<std::int32_t>(bigEndian(h + 24, 4));
   // Lengths LCM's reader refuses, or an event running past the file's end (a cut write).
-  if (channel_len < 1 || channel_len > static_cast<std::int32_t>(kMaxChannel) || data_len < 0 ||
-      at + static_cast<std::int64_t>(kHeaderBytes) + channel_len + data_len > size_)
+  if (r.channel_len < 1 || r.channel_len > static_cast<std::int32_t>(kMaxChannel) ||
+      r.data_len < 0 ||
+      at + static_cast<std::int64_t>(kHeaderBytes) + r.channel_len + r.data_len > size_)
     return std::nullopt;
+  return r;
+}
+
+std::optional<LcmLogEvent> LcmLogReader::eventAt(std::int64_t at) {
+  const std::optional<Header> h = headerAt(at);
+  if (!h) return std::nullopt;
+  const std::int32_t channel_len = h->channel_len, data_len = h->data_len;
   LcmLogEvent e;
   e.offset = at;
-  e.eventnum = static_cast<std::int64_t>(bigEndian(h + 4, 8));
-  e.log_utime = static_cast<std::int64_t>(bigEndian(h + 12, 8));
+  e.eventnum = h->eventnum;
+  e.log_utime = h->utime;
+  if (::fseeko(file_, at + static_cast<std::int64_t>(kHeaderBytes), SEEK_SET) != 0)
+    return std::nullopt;
   e.channel.resize(static_cast<std::size_t>(channel_len));
   e.data.resize(static_cast<std::size_t>(data_len));
   if (std::fread(e.channel.data(), 1, e.channel.size(), file_) != e.channel.size() ||
       std::fread(e.data.data(), 1, e.data.size(), file_) != e.data.size())
     return std::nullopt;
   return e;
+}
+
+bool LcmLogReader::followedBySyncOrEnd(std::int64_t end) {
+  unsigned char b[4];
+  if (end == size_) return true;
+  return end + 4 <= size_ && ::fseeko(file_, end, SEEK_SET) == 0 &&
+         std::fread(b, 1, 4, file_) == 4 && bigEndian(b, 4) == kMagic;
+}
+
+bool LcmLogReader::wholeEventWithin(std::int64_t from, std::int64_t to) {
+  for (std::int64_t at = from; at < to && at + static_cast<std::int64_t>(kHeaderBytes) <= size_;
+       ++at) {
+    if (::fseeko(file_, at, SEEK_SET) != 0) return false;
+    int c;
+    while (at < to && (c = std::fgetc(file_)) != EOF && c != static_cast<int>(kMagic >> 24)) ++at;
+    if (at >= to || c == EOF) return false;
+    if (headerAt(at)) return true;
+  }
+  return false;
 }
 
 std::optional<LcmLogEvent> LcmLogReader::next() {
@@ -74,8 +106,14 @@ std::optional<LcmLogEvent> LcmLogReader::next() {
       if (c == EOF) break;
     }
     if (std::optional<LcmLogEvent> e = eventAt(at)) {
+      const std::int64_t end =
+          at + static_cast<std::int64_t>(kHeaderBytes + e->channel.size() + e->data.size());
+      // An event whose lengths fit the file but run into later events is a cut one (a writer
+      // killed mid-event, then the log appended to): its "data" would swallow them. It is told
+      // by a whole event starting inside its span when no sync word follows it.
+      if (!followedBySyncOrEnd(end) && wholeEventWithin(at + 1, end)) continue;
       skipped_ += at - end_;
-      end_ = at + static_cast<std::int64_t>(kHeaderBytes + e->channel.size() + e->data.size());
+      end_ = end;
       return e;
     }
   }

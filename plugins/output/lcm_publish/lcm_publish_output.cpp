@@ -1,5 +1,5 @@
 // Output "lcm_publish": publishes each labelled grid as terramrf_msgs.terrain_grid_t and, if
-// asked, the scan's pose, ground truth and points, so that a log it writes can be read back as a
+// asked, the scan's pose, ground truth, IMU/GPS/odometry samples and points, so that a log it writes can be read back as a
 // source (lcm_log). Writes nothing to disk, except the LCM log a file:// URL names.
 #include <memory>
 #include <set>
@@ -11,6 +11,7 @@
 #include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/log_writer.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
+#include "terramrf/lcm/sensor_codec.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -33,6 +34,10 @@ class LcmPublishOutput : public Output {
           "also publish the scan's ground truth, for scans that have it: per-point classes as "
           "point_labels_t on <channel>_LABELS, the ground-truth pose as pose_t on "
           "<channel>_TRUTH_POSE");
+    d.add("publish_samples", publish_samples_,
+          "also publish the IMU, GPS and odometry samples that came with the scan (since the "
+          "scan before) as imu_t, gps_t and odometry_t on <channel>_IMU, _GPS and _ODOMETRY, "
+          "each stamped in a log with its own time under log_time: frame");
     d.add("log_time", log_time_,
           "time of each event in a file:// log: 'wall' (when it was written, as LCM's logger "
           "records) or 'frame' (the frame's own timestamp, so lcm-logplayer replays a dataset "
@@ -116,6 +121,17 @@ class LcmPublishOutput : public Output {
         publisher_->publishForScan(channel_ + "_LABELS", encodePointLabels(f.truth, labels, header),
                                    header);
     }
+    if (publish_samples_) {
+      // Stamped with their own times, so a log replays them between the scans, as recorded.
+      const auto sample = [&](const std::string& suffix, double t_s, const MessageBytes& b) {
+        MessageHeader at = header;
+        at.timestamp_s = t_s;
+        publisher_->publishForScan(channel_ + suffix, b, at);
+      };
+      for (const ImuSample& s : f.imu) sample("_IMU", s.t_s, encodeImu(s));
+      for (const GpsSample& s : f.gps) sample("_GPS", s.t_s, encodeGps(s));
+      for (const OdometrySample& s : f.odometry) sample("_ODOMETRY", s.t_s, encodeOdometry(s));
+    }
     if (publish_points_) publisher_->publishPoints(f.points, header);
   }
 
@@ -139,6 +155,7 @@ class LcmPublishOutput : public Output {
   bool publish_points_ = false;
   bool publish_pose_ = false;
   bool publish_truth_ = false;
+  bool publish_samples_ = false;
   std::string log_time_ = "wall";
 
   LabelSet labels_ = LabelSet::defaults();

@@ -2,7 +2,8 @@
 // pose_t and IMU/GPS/odometry samples on further channels), such as `lcm_publish` writes with a
 // file:// URL or lcm-logger records from live publishers. The log is indexed once at configure()
 // (LogFrameIndex), so it is a batch: `compare` and `train` can use it, frames are read ahead on
-// several threads, and a damaged scan fails alone.
+// several threads, and a damaged message fails its scan alone (two clouds under one id, or
+// clouds out of time order when samples are read, refuse the log: docs/plugins/readers.md).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -31,7 +32,7 @@ class LcmLogSource : public Source {
         .existingPath();
     d.add("points_channel", ch_.points,
           "channel of the point_cloud_t messages: one per scan, the scan's id its frame_id "
-          "(lcm_publish: <channel>_POINTS)");
+          "(lcm_publish with publish_points: <channel>_POINTS)");
     d.add("labels_channel", ch_.labels,
           "channel of point_labels_t ground truth, matched to scans by frame_id (lcm_publish "
           "with publish_truth: <channel>_LABELS); empty = no ground truth");
@@ -44,7 +45,8 @@ class LcmLogSource : public Source {
           "(lcm_publish with publish_truth: <channel>_TRUTH_POSE); empty = none");
     d.add("imu_channel", ch_.imu,
           "channel of imu_t samples; each scan gets those after the previous scan's time, up to "
-          "its own; empty = none");
+          "its own (the first scan every earlier one); needs the clouds in time order "
+          "(lcm_publish with publish_samples: <channel>_IMU); empty = none");
     d.add("gps_channel", ch_.gps, "channel of gps_t samples, given to scans as imu_channel's");
     d.add("odometry_channel", ch_.odometry,
           "channel of odometry_t samples, given to scans as imu_channel's");
@@ -101,6 +103,7 @@ class LcmLogSource : public Source {
 
   Frame read(std::size_t i) override {
     const LogFrame& lf = index_.frames.at(i);
+    if (!lf.error.empty()) throw InputError(log_, lf.error);
     LcmLogReader reader(log_);
     Frame f;
     f.id = lf.id;

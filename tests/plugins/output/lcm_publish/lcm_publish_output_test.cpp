@@ -67,6 +67,7 @@ TEST_F(LcmPublishTest, DefaultsAreDocumentedOnes) {
   EXPECT_EQ(d["publish_points"], "false");
   EXPECT_EQ(d["publish_pose"], "false");
   EXPECT_EQ(d["publish_truth"], "false");
+  EXPECT_EQ(d["publish_samples"], "false");
   EXPECT_TRUE(d.count("layers"));
 }
 
@@ -175,6 +176,42 @@ TEST_F(LcmPublishTest, PublishesPoseAndTruthBeforeThePoints) {
   EXPECT_EQ(l.truth.label, frame.truth.label);
   EXPECT_EQ(l.truth.raw, frame.truth.raw);
   EXPECT_EQ(l.label_names, labels.names());
+}
+
+// publish_samples: the frame's IMU, GPS and odometry samples, each at its own time in a log.
+TEST_F(LcmPublishTest, PublishesSamplesAtTheirOwnTimes) {
+  ImuSample imu;
+  imu.t_s = 0.42;
+  imu.accel_m_s2 = Eigen::Vector3d(0, 0, 9.81);
+  frame.imu = {imu};
+  GpsSample gps;
+  gps.t_s = 0.45;
+  frame.gps = {gps};
+  OdometrySample odo;
+  odo.t_s = 0.48;
+  odo.speed_m_s = 9;
+  frame.odometry = {odo};
+  const std::string log = dir.str() + "/run.lcmlog";
+  auto out = test::makeOutput(
+      "lcm_publish",
+      "{url: 'file://" + log + "?mode=w', channel: G, publish_samples: true, log_time: frame}",
+      pctx());
+  ASSERT_TRUE(out);
+  out->begin(info());
+  out->write(ctx());
+  out->end(RunSummary{});
+  lcm::LogFile file(log, "r");
+  std::vector<std::pair<std::string, int64_t>> events;
+  MessageBytes imu_bytes;
+  while (const lcm::LogEvent* e = file.readNextEvent()) {
+    events.emplace_back(e->channel, e->timestamp);
+    const auto* p = static_cast<const uint8_t*>(e->data);
+    if (e->channel == "G_IMU") imu_bytes.assign(p, p + e->datalen);
+  }
+  EXPECT_EQ(events, (std::vector<std::pair<std::string, int64_t>>{
+                        {"G", 500000}, {"G_IMU", 420000}, {"G_GPS", 450000},
+                        {"G_ODOMETRY", 480000}}));
+  EXPECT_EQ(decodeImu(imu_bytes.data(), imu_bytes.size()).accel_m_s2.z(), 9.81);
 }
 
 // LCM's own file provider returned 0 from lcm_publish when the write failed (and dropped the

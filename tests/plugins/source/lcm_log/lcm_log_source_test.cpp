@@ -239,6 +239,30 @@ TEST_F(LcmLogSourceTest, DropsNonFinitePointsAndNoReturnsWithTheirLabels) {
   EXPECT_EQ(kept.dropped_no_return_points, 0u);
 }
 
+TEST_F(LcmLogSourceTest, ScanWithTwoLabelMessagesFailsAlone) {
+  {
+    LcmLogWriter w(log(), false);
+    put(w, "G_LABELS", labels("a"));
+    put(w, "G_LABELS", labels("a"));
+    put(w, "G_POINTS", cloud("a", 0.1));
+    put(w, "G_LABELS", labels("b"));
+    put(w, "G_POINTS", cloud("b", 0.2));
+    w.close();
+  }
+  auto src = make("points_channel: G_POINTS, labels_channel: G_LABELS");
+  ASSERT_EQ(src->size(), 2u);
+  try {
+    src->read(0);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), log());
+    EXPECT_NE(std::string(e.what()).find("both carry point_labels_t for scan 'a'"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(src->read(1).truth.label.size(), 3u);
+}
+
 TEST_F(LcmLogSourceTest, CloudOutsideTheLidarFrameIsRefused) {
   {
     LcmLogWriter w(log(), false);

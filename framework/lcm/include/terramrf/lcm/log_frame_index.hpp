@@ -24,12 +24,16 @@ struct LogChannels {
 /// Where one scan's messages are in the log (byte offsets of their events).
 struct LogFrame {
   std::string id;              ///< the cloud's frame_id; "event<N>" if it has none
-  std::int64_t utime = 0;      ///< the cloud's time [µs]
+  /// The cloud's time [µs]; for a message that is no readable point_cloud_t, the scan before's.
+  std::int64_t utime = 0;
   std::int64_t eventnum = 0;   ///< the cloud's event number (for messages)
   std::int64_t points = 0;
   std::optional<std::int64_t> labels, pose, truth_pose;
   /// Samples with a time after the previous scan's cloud, up to and including this one's.
   std::vector<std::int64_t> imu, gps, odometry;
+  /// Why this scan cannot be read, "" if it can: two labels or two poses name it. Reading it
+  /// fails with this (the scan alone, not the log).
+  std::string error;
 };
 
 struct LogFrameIndex {
@@ -43,9 +47,11 @@ struct LogFrameIndex {
   std::int64_t skipped_bytes = 0;  ///< LcmLogReader::skippedBytes() after the pass
 };
 
-/// Throws InputError naming the log if it cannot be read, if two clouds (or two label or pose
-/// messages) name the same scan (their event numbers given), or if sample channels are read and
-/// the clouds are not in time order (samples could not be told which scan they precede).
+/// Throws InputError naming the log if it cannot be read, if two clouds name the same scan
+/// (their events given: which is the scan cannot be told, and the two cannot both run under one
+/// id), or if sample channels are read and the clouds are not in time order (samples could not
+/// be told which scan they precede). Two labels or poses for one scan fail that scan only
+/// (LogFrame::error).
 LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& channels);
 
 }  // namespace terramrf

@@ -50,8 +50,17 @@ class LcmLogReader {
   std::int64_t endOfLastEvent() const { return end_; }
 
  private:
+  struct Header {
+    std::int64_t eventnum = 0, utime = 0;
+    std::int32_t channel_len = 0, data_len = 0;
+  };
+  /// The header of an event starting at `at` whose lengths are valid and fit in the file.
+  std::optional<Header> headerAt(std::int64_t at);
   /// The whole event starting at `at`, if one does (`at` is then left past it).
   std::optional<LcmLogEvent> eventAt(std::int64_t at);
+  bool followedBySyncOrEnd(std::int64_t end);
+  /// True if an event header (headerAt) starts in [from, to).
+  bool wholeEventWithin(std::int64_t from, std::int64_t to);
 
   std::string path_;
   std::FILE* file_ = nullptr;
