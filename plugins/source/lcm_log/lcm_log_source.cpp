@@ -4,8 +4,6 @@
 // (LogFrameIndex), so it is a batch: `compare` and `train` can use it, frames are read ahead on
 // several threads, and a damaged message fails its scan alone (two clouds under one id, or
 // clouds out of time order when samples are read, refuse the log: docs/plugins/readers.md).
-#include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -14,11 +12,9 @@
 #include <vector>
 
 #include "terramrf/errors.hpp"
-#include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/log_frame_index.hpp"
 #include "terramrf/lcm/log_reader.hpp"
-#include "terramrf/lcm/pose_codec.hpp"
-#include "terramrf/lcm/sensor_codec.hpp"
+#include "terramrf/lcm/scan_messages.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -105,114 +101,29 @@ class LcmLogSource : public Source {
     const LogFrame& lf = index_.frames.at(i);
     if (!lf.error.empty()) throw InputError(log_, lf.error);
     LcmLogReader reader(log_);
-    Frame f;
-    f.id = lf.id;
-    f.source_path = log_;
-    {
-      const LcmLogEvent e = reader.readAt(lf.points);
-      DecodedPointCloud cloud = decodePointCloud(e.data.data(), e.data.size(), where(e));
-      if (cloud.header.coordinate_frame != "lidar") {
-        throw InputError(where(e), "point cloud in frame '" + cloud.header.coordinate_frame +
-                                       "'; expected \"lidar\" (x forward, y left, z up): the "
-                                       "grid is centred on the sensor");
-      }
-      f.timestamp_s = cloud.header.timestamp_s;
-      f.points = std::move(cloud.cloud);
-    }
-    if (lf.labels) {
-      const LcmLogEvent e = reader.readAt(*lf.labels);
-      f.truth = mapPointLabels(decodePointLabels(e.data.data(), e.data.size(), where(e)),
-                               labels_, where(e));
-      if (f.truth.label.size() != f.points.size()) {
-        throw InputError(where(e), "point_labels_t has " + std::to_string(f.truth.label.size()) +
-                                       " labels for the " + std::to_string(f.points.size()) +
-                                       " points of scan '" + f.id +
-                                       "'; expected one per point, in the cloud's order");
-      }
-    }
-    if (lf.pose) {
-      const LcmLogEvent e = reader.readAt(*lf.pose);
-      setFramePose(f, decodePose(e.data.data(), e.data.size(), where(e)), where(e));
-    } else if (!ch_.pose.empty()) {
-      throw InputError(log_, "no pose_t on channel " + ch_.pose + " for scan '" + f.id +
-                                 "' (event " + std::to_string(lf.eventnum) +
-                                 "); pose_channel is set, so every scan needs its pose");
-    }
-    if (lf.truth_pose) {
-      const LcmLogEvent e = reader.readAt(*lf.truth_pose);
-      const PoseMessage p = decodePose(e.data.data(), e.data.size(), where(e));
-      if (p.child_frame != "lidar")
-        throw InputError(where(e), "ground-truth pose of '" + p.child_frame +
-                                       "'; expected the LiDAR's (child_frame \"lidar\")");
-      f.truth_pose = p.pose;
-    }
-    dropUnusablePoints(f);
-    for (std::int64_t at : lf.imu) {
-      const LcmLogEvent e = reader.readAt(at);
-      f.imu.push_back(decodeImu(e.data.data(), e.data.size(), where(e)));
-    }
-    for (std::int64_t at : lf.gps) {
-      const LcmLogEvent e = reader.readAt(at);
-      f.gps.push_back(decodeGps(e.data.data(), e.data.size(), where(e)));
-    }
-    for (std::int64_t at : lf.odometry) {
-      const LcmLogEvent e = reader.readAt(at);
-      f.odometry.push_back(decodeOdometry(e.data.data(), e.data.size(), where(e)));
-    }
-    // In time order, as the other sources give them, whatever order the publishers' events
-    // reached the log in.
-    const auto byTime = [](const auto& a, const auto& b) { return a.t_s < b.t_s; };
-    std::stable_sort(f.imu.begin(), f.imu.end(), byTime);
-    std::stable_sort(f.gps.begin(), f.gps.end(), byTime);
-    std::stable_sort(f.odometry.begin(), f.odometry.end(), byTime);
-    return f;
+    const auto message = [&](std::int64_t offset) {
+      LcmLogEvent e = reader.readAt(offset);
+      return ScanMessage{log_ + " event " + std::to_string(e.eventnum) + " (" + e.channel + ")",
+                         std::move(e.data)};
+    };
+    ScanMessages m;
+    m.id = lf.id;
+    m.points = message(lf.points);
+    if (lf.labels) m.labels = message(*lf.labels);
+    if (lf.pose) m.pose = message(*lf.pose);
+    if (lf.truth_pose) m.truth_pose = message(*lf.truth_pose);
+    for (std::int64_t at : lf.imu) m.imu.push_back(message(at));
+    for (std::int64_t at : lf.gps) m.gps.push_back(message(at));
+    for (std::int64_t at : lf.odometry) m.odometry.push_back(message(at));
+    ScanOptions o;
+    o.labels = &labels_;
+    o.pose_channel = ch_.pose;
+    o.drop_no_return = drop_no_return_;
+    o.source_path = log_;
+    return frameFromMessages(m, o);
   }
 
  private:
-  /// "<log> event <N> (<channel>)": where a message came from, for errors.
-  std::string where(const LcmLogEvent& e) const {
-    return log_ + " event " + std::to_string(e.eventnum) + " (" + e.channel + ")";
-  }
-
-  /// As every reader: points with a NaN/inf coordinate or intensity, and no-returns stored at
-  /// (0, 0, 0), are dropped and counted, their labels with them. A log of another publisher's
-  /// driver may hold either; lcm_publish's logs hold neither.
-  void dropUnusablePoints(Frame& f) const {
-    PointCloud& c = f.points;
-    const bool labelled = !f.truth.label.empty(), raw = !f.truth.raw.empty();
-    const bool rings = c.hasRing(), times = !c.time_s.empty();
-    std::size_t kept = 0;
-    for (std::size_t i = 0; i < c.size(); ++i) {
-      if (!std::isfinite(c.x[i]) || !std::isfinite(c.y[i]) || !std::isfinite(c.z[i]) ||
-          !std::isfinite(c.intensity[i])) {
-        ++f.dropped_nonfinite_points;
-        continue;
-      }
-      if (drop_no_return_ && c.x[i] == 0 && c.y[i] == 0 && c.z[i] == 0) {
-        ++f.dropped_no_return_points;
-        continue;
-      }
-      c.x[kept] = c.x[i];
-      c.y[kept] = c.y[i];
-      c.z[kept] = c.z[i];
-      c.intensity[kept] = c.intensity[i];
-      if (rings) c.ring[kept] = c.ring[i];
-      if (times) c.time_s[kept] = c.time_s[i];
-      if (labelled) f.truth.label[kept] = f.truth.label[i];
-      if (raw) f.truth.raw[kept] = f.truth.raw[i];
-      ++kept;
-    }
-    if (kept == c.size()) return;
-    c.x.resize(kept);
-    c.y.resize(kept);
-    c.z.resize(kept);
-    c.intensity.resize(kept);
-    if (rings) c.ring.resize(kept);
-    if (times) c.time_s.resize(kept);
-    if (labelled) f.truth.label.resize(kept);
-    if (raw) f.truth.raw.resize(kept);
-  }
-
   std::string log_;
   bool drop_no_return_ = true;
   LogChannels ch_{"TERRAMRF_GRID_POINTS"};

@@ -168,8 +168,9 @@ TEST_F(LcmLogSourceTest, ScanWithoutItsPoseFailsAlone) {
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     const std::string w = e.what();
-    EXPECT_EQ(e.file(), log());
-    EXPECT_NE(w.find("no pose_t on channel G_POSE for scan 'b' (event 2)"), std::string::npos)
+    EXPECT_EQ(e.file(), log() + " event 2 (G_POINTS)");
+    EXPECT_NE(w.find("event 2 (G_POINTS): no pose_t on channel G_POSE for scan 'b'"),
+              std::string::npos)
         << w;
   }
 }
