@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "terramrf/lcm/grid_codec.hpp"
+#include "terramrf/lcm/lcm_instance.hpp"
 #include "terramrf/lcm/log_writer.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
 
@@ -15,16 +16,13 @@ namespace terramrf {
 // Only LCM's C API is used here: the handle is what callers pass in, and it keeps lcm-cpp.hpp out.
 struct GridPublisher::Impl {
   lcm_t* lcm = nullptr;
+  std::shared_ptr<lcm_t> held;  // the instance openLcm gave (shared for memq://), if not borrowed
   // file:// URLs: the log is written here, not by LCM's file provider, whose failed writes go
   // unreported (see log_writer.hpp). Exactly one of lcm and log is used.
   std::unique_ptr<LcmLogWriter> log;
-  bool owned = false;
   std::string url;  // for messages; "(caller's instance)" when borrowed
   std::string channel;
   bool log_message_time = false;  // log events at the message's time, not the wall clock
-  ~Impl() {
-    if (owned && lcm != nullptr) lcm_destroy(lcm);
-  }
 };
 
 GridPublisher::GridPublisher(const std::string& url, std::string channel)
@@ -38,12 +36,18 @@ GridPublisher::GridPublisher(const std::string& url, std::string channel)
     impl_->channel = std::move(channel);
     return;
   }
-  impl_->lcm = lcm_create(url.empty() ? nullptr : url.c_str());
-  if (impl_->lcm == nullptr) {
-    throw std::runtime_error("LCM could not be set up on '" + url +
-                             "' (bad URL, or no multicast route for udpm: see docs/messages.md)");
+  if (url.empty()) {
+    // $LCM_DEFAULT_URL or LCM's default, read by LCM itself.
+    lcm_t* l = lcm_create(nullptr);
+    if (l == nullptr) {
+      throw std::runtime_error("LCM could not be set up on its default URL ($LCM_DEFAULT_URL or "
+                               "udpm; no multicast route? see docs/messages.md)");
+    }
+    impl_->held.reset(l, lcm_destroy);
+  } else {
+    impl_->held = openLcm(url);  // memq:// shared with the process's subscribers
   }
-  impl_->owned = true;
+  impl_->lcm = impl_->held.get();
   impl_->url = url;
   impl_->channel = std::move(channel);
 }
@@ -91,7 +95,7 @@ void GridPublisher::close() {
     impl_->log->close();
     return;
   }
-  if (impl_->owned && impl_->lcm != nullptr) lcm_destroy(impl_->lcm);
+  impl_->held.reset();
   impl_->lcm = nullptr;
 }
 

@@ -1,0 +1,97 @@
+#pragma once
+// Puts live messages together into scans: what a subscriber receives, on several channels and in
+// no promised order, becomes one ScanMessages per point cloud. LCM-free and clock-free (the
+// caller says when each message came), so it is tested without a network.
+//
+// A scan starts with its point cloud. Labels and poses are matched to it by frame_id, whether
+// they came before it (held, up to `max_held` scans' worth) or after (within `wait_s`); samples by
+// time, as in a log (those since the scan before, up to its own time). A scan is ready once it
+// has everything its channels promise, or when its wait has run out; scans leave in the order
+// their clouds came.
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "terramrf/lcm/log_frame_index.hpp"
+#include "terramrf/lcm/scan_messages.hpp"
+
+namespace terramrf {
+
+class ScanAssembler {
+ public:
+  struct Options {
+    LogChannels channels;  ///< as for a log; "" = not read
+    /// How long a scan waits after its cloud for labels and poses still missing [s]. 0: a scan
+    /// is ready with its cloud (what came before it is all it gets).
+    double wait_s = 0.5;
+    /// Scans whose labels or poses may be held before their cloud; the oldest are dropped
+    /// (counted) beyond it, so that a sender of labels without clouds cannot fill memory.
+    std::size_t max_held = 64;
+    /// Samples held for the next cloud at most; the oldest are dropped (counted) beyond it.
+    std::size_t max_samples = 100000;
+  };
+
+  /// A ready scan, or a message that could not be placed: `error` (with `error_source`, for an
+  /// InputError) instead of `scan`.
+  struct Ready {
+    std::optional<ScanMessages> scan;
+    std::string error_source, error;
+  };
+
+  /// What went unused, for the run's notes.
+  struct Counts {
+    std::size_t late = 0;      ///< labels or poses that came after their scan had left
+    std::size_t dropped = 0;   ///< held labels/poses dropped (max_held) or never claimed
+    std::size_t foreign = 0;   ///< messages of another type on a channel read
+    std::size_t samples_dropped = 0;  ///< beyond max_samples
+  };
+
+  explicit ScanAssembler(Options options);
+
+  /// A message received on `channel` at `now_s` (any steady clock [s]); channels not read are
+  /// ignored.
+  void add(const std::string& channel, const std::uint8_t* data, std::size_t size, double now_s);
+  /// The oldest scan (or placement error) ready at `now_s`, if any.
+  std::optional<Ready> pop(double now_s);
+  /// When the oldest waiting scan will be ready at the latest (to bound the caller's wait).
+  std::optional<double> nextDeadline() const;
+  /// Ends every wait: what is held is all that will come (the stream ended).
+  void flush();
+  bool empty() const { return ready_.empty() && waiting_.empty(); }
+  const Counts& counts() const { return counts_; }
+
+ private:
+  struct Waiting {
+    ScanMessages scan;
+    double deadline_s = 0;
+    std::string error;  ///< two labels or poses for it
+  };
+  struct Held {
+    std::optional<ScanMessage> labels, pose, truth_pose;
+    std::string error;
+  };
+  bool complete(const Waiting& w) const;
+  void place(std::optional<ScanMessage> Held::*held_slot, std::optional<ScanMessage> ScanMessages::*slot,
+             const std::string& type, const std::string& id, ScanMessage m);
+
+  Options o_;
+  std::deque<Waiting> waiting_;
+  std::deque<Ready> ready_;  ///< placement errors, in the order they came
+  std::map<std::string, Held> held_;
+  std::deque<std::string> held_order_;
+  std::deque<std::string> recent_;  ///< ids of scans that left, to tell late messages
+  struct Sample {
+    std::int64_t utime;
+    int kind;  // 0 imu, 1 gps, 2 odometry
+    ScanMessage message;
+  };
+  std::deque<Sample> samples_;
+  std::size_t clouds_ = 0;
+  Counts counts_;
+};
+
+}  // namespace terramrf

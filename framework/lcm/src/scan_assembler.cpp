@@ -1,0 +1,156 @@
+#include "terramrf/lcm/scan_assembler.hpp"
+
+#include <algorithm>
+#include <limits>
+
+#include "terramrf/lcm/message_peek.hpp"
+
+namespace terramrf {
+namespace {
+constexpr std::size_t kRecentIds = 256;  // scans remembered after they left, to tell late messages
+}
+
+ScanAssembler::ScanAssembler(Options options) : o_(std::move(options)) {}
+
+bool ScanAssembler::complete(const Waiting& w) const {
+  return (o_.channels.labels.empty() || w.scan.labels) && (o_.channels.pose.empty() || w.scan.pose) &&
+         (o_.channels.truth_pose.empty() || w.scan.truth_pose);
+}
+
+void ScanAssembler::place(std::optional<ScanMessage> Held::*held_slot,
+                          std::optional<ScanMessage> ScanMessages::*slot, const std::string& type,
+                          const std::string& id, ScanMessage m) {
+  const std::string twice = "two " + type + " messages for scan '" + id + "' (" + m.source +
+                            "); expected one per scan";
+  for (auto w = waiting_.rbegin(); w != waiting_.rend(); ++w) {
+    if (w->scan.id != id) continue;
+    if (w->scan.*slot) {
+      if (w->error.empty()) w->error = twice;
+    } else {
+      w->scan.*slot = std::move(m);
+    }
+    return;
+  }
+  if (std::find(recent_.begin(), recent_.end(), id) != recent_.end()) {
+    ++counts_.late;
+    return;
+  }
+  auto [it, fresh] = held_.try_emplace(id);
+  if (fresh) held_order_.push_back(id);
+  if (it->second.*held_slot) {
+    if (it->second.error.empty()) it->second.error = twice;
+  } else {
+    it->second.*held_slot = std::move(m);
+  }
+  while (held_.size() > o_.max_held && !held_order_.empty()) {
+    counts_.dropped += held_.erase(held_order_.front());
+    held_order_.pop_front();
+  }
+}
+
+void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, std::size_t size,
+                        double now_s) {
+  const LogChannels& ch = o_.channels;
+  const bool read = channel == ch.points || channel == ch.labels || channel == ch.pose ||
+                    channel == ch.truth_pose || channel == ch.imu || channel == ch.gps ||
+                    channel == ch.odometry;
+  if (channel.empty() || !read) return;
+  const std::optional<MessageStamp> stamp = peekMessageStamp(data, size);
+  const std::string type = stamp ? stamp->type : "";
+  ScanMessage m{"channel " + channel, std::vector<std::uint8_t>(data, data + size)};
+
+  if (channel == ch.points && type == "point_cloud_t") {
+    Waiting w;
+    w.scan.id = stamp->frame_id.empty() ? "scan" + std::to_string(clouds_) : stamp->frame_id;
+    ++clouds_;
+    m.source += " (scan '" + w.scan.id + "')";
+    w.scan.points = std::move(m);
+    const auto held = held_.find(w.scan.id);
+    if (held != held_.end()) {
+      w.scan.labels = std::move(held->second.labels);
+      w.scan.pose = std::move(held->second.pose);
+      w.scan.truth_pose = std::move(held->second.truth_pose);
+      w.error = held->second.error;
+      held_.erase(held);  // its place in held_order_ goes when it reaches the front
+    }
+    // The samples up to the cloud's time; later ones wait for the next cloud.
+    for (auto s = samples_.begin(); s != samples_.end();) {
+      if (s->utime > stamp->utime) {
+        ++s;
+        continue;
+      }
+      (s->kind == 0 ? w.scan.imu : s->kind == 1 ? w.scan.gps : w.scan.odometry)
+          .push_back(std::move(s->message));
+      s = samples_.erase(s);
+    }
+    w.deadline_s = now_s + o_.wait_s;
+    waiting_.push_back(std::move(w));
+    return;
+  }
+  if (type == "point_labels_t" && channel == ch.labels && !stamp->frame_id.empty())
+    return place(&Held::labels, &ScanMessages::labels, type, stamp->frame_id, std::move(m));
+  if (type == "pose_t" && channel == ch.pose && !stamp->frame_id.empty())
+    return place(&Held::pose, &ScanMessages::pose, type, stamp->frame_id, std::move(m));
+  if (type == "pose_t" && channel == ch.truth_pose && !stamp->frame_id.empty())
+    return place(&Held::truth_pose, &ScanMessages::truth_pose, type, stamp->frame_id,
+                 std::move(m));
+  const int kind = type == "imu_t" && channel == ch.imu           ? 0
+                   : type == "gps_t" && channel == ch.gps         ? 1
+                   : type == "odometry_t" && channel == ch.odometry ? 2
+                                                                  : -1;
+  if (kind >= 0) {
+    samples_.push_back({stamp->utime, kind, std::move(m)});
+    if (samples_.size() > o_.max_samples) {
+      samples_.pop_front();
+      ++counts_.samples_dropped;
+    }
+    return;
+  }
+  if (channel == ch.points) {
+    // What should have been a scan cannot be read: said as the failure of a scan, so that the
+    // run lists it, rather than counted and forgotten.
+    ready_.push_back({std::nullopt, m.source,
+                      "not a terramrf_msgs point_cloud_t (" + std::to_string(size) + " bytes" +
+                          (stamp ? ", a " + stamp->type : "") + ")"});
+    return;
+  }
+  ++counts_.foreign;
+}
+
+std::optional<ScanAssembler::Ready> ScanAssembler::pop(double now_s) {
+  if (!ready_.empty()) {
+    Ready r = std::move(ready_.front());
+    ready_.pop_front();
+    return r;
+  }
+  if (waiting_.empty()) return std::nullopt;
+  Waiting& w = waiting_.front();
+  if (!complete(w) && now_s < w.deadline_s) return std::nullopt;
+  Ready r;
+  recent_.push_back(w.scan.id);
+  if (recent_.size() > kRecentIds) recent_.pop_front();
+  if (w.error.empty()) {
+    r.scan = std::move(w.scan);
+  } else {
+    r.error_source = w.scan.points.source;
+    r.error = w.error;
+  }
+  waiting_.pop_front();
+  while (!held_order_.empty() && !held_.count(held_order_.front())) held_order_.pop_front();
+  return r;
+}
+
+std::optional<double> ScanAssembler::nextDeadline() const {
+  if (!ready_.empty()) return -std::numeric_limits<double>::infinity();
+  if (waiting_.empty()) return std::nullopt;
+  return waiting_.front().deadline_s;
+}
+
+void ScanAssembler::flush() {
+  for (Waiting& w : waiting_) w.deadline_s = -std::numeric_limits<double>::infinity();
+  counts_.dropped += held_.size();
+  held_.clear();
+  held_order_.clear();
+}
+
+}  // namespace terramrf

@@ -1,0 +1,139 @@
+// ScanAssembler: live messages put together into scans, with the clock given by the test.
+#include "terramrf/lcm/scan_assembler.hpp"
+
+#include <gtest/gtest.h>
+
+#include "terramrf/lcm/labels_codec.hpp"
+#include "terramrf/lcm/pose_codec.hpp"
+#include "terramrf/lcm/sensor_codec.hpp"
+
+namespace terramrf {
+namespace {
+
+MessageBytes cloud(const std::string& id, double t_s) {
+  PointCloud c;
+  c.push_back(1, 0, 0, 0, 0);
+  return encodePointCloud(c, {id, "lidar", t_s});
+}
+MessageBytes pose(const std::string& id) {
+  PoseMessage p;
+  p.header = {id, "world", 0};
+  return encodePose(p);
+}
+MessageBytes labels(const std::string& id) {
+  PointLabels t;
+  t.label = {labels::kRoad};
+  return encodePointLabels(t, LabelSet::defaults(), {id, "lidar", 0});
+}
+MessageBytes imu(double t_s) {
+  ImuSample s;
+  s.t_s = t_s;
+  return encodeImu(s);
+}
+
+class ScanAssemblerTest : public ::testing::Test {
+ protected:
+  ScanAssembler make(double wait_s = 0.5) {
+    ScanAssembler::Options o;
+    o.channels.points = "P";
+    o.channels.pose = "POSE";
+    o.channels.labels = "L";
+    o.channels.imu = "IMU";
+    o.wait_s = wait_s;
+    o.max_held = 2;
+    return ScanAssembler(o);
+  }
+  static void add(ScanAssembler& a, const std::string& ch, const MessageBytes& b, double t) {
+    a.add(ch, b.data(), b.size(), t);
+  }
+};
+
+TEST_F(ScanAssemblerTest, ScanIsReadyOnceItHasWhatItsChannelsPromise) {
+  ScanAssembler a = make();
+  add(a, "POSE", pose("a"), 0.0);  // before its cloud: held
+  add(a, "P", cloud("a", 1.0), 0.1);
+  EXPECT_FALSE(a.pop(0.1));  // labels still missing
+  ASSERT_TRUE(a.nextDeadline());
+  EXPECT_DOUBLE_EQ(*a.nextDeadline(), 0.6);
+  add(a, "L", labels("a"), 0.2);  // after it, within the wait
+  const auto r = a.pop(0.2);
+  ASSERT_TRUE(r && r->scan);
+  EXPECT_EQ(r->scan->id, "a");
+  EXPECT_TRUE(r->scan->pose && r->scan->labels);
+  EXPECT_EQ(r->scan->points.source, "channel P (scan 'a')");
+  EXPECT_TRUE(a.empty());
+}
+
+TEST_F(ScanAssemblerTest, WaitRunsOutAndLateMessagesAreCounted) {
+  ScanAssembler a = make(0.5);
+  add(a, "P", cloud("a", 1.0), 0.0);
+  EXPECT_FALSE(a.pop(0.49));
+  const auto r = a.pop(0.5);
+  ASSERT_TRUE(r && r->scan);
+  EXPECT_FALSE(r->scan->pose);
+  add(a, "POSE", pose("a"), 0.7);
+  EXPECT_EQ(a.counts().late, 1u);
+  EXPECT_TRUE(a.empty());
+}
+
+TEST_F(ScanAssemblerTest, ScansLeaveInTheOrderTheirCloudsCame) {
+  ScanAssembler a = make(0.5);
+  add(a, "P", cloud("a", 1.0), 0.0);
+  add(a, "P", cloud("b", 1.1), 0.1);
+  add(a, "POSE", pose("b"), 0.1);
+  add(a, "L", labels("b"), 0.1);
+  EXPECT_FALSE(a.pop(0.2));  // b is complete, a is not: b waits behind a
+  add(a, "POSE", pose("a"), 0.2);
+  add(a, "L", labels("a"), 0.2);
+  EXPECT_EQ(a.pop(0.2)->scan->id, "a");
+  EXPECT_EQ(a.pop(0.2)->scan->id, "b");
+}
+
+TEST_F(ScanAssemblerTest, SamplesGoToTheFirstScanAtOrAfterTheirTime) {
+  ScanAssembler a = make(0);
+  add(a, "IMU", imu(0.9), 0.0);
+  add(a, "IMU", imu(1.0), 0.0);
+  add(a, "IMU", imu(1.05), 0.0);  // after scan a's time: the next scan's
+  add(a, "P", cloud("a", 1.0), 0.0);
+  add(a, "P", cloud("b", 1.1), 0.0);
+  a.flush();
+  const auto ra = a.pop(0.0), rb = a.pop(0.0);
+  ASSERT_TRUE(ra && ra->scan && rb && rb->scan);
+  EXPECT_EQ(ra->scan->imu.size(), 2u);
+  EXPECT_EQ(rb->scan->imu.size(), 1u);
+}
+
+TEST_F(ScanAssemblerTest, TwoPosesForAScanOrADamagedCloudAreErrorsOfTheirOwn) {
+  ScanAssembler a = make(0);
+  add(a, "POSE", pose("a"), 0.0);
+  add(a, "POSE", pose("a"), 0.0);
+  add(a, "P", cloud("a", 1.0), 0.0);
+  const auto r = a.pop(0.0);
+  ASSERT_TRUE(r);
+  EXPECT_FALSE(r->scan);
+  EXPECT_NE(r->error.find("two pose_t messages for scan 'a'"), std::string::npos) << r->error;
+  EXPECT_EQ(r->error_source, "channel P (scan 'a')");
+
+  add(a, "P", imu(1.0), 0.0);  // not a cloud, on the points channel
+  const auto d = a.pop(0.0);
+  ASSERT_TRUE(d);
+  EXPECT_FALSE(d->scan);
+  EXPECT_NE(d->error.find("not a terramrf_msgs point_cloud_t"), std::string::npos) << d->error;
+  EXPECT_NE(d->error.find("a imu_t"), std::string::npos) << d->error;
+}
+
+// Labels and poses for scans whose clouds never come are held for a bounded number of scans.
+TEST_F(ScanAssemblerTest, HeldMessagesAreBoundedAndForeignOnesCounted) {
+  ScanAssembler a = make(0);
+  for (const char* id : {"x", "y", "z"}) add(a, "POSE", pose(id), 0.0);
+  EXPECT_EQ(a.counts().dropped, 1u);  // x, the oldest
+  add(a, "L", pose("q"), 0.0);  // a pose on the labels channel
+  EXPECT_EQ(a.counts().foreign, 1u);
+  add(a, "OTHER", cloud("o", 0), 0.0);  // a channel not read: ignored
+  EXPECT_TRUE(a.empty());
+  a.flush();
+  EXPECT_EQ(a.counts().dropped, 3u);
+}
+
+}  // namespace
+}  // namespace terramrf
