@@ -74,9 +74,15 @@ class LcmLogSource : public Source {
       std::string have;
       for (const auto& [c, n] : index_.channel_events)
         have += (have.empty() ? "" : ", ") + c + " (" + std::to_string(n) + ")";
+      const std::string skipped =
+          index_.skipped_bytes > 0
+              ? " (" + std::to_string(index_.skipped_bytes) +
+                    " byte(s) belong to no whole event: a damaged or cut log)"
+              : "";
       throw ParamError(param, "'" + log_ + "' has no event on channel " + *channel +
                                   "; its channels (events): " +
-                                  (have.empty() ? "none, the log is empty" : have));
+                                  (have.empty() ? "none, no whole event in the log" : have) +
+                                  skipped);
     }
     for (const std::string& n : index_.notes)
       std::fprintf(stderr, "lcm: %s: %s\n", log_.c_str(), n.c_str());

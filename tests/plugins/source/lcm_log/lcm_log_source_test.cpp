@@ -2,6 +2,7 @@
 // trip through lcm_publish and the CLI is in tests/configs (LcmConfigsE2E).
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <limits>
 #include <memory>
 
@@ -278,6 +279,28 @@ TEST_F(LcmLogSourceTest, CloudOutsideTheLidarFrameIsRefused) {
     EXPECT_NE(std::string(e.what()).find("in frame 'world'; expected \"lidar\""),
               std::string::npos)
         << e.what();
+  }
+}
+
+// A log whose only event was cut (a writer killed mid-write) has no channel at all: said so,
+// with the bytes that belong to no event, rather than "empty".
+TEST_F(LcmLogSourceTest, LogOfOneCutEventSaysSo) {
+  {
+    LcmLogWriter w(log(), false);
+    put(w, "G_POINTS", cloud("a", 0.1));
+    w.close();
+  }
+  const auto size = std::filesystem::file_size(log());
+  std::filesystem::resize_file(log(), size - 10);
+  try {
+    make("points_channel: G_POINTS");
+    FAIL() << "expected an error";
+  } catch (const std::exception& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("no whole event in the log"), std::string::npos) << w;
+    EXPECT_NE(w.find(std::to_string(size - 10) + " byte(s) belong to no whole event"),
+              std::string::npos)
+        << w;
   }
 }
 
