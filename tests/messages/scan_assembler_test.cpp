@@ -111,7 +111,9 @@ TEST_F(ScanAssemblerTest, TwoPosesForAScanOrADamagedCloudAreErrorsOfTheirOwn) {
   const auto r = a.pop(0.0);
   ASSERT_TRUE(r);
   EXPECT_FALSE(r->scan);
-  EXPECT_NE(r->error.find("two pose_t messages for scan 'a'"), std::string::npos) << r->error;
+  EXPECT_NE(r->error.find("two pose_t messages for scan 'a' (channel POSE, then channel POSE)"),
+            std::string::npos)
+      << r->error;
   EXPECT_EQ(r->error_source, "channel P (scan 'a')");
 
   add(a, "P", imu(1.0), 0.0);  // not a cloud, on the points channel
@@ -126,13 +128,62 @@ TEST_F(ScanAssemblerTest, TwoPosesForAScanOrADamagedCloudAreErrorsOfTheirOwn) {
 TEST_F(ScanAssemblerTest, HeldMessagesAreBoundedAndForeignOnesCounted) {
   ScanAssembler a = make(0);
   for (const char* id : {"x", "y", "z"}) add(a, "POSE", pose(id), 0.0);
-  EXPECT_EQ(a.counts().dropped, 1u);  // x, the oldest
+  EXPECT_EQ(a.counts().unclaimed, 1u);  // x, the oldest
   add(a, "L", pose("q"), 0.0);  // a pose on the labels channel
   EXPECT_EQ(a.counts().foreign, 1u);
   add(a, "OTHER", cloud("o", 0), 0.0);  // a channel not read: ignored
   EXPECT_TRUE(a.empty());
   a.flush();
-  EXPECT_EQ(a.counts().dropped, 3u);
+  EXPECT_EQ(a.counts().unclaimed, 3u);
+}
+
+// A held message whose cloud came is no longer held: one orphan (a cloud lost over UDP) must not
+// keep the claimed ids' bookkeeping growing, nor evict the newest.
+TEST_F(ScanAssemblerTest, ClaimedIdsLeaveTheHeldListAndOrphansAreEvictedOldestFirst) {
+  ScanAssembler a = make(0);  // max_held 2
+  add(a, "POSE", pose("orphan"), 0.0);
+  for (int k = 0; k < 50; ++k) {
+    const std::string id = "s" + std::to_string(k);
+    add(a, "POSE", pose(id), 0.0);
+    add(a, "L", labels(id), 0.0);
+    add(a, "P", cloud(id, k), 0.0);
+    const auto r = a.pop(0.0);
+    ASSERT_TRUE(r && r->scan) << id;
+    EXPECT_TRUE(r->scan->pose && r->scan->labels) << id;
+  }
+  EXPECT_EQ(a.counts().unclaimed, 0u);  // the orphan is the only one held, under the bound
+  add(a, "POSE", pose("t1"), 0.0);
+  add(a, "POSE", pose("t2"), 0.0);  // three held: the orphan, the oldest, goes
+  EXPECT_EQ(a.counts().unclaimed, 1u);
+  add(a, "L", labels("t2"), 0.0);
+  add(a, "P", cloud("t2", 60), 0.0);
+  EXPECT_TRUE(a.pop(0.0)->scan->pose);  // t2's pose was kept
+}
+
+// A consumer slower than the sender: the oldest waiting scans are dropped, counted.
+TEST_F(ScanAssemblerTest, WaitingScansAreBoundedKeepingTheNewest) {
+  ScanAssembler::Options o;
+  o.channels.points = "P";
+  o.max_waiting = 3;
+  ScanAssembler a(o);
+  for (int k = 0; k < 5; ++k) add(a, "P", cloud("s" + std::to_string(k), k), 0.0);
+  EXPECT_EQ(a.counts().scans_dropped, 2u);
+  EXPECT_EQ(a.pop(0.0)->scan->id, "s2");
+}
+
+TEST_F(ScanAssemblerTest, UnnamedAndIncompleteAreCounted) {
+  ScanAssembler a = make(0);
+  PoseMessage p;
+  p.header = {"", "world", 0};
+  const MessageBytes unnamed = encodePose(p);
+  add(a, "POSE", unnamed, 0.0);
+  EXPECT_EQ(a.counts().unnamed, 1u);
+  add(a, "P", cloud("a", 1), 0.0);
+  ASSERT_TRUE(a.pop(0.0));
+  EXPECT_EQ(a.counts().incomplete, 1u);  // its pose and labels never came
+  add(a, "IMU", imu(5), 0.0);
+  a.flush();
+  EXPECT_EQ(a.counts().samples_dropped, 1u);  // after the last cloud
 }
 
 }  // namespace

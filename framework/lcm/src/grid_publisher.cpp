@@ -36,16 +36,16 @@ GridPublisher::GridPublisher(const std::string& url, std::string channel)
     impl_->channel = std::move(channel);
     return;
   }
-  if (url.empty()) {
-    // $LCM_DEFAULT_URL or LCM's default, read by LCM itself.
+  if (effective.empty()) {
+    // LCM's own default (udpm).
     lcm_t* l = lcm_create(nullptr);
     if (l == nullptr) {
-      throw std::runtime_error("LCM could not be set up on its default URL ($LCM_DEFAULT_URL or "
-                               "udpm; no multicast route? see docs/messages.md)");
+      throw std::runtime_error("LCM could not be set up on its default URL (udpm; no multicast "
+                               "route? see docs/messages.md)");
     }
     impl_->held.reset(l, lcm_destroy);
   } else {
-    impl_->held = openLcm(url);  // memq:// shared with the process's subscribers
+    impl_->held = openLcm(effective);  // memq:// shared with the process's subscribers
   }
   impl_->lcm = impl_->held.get();
   impl_->url = url;

@@ -2,6 +2,7 @@
 
 #include <lcm/lcm.h>
 
+#include <iterator>
 #include <map>
 #include <mutex>
 #include <stdexcept>
@@ -25,6 +26,8 @@ std::shared_ptr<::_lcm_t> openLcm(const std::string& url) {
   static std::mutex mutex;
   static std::map<std::string, std::weak_ptr<lcm_t>> shared;
   const std::lock_guard<std::mutex> lock(mutex);
+  for (auto it = shared.begin(); it != shared.end();)  // forget instances no one holds
+    it = it->second.expired() ? shared.erase(it) : std::next(it);
   if (std::shared_ptr<lcm_t> alive = shared[url].lock()) return alive;
   std::shared_ptr<lcm_t> made = create();
   shared[url] = made;

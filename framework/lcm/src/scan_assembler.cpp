@@ -20,12 +20,14 @@ bool ScanAssembler::complete(const Waiting& w) const {
 void ScanAssembler::place(std::optional<ScanMessage> Held::*held_slot,
                           std::optional<ScanMessage> ScanMessages::*slot, const std::string& type,
                           const std::string& id, ScanMessage m) {
-  const std::string twice = "two " + type + " messages for scan '" + id + "' (" + m.source +
-                            "); expected one per scan";
+  const auto twice = [&](const ScanMessage& first) {
+    return "two " + type + " messages for scan '" + id + "' (" + first.source + ", then " +
+           m.source + "); expected one per scan";
+  };
   for (auto w = waiting_.rbegin(); w != waiting_.rend(); ++w) {
     if (w->scan.id != id) continue;
     if (w->scan.*slot) {
-      if (w->error.empty()) w->error = twice;
+      if (w->error.empty()) w->error = twice(*(w->scan.*slot));
     } else {
       w->scan.*slot = std::move(m);
     }
@@ -38,14 +40,22 @@ void ScanAssembler::place(std::optional<ScanMessage> Held::*held_slot,
   auto [it, fresh] = held_.try_emplace(id);
   if (fresh) held_order_.push_back(id);
   if (it->second.*held_slot) {
-    if (it->second.error.empty()) it->second.error = twice;
+    if (it->second.error.empty()) it->second.error = twice(*(it->second.*held_slot));
   } else {
     it->second.*held_slot = std::move(m);
   }
   while (held_.size() > o_.max_held && !held_order_.empty()) {
-    counts_.dropped += held_.erase(held_order_.front());
+    const auto oldest = held_.find(held_order_.front());
+    if (oldest != held_.end()) {
+      counts_.unclaimed += messages(oldest->second);
+      held_.erase(oldest);
+    }
     held_order_.pop_front();
   }
+}
+
+std::size_t ScanAssembler::messages(const Held& h) {
+  return std::size_t(h.labels.has_value()) + h.pose.has_value() + h.truth_pose.has_value();
 }
 
 void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, std::size_t size,
@@ -71,7 +81,8 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
       w.scan.pose = std::move(held->second.pose);
       w.scan.truth_pose = std::move(held->second.truth_pose);
       w.error = held->second.error;
-      held_.erase(held);  // its place in held_order_ goes when it reaches the front
+      held_.erase(held);
+      held_order_.erase(std::find(held_order_.begin(), held_order_.end(), w.scan.id));
     }
     // The samples up to the cloud's time; later ones wait for the next cloud.
     for (auto s = samples_.begin(); s != samples_.end();) {
@@ -85,13 +96,23 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
     }
     w.deadline_s = now_s + o_.wait_s;
     waiting_.push_back(std::move(w));
+    if (waiting_.size() > o_.max_waiting) {
+      waiting_.pop_front();
+      ++counts_.scans_dropped;
+    }
     return;
   }
-  if (type == "point_labels_t" && channel == ch.labels && !stamp->frame_id.empty())
+  const bool labels = type == "point_labels_t" && channel == ch.labels;
+  const bool pose = type == "pose_t" && channel == ch.pose;
+  const bool truth = type == "pose_t" && channel == ch.truth_pose;
+  if ((labels || pose || truth) && stamp->frame_id.empty()) {
+    ++counts_.unnamed;
+    return;
+  }
+  if (labels)
     return place(&Held::labels, &ScanMessages::labels, type, stamp->frame_id, std::move(m));
-  if (type == "pose_t" && channel == ch.pose && !stamp->frame_id.empty())
-    return place(&Held::pose, &ScanMessages::pose, type, stamp->frame_id, std::move(m));
-  if (type == "pose_t" && channel == ch.truth_pose && !stamp->frame_id.empty())
+  if (pose) return place(&Held::pose, &ScanMessages::pose, type, stamp->frame_id, std::move(m));
+  if (truth)
     return place(&Held::truth_pose, &ScanMessages::truth_pose, type, stamp->frame_id,
                  std::move(m));
   const int kind = type == "imu_t" && channel == ch.imu           ? 0
@@ -127,6 +148,7 @@ std::optional<ScanAssembler::Ready> ScanAssembler::pop(double now_s) {
   Waiting& w = waiting_.front();
   if (!complete(w) && now_s < w.deadline_s) return std::nullopt;
   Ready r;
+  if (!complete(w)) ++counts_.incomplete;
   recent_.push_back(w.scan.id);
   if (recent_.size() > kRecentIds) recent_.pop_front();
   if (w.error.empty()) {
@@ -136,7 +158,6 @@ std::optional<ScanAssembler::Ready> ScanAssembler::pop(double now_s) {
     r.error = w.error;
   }
   waiting_.pop_front();
-  while (!held_order_.empty() && !held_.count(held_order_.front())) held_order_.pop_front();
   return r;
 }
 
@@ -148,9 +169,11 @@ std::optional<double> ScanAssembler::nextDeadline() const {
 
 void ScanAssembler::flush() {
   for (Waiting& w : waiting_) w.deadline_s = -std::numeric_limits<double>::infinity();
-  counts_.dropped += held_.size();
+  for (const auto& [id, h] : held_) counts_.unclaimed += messages(h);
   held_.clear();
   held_order_.clear();
+  counts_.samples_dropped += samples_.size();
+  samples_.clear();
 }
 
 }  // namespace terramrf

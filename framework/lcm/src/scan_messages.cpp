@@ -47,8 +47,8 @@ void dropUnusablePoints(Frame& f, bool drop_no_return) {
 }
 
 Frame frameFromMessages(const ScanMessages& m, const ScanOptions& o) {
-  const LabelSet defaults = LabelSet::defaults();
-  const LabelSet& labels = o.labels ? *o.labels : defaults;
+  static const LabelSet kDefaults = LabelSet::defaults();
+  const LabelSet& labels = o.labels ? *o.labels : kDefaults;
   Frame f;
   f.id = m.id;
   f.source_path = o.source_path;

@@ -131,6 +131,45 @@ TEST_F(LcmSubscribeTest, InterruptEndsAWaitingNext) {
   EXPECT_FALSE(f.get());
 }
 
+// A stream that cannot go on fails once, naming the URL, and then ends: the runner would
+// otherwise count a failed frame per call, forever.
+TEST_F(LcmSubscribeTest, UrlLcmCannotOpenFailsOnceThenEnds) {
+  auto src = make("{url: 'nosuch://x'}");
+  try {
+    src->next();
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("nosuch://x"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("the stream ends here"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(src->next());
+}
+
+TEST_F(LcmSubscribeTest, InterruptBeforeTheFirstNextEndsIt) {
+  auto src = make("{url: '" + url() + "'}");
+  src->interrupt();
+  src->interrupt();  // idempotent
+  EXPECT_FALSE(src->next());
+}
+
+// Two subscribers on one memq:// URL would run each other's callbacks: the second is refused;
+// once the first is gone the URL is free again.
+TEST_F(LcmSubscribeTest, OneSubscriberPerMemqUrl) {
+  auto a = make("{url: '" + url() + "', idle_timeout_s: 0.05}");
+  EXPECT_FALSE(a->next());  // opened (and idle)
+  auto b = make("{url: '" + url() + "', idle_timeout_s: 0.05}");
+  try {
+    b->next();
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("one subscriber per memq:// URL"), std::string::npos)
+        << e.what();
+  }
+  a.reset();
+  auto c = make("{url: '" + url() + "', idle_timeout_s: 0.05}");
+  EXPECT_FALSE(c->next());
+}
+
 TEST_F(LcmSubscribeTest, BadParametersAreRefused) {
   const auto refused = [&](const std::string& params, const std::string& expect) {
     try {

@@ -19,8 +19,9 @@ namespace terramrf {
 
 class GridPublisher {
  public:
-  /// Opens its own LCM instance on `url` (e.g. "udpm://239.255.76.67:7667?ttl=0", "memq://",
-  /// "" = LCM's default / $LCM_DEFAULT_URL). Throws std::runtime_error naming the URL if LCM
+  /// Opens an LCM instance on `url` (e.g. "udpm://239.255.76.67:7667?ttl=0", "memq://",
+  /// "" = $LCM_DEFAULT_URL, else LCM's default) through openLcm: its own, except that memq://
+  /// URLs share the process's instance so that its subscribers receive what it publishes. Throws std::runtime_error naming the URL if LCM
   /// cannot be set up (bad URL, no multicast route, ...).
   ///
   /// A `file://PATH?mode=w` (or `mode=a`) URL, given or in $LCM_DEFAULT_URL, is written by

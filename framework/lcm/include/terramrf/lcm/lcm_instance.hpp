@@ -3,7 +3,8 @@
 // subscriber of one process (an lcm_publish output and an lcm_subscribe source, or a test) meet
 // only if they share it: memq URLs give one instance per URL in the process, alive while anyone
 // holds it. Other providers (udpm, tcpq) give an instance of its own to each caller, as
-// lcm_create does. LCM-free header.
+// lcm_create does. liblcm 1.3 drops a memq message that no one has subscribed to yet: a
+// subscriber receives only what is published after it subscribed. LCM-free header.
 #include <memory>
 #include <string>
 

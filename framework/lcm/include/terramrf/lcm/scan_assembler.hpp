@@ -33,6 +33,9 @@ class ScanAssembler {
     std::size_t max_held = 64;
     /// Samples held for the next cloud at most; the oldest are dropped (counted) beyond it.
     std::size_t max_samples = 100000;
+    /// Scans waiting to leave at most: when the consumer falls behind the sender, the oldest
+    /// are dropped (counted) so that memory stays bounded and the newest scans are the ones run.
+    std::size_t max_waiting = 16;
   };
 
   /// A ready scan, or a message that could not be placed: `error` (with `error_source`, for an
@@ -44,10 +47,17 @@ class ScanAssembler {
 
   /// What went unused, for the run's notes.
   struct Counts {
-    std::size_t late = 0;      ///< labels or poses that came after their scan had left
-    std::size_t dropped = 0;   ///< held labels/poses dropped (max_held) or never claimed
-    std::size_t foreign = 0;   ///< messages of another type on a channel read
-    std::size_t samples_dropped = 0;  ///< beyond max_samples
+    std::size_t late = 0;       ///< labels or poses that came after their scan had left
+    std::size_t unclaimed = 0;  ///< held labels/poses never claimed by a cloud (or over max_held)
+    std::size_t unnamed = 0;    ///< labels or poses without a frame_id (nothing to match)
+    std::size_t foreign = 0;    ///< messages of another type on a channel read
+    std::size_t samples_dropped = 0;  ///< beyond max_samples, or left at the end (flush)
+    std::size_t scans_dropped = 0;    ///< beyond max_waiting: the consumer fell behind
+    std::size_t incomplete = 0;  ///< scans that left without labels or poses their channels read
+    bool any() const {
+      return late || unclaimed || unnamed || foreign || samples_dropped || scans_dropped ||
+             incomplete;
+    }
   };
 
   explicit ScanAssembler(Options options);
@@ -59,7 +69,8 @@ class ScanAssembler {
   std::optional<Ready> pop(double now_s);
   /// When the oldest waiting scan will be ready at the latest (to bound the caller's wait).
   std::optional<double> nextDeadline() const;
-  /// Ends every wait: what is held is all that will come (the stream ended).
+  /// Ends every wait: what is held is all that will come (the stream ended). Held labels and
+  /// poses, and samples after the last cloud, are counted as unused.
   void flush();
   bool empty() const { return ready_.empty() && waiting_.empty(); }
   const Counts& counts() const { return counts_; }
@@ -75,6 +86,7 @@ class ScanAssembler {
     std::string error;
   };
   bool complete(const Waiting& w) const;
+  static std::size_t messages(const Held& h);
   void place(std::optional<ScanMessage> Held::*held_slot, std::optional<ScanMessage> ScanMessages::*slot,
              const std::string& type, const std::string& id, ScanMessage m);
 
