@@ -68,8 +68,10 @@ int cmdMesh(const Args& args) {
   }
   std::cerr << "terramrf: " << framesToRead(*p.source) << ", mesh in " << mesh_dirs << "\n";
   RunResult r;
+  RunOptions streamed = ro;  // metrics to metrics.csv as the frames complete
+  streamed.metrics_csv = p.output_dir + "/metrics.csv";
   try {
-    r = runPipeline(p, ro);
+    r = runPipeline(p, streamed);
   } catch (const std::exception& e) {
     std::cerr << "terramrf mesh: " << e.what() << "\n";
     return kError;

@@ -143,7 +143,10 @@ int cmdRun(const Args& args) {
   if (!loadOrReport(config, ra.load, reg, p)) return kUsage;
   if (!firstFrameInRange(p, ro, "run")) return kUsage;
   std::cerr << "terramrf: " << framesToRead(*p.source) << ", outputs in " << p.output_dir << "\n";
-  RunResult r = runPipeline(p, ro);
+  // Streamed as the frames complete: a long run or a stream keeps none of them in memory.
+  RunOptions streamed = ro;
+  streamed.metrics_csv = p.output_dir + "/metrics.csv";
+  RunResult r = runPipeline(p, streamed);
   const std::string table = timingTable(r);
   writeReportsOf(p.output_dir, r);
   std::cout << "\nPer-stage timing over " << r.summary.frames_ok << " scan(s):\n" << table;

@@ -4,9 +4,12 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -91,6 +94,64 @@ namespace {
 // The run's own reports (writeRunReports), removed at the start of a run (runPipeline).
 constexpr const char* kTimingFile = "timing.md";
 constexpr const char* kMetricsFile = "metrics.csv";
+constexpr const char* kMetricsHeader = "frame,metric,value\n";
+void appendMetricsRows(std::ostream& o, const std::string& frame,
+                       const std::map<std::string, double>& m) {
+  for (const auto& [key, value] : m)
+    o << csvField(frame) << ',' << csvField(key) << ',' << value << '\n';
+}
+
+// RunOptions::metrics_csv: rows appended and flushed per frame to `<path>.partial`, renamed when
+// the run ends. Any failure (a full disk) falls back to memory, saying where the rows so far are.
+class MetricsStream {
+ public:
+  MetricsStream(const std::string& path, std::ostream& log) : path_(path), log_(log) {
+    if (path.empty()) return;
+    out_.open(partial(), std::ios::trunc);
+    out_.precision(9);
+    out_ << kMetricsHeader << std::flush;
+    if (!out_) fallBack("cannot be written");
+  }
+  bool active() const { return out_.is_open(); }
+  /// False if the rows could not be written (they then belong in memory).
+  bool append(const std::string& frame, const std::map<std::string, double>& m) {
+    if (!active()) return false;
+    appendMetricsRows(out_, frame, m);
+    out_.flush();
+    if (out_) return true;
+    fallBack("could not be written on");
+    return false;
+  }
+  /// The final file's path, or "" if the rows are not all in it.
+  std::string finish() {
+    if (!active()) return "";
+    out_.close();
+    std::error_code ec;
+    if (out_.fail()) {
+      fallBack("could not be closed");
+      return "";
+    }
+    std::filesystem::rename(partial(), path_, ec);
+    if (ec) {
+      log_ << "warning: the metrics are in " << partial() << ": renaming it to " << path_
+           << " failed: " << ec.message() << "\n";
+      return "";
+    }
+    return path_;
+  }
+
+ private:
+  std::string partial() const { return path_ + ".partial"; }
+  void fallBack(const char* what) {
+    log_ << "warning: " << partial() << " " << what << " (" << std::strerror(errno)
+         << "); the metrics from here on are kept in memory and written at the end, those "
+            "before stay in that file\n";
+    out_.close();
+  }
+  std::string path_;
+  std::ostream& log_;
+  std::ofstream out_;
+};
 
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) {
@@ -296,6 +357,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   }
   for (auto& o : p.outputs) o->begin(info);
   removeSummaries();
+  MetricsStream metrics_stream(opt.metrics_csv, log);
   // A failed frame's files from the outputs that did not write it this run are an earlier run's
   // (outputs before the failure wrote theirs: those are kept). Decided by who wrote, not by
   // modification times, which a coarse or skewed clock could misorder. Runs inside a frame's
@@ -471,7 +533,8 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       for (std::size_t s = 0; s < slot; ++s) res.timings[s].ms.push_back(slot_ms[s]);
       ++res.summary.frames_ok;
       if (ego_error) res.egomotion_error.add(*ego_error);
-      if (!ctx.metrics.empty()) res.metrics.emplace_back(frames[cur].id, ctx.metrics);
+      if (!ctx.metrics.empty() && !metrics_stream.append(frames[cur].id, ctx.metrics))
+        res.metrics.emplace_back(frames[cur].id, ctx.metrics);
       // Only one frame is kept back: its own `previous` is the slot the next frame reuses, so
       // left set it would point at the next frame itself.
       ctx.previous = nullptr;
@@ -532,6 +595,7 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   }
   // Would dangle once the run returns.
   res.summary.run = nullptr;
+  res.metrics_file = metrics_stream.finish();
   return res;
 }
 
@@ -573,12 +637,11 @@ std::string egomotionErrorText(const RunResult& r) {
 std::string metricsCsv(const RunResult& r) {
   std::ostringstream o;
   o.precision(9);
-  o << "frame,metric,value\n";
-  for (const auto& [frame, m] : r.metrics)
-    for (const auto& [key, value] : m)
-      o << csvField(frame) << ',' << csvField(key) << ',' << value << '\n';
+  o << kMetricsHeader;
+  for (const auto& [frame, m] : r.metrics) appendMetricsRows(o, frame, m);
   return o.str();
 }
+
 
 void writeRunReports(const std::string& dir, const RunResult& r) {
   const std::string stopped = interruptionText(r.summary);
@@ -587,7 +650,7 @@ void writeRunReports(const std::string& dir, const RunResult& r) {
                       timingTable(r) +
                       (r.egomotion_error.frames ? "\n" + egomotionErrorText(r) + ".\n" : ""));
   // Always written, if only its header: an earlier run's file would pass for this one's.
-  writeFileAtomic(dir + "/" + kMetricsFile, metricsCsv(r));
+  if (r.metrics_file.empty()) writeFileAtomic(dir + "/" + kMetricsFile, metricsCsv(r));
 }
 
 }  // namespace terramrf

@@ -50,6 +50,10 @@ struct RunOptions {
   /// A stream is read ahead on one thread, whatever the depth. Results do not depend on it.
   std::size_t read_ahead = kAutoReadAhead;
   static constexpr std::size_t kAutoReadAhead = static_cast<std::size_t>(-1);
+  /// Where the stages' metrics go as each frame completes (`<metrics_csv>.partial`, renamed to
+  /// `metrics_csv` when the run ends), so that a long run or a stream keeps none of them in
+  /// memory and a killed run leaves the rows it had. "" keeps them in RunResult::metrics.
+  std::string metrics_csv;
 };
 
 struct RunResult {
@@ -77,6 +81,10 @@ struct RunResult {
   /// What the stages measured (FrameContext::metrics, e.g. "rough.sorted_rings"), per frame that
   /// completed, in run order; frames whose stages measured nothing are left out.
   std::vector<std::pair<std::string, std::map<std::string, double>>> metrics;
+  /// The file the metrics went to as the frames completed (RunOptions::metrics_csv); "" when
+  /// they are in `metrics` (not asked for, or the file could not be written: then `metrics`
+  /// holds the rows from the failure on, and a warning names the partial file with the rest).
+  std::string metrics_file;
   /// The egomotion stages' poses against the source's truth, over the frames that completed
   /// with both (Frame::pose after those stages, Frame::truth_pose); also each such frame's
   /// metrics egomotion.translation_error_m and egomotion.rotation_error_deg. No frame is scored
@@ -110,9 +118,10 @@ std::string egomotionErrorText(const RunResult& r);
 /// The stage metrics as CSV: `frame,metric,value`, one row per frame and metric.
 std::string metricsCsv(const RunResult& r);
 
-/// Writes `timing.md` and `metrics.csv` (if only its header) into `dir` (atomically, like every
-/// output); the timing of an interrupted run says so in its first line, and the egomotion's error
-/// against the truth (egomotionErrorText) follows the table when frames were scored.
+/// Writes `timing.md` and `metrics.csv` (if only its header; not when the run streamed it,
+/// RunResult::metrics_file) into `dir` (atomically, like every output); the timing of an
+/// interrupted run says so in its first line, and the egomotion's error against the truth
+/// (egomotionErrorText) follows the table when frames were scored.
 void writeRunReports(const std::string& dir, const RunResult& r);
 
 }  // namespace terramrf

@@ -236,6 +236,51 @@ TEST(Pipeline, StageMetricsOfCompletedFramesAreWrittenAsCsv) {
   EXPECT_EQ(readFile(out + "/metrics.csv"), "frame,metric,value\n");
 }
 
+// RunOptions::metrics_csv (what `run` and `mesh` use): the rows go to the file as each frame
+// completes, none stay in memory, and the file is the one the in-memory rows would have made.
+// writeRunReports then leaves it alone.
+TEST(Pipeline, StageMetricsStreamedToTheFileAsFramesComplete) {
+  test::ConfigFixture f;
+  std::ostringstream log;
+  const RunResult kept = runSynthetic(f, "{frames: 3, bad_frames: [1]}", log);
+  ASSERT_EQ(kept.metrics.size(), 2u);
+  EXPECT_TRUE(kept.metrics_file.empty());
+
+  Pipeline p = f.loadSynthetic("{frames: 3, bad_frames: [1]}");
+  RunOptions ro;
+  ro.progress = false;
+  ro.log = &log;
+  const std::string out = f.dir.str() + "/out";
+  ro.metrics_csv = out + "/metrics.csv";
+  const RunResult r = runPipeline(p, ro);
+  EXPECT_TRUE(r.metrics.empty());
+  EXPECT_EQ(r.metrics_file, out + "/metrics.csv");
+  EXPECT_FALSE(std::filesystem::exists(out + "/metrics.csv.partial"));
+  const std::string streamed = readFile(out + "/metrics.csv");
+  EXPECT_EQ(streamed, metricsCsv(kept));
+  writeRunReports(out, r);
+  EXPECT_EQ(readFile(out + "/metrics.csv"), streamed);
+  EXPECT_TRUE(std::filesystem::exists(out + "/timing.md"));
+}
+
+// A file that cannot be written (here: its folder is a file) falls back to memory, warned.
+TEST(Pipeline, StageMetricsFallBackToMemoryWhenTheFileCannotBeWritten) {
+  test::ConfigFixture f;
+  std::ofstream(f.dir.str() + "/blocker") << "x";
+  Pipeline p = f.loadSynthetic("{frames: 2}");
+  RunOptions ro;
+  ro.progress = false;
+  std::ostringstream log;
+  ro.log = &log;
+  ro.metrics_csv = f.dir.str() + "/blocker/metrics.csv";
+  const RunResult r = runPipeline(p, ro);
+  EXPECT_EQ(r.summary.frames_ok, 2u);
+  EXPECT_EQ(r.metrics.size(), 2u);
+  EXPECT_TRUE(r.metrics_file.empty());
+  EXPECT_NE(log.str().find("blocker/metrics.csv.partial cannot be written"), std::string::npos)
+      << log.str();
+}
+
 // The resolved config reproduces the run: numbers to the last bit, folders as this run found
 // them, and the frames chosen on the command line said in its first line.
 TEST(Pipeline, TheResolvedConfigReproducesTheRun) {
