@@ -69,9 +69,10 @@ TEST(ConfigsE2E, DemoOnTheSimulator) {
       std::string::npos);
 }
 
-// configs/lcm_record.yaml writes the demo's scans, ground truth and poses to an LCM log as it
-// classifies them; configs/lcm_replay.yaml classifies them again from the log. Both evaluations
-// are the demo's, to the byte: nothing the stages use is lost on the way through LCM.
+// configs/lcm_record.yaml writes the demo's scans, ground truth, poses, samples and camera images
+// with their calibrations to an LCM log as it classifies them; configs/lcm_replay.yaml
+// classifies them again from the log. Evaluations and grid images are the same to the byte:
+// nothing the stages use is lost on the way through LCM.
 TEST(LcmConfigsE2E, RecordedLogReplaysToTheSameEvaluation) {
   test::TempDir dir;
   const std::string log = dir.str() + "/demo.lcm";
@@ -94,8 +95,51 @@ TEST(LcmConfigsE2E, RecordedLogReplaysToTheSameEvaluation) {
   // Scored, not empty: the ground truth came through the log.
   const YAML::Node s = YAML::LoadFile(dir.str() + "/rep/evaluation/summary.json");
   EXPECT_GE(cellRecall(s, "obstacle"), 0.96);
-  EXPECT_TRUE(std::filesystem::exists(dir.str() + "/rep/grid/000004.png"));
+  // The grid images, the camera's with the projected points included, to the byte: points,
+  // image and calibration came through whole.
+  int images = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir.str() + "/rec/grid")) {
+    const std::string name = e.path().filename().string();
+    images += name.find("image_2") != std::string::npos;
+    EXPECT_EQ(terramrf::readFile(e.path().string()),
+              terramrf::readFile(dir.str() + "/rep/grid/" + name))
+        << name;
+  }
+  EXPECT_EQ(images, 5);
   EXPECT_EQ(rep.out.find("lcm: "), std::string::npos) << rep.out;  // no message went unused
+}
+
+// A recorder (lcm_publish with publish_grid: false, no stage) and the textured mesh from the
+// log it wrote: the same mesh files as from the simulator directly.
+TEST(LcmConfigsE2E, TexturedMeshFromARecordedLogIsTheSame) {
+  test::TempDir dir;
+  const std::string log = dir.str() + "/mesh.lcm";
+  std::string mesh = terramrf::readFile(test::sourceDir() + "/configs/mesh_demo.yaml");
+  mesh = test::edited(mesh, "frames: 60", "frames: 4");
+  const std::string record = test::edited(
+      mesh, "outputs:\n",
+      "outputs:\n  - {type: lcm_publish, params: {url: 'file://" + log +
+          "?mode=w', publish_grid: false, publish_points: true, publish_pose: true, "
+          "publish_images: true}}\n");
+  std::ofstream(dir.str() + "/record.yaml") << record;
+  const std::string replay = std::regex_replace(
+      mesh, std::regex("source:\n  type: simulator\n  params: [^\n]*\n"),
+      "source:\n  type: lcm_log\n  params: {path: " + log +
+          ", pose_channel: TERRAMRF_GRID_POSE, images_channel: TERRAMRF_GRID_IMAGE, "
+          "camera_info_channel: TERRAMRF_GRID_CAMERA_INFO, cameras: [image_2]}\n");
+  ASSERT_NE(replay, mesh);
+  std::ofstream(dir.str() + "/replay.yaml") << replay;
+  const Result rec = sh(test::cli() + " mesh " + dir.str() + "/record.yaml --no-progress --out " +
+                        dir.str() + "/rec");
+  ASSERT_EQ(rec.status, 0) << rec.out;
+  const Result rep = sh(test::cli() + " mesh " + dir.str() + "/replay.yaml --no-progress --out " +
+                        dir.str() + "/rep");
+  ASSERT_EQ(rep.status, 0) << rep.out;
+  for (const char* f : {"terrain.obj", "terrain.ply", "terrain.glb"}) {
+    EXPECT_EQ(terramrf::readFile(dir.str() + "/rec/mesh/" + f),
+              terramrf::readFile(dir.str() + "/rep/mesh/" + f))
+        << f;
+  }
 }
 
 TEST(ConfigsE2E, SemanticKittiPrintsTheEvaluation) {

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include "terramrf/lcm/camera_codec.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
@@ -184,6 +185,40 @@ TEST_F(ScanAssemblerTest, UnnamedAndIncompleteAreCounted) {
   add(a, "IMU", imu(5), 0.0);
   a.flush();
   EXPECT_EQ(a.counts().samples_dropped, 1u);  // after the last cloud
+}
+
+// With cameras listed, a scan waits for an image and a calibration of each.
+TEST_F(ScanAssemblerTest, ScanWaitsForEachCamerasImageAndCalibration) {
+  ScanAssembler::Options o;
+  o.channels.points = "P";
+  o.channels.images = "IMG";
+  o.channels.camera_info = "CAL";
+  o.cameras = {"left", "right"};
+  o.wait_s = 1;
+  ScanAssembler a(o);
+  Image img;
+  img.width = 1;
+  img.height = 1;
+  img.channels = 1;
+  img.data = {5};
+  CameraModel m;
+  m.width = m.height = 1;
+  const auto image = [&](const std::string& cam) { return encodeImage(img, cam, {"a", "lidar", 0}); };
+  const auto info = [&](const std::string& cam) {
+    m.name = cam;
+    return encodeCameraInfo(m, {"a", "lidar", 0});
+  };
+  add(a, "IMG", image("left"), 0.0);
+  add(a, "CAL", info("left"), 0.0);
+  add(a, "P", cloud("a", 1.0), 0.0);
+  add(a, "IMG", image("right"), 0.1);
+  EXPECT_FALSE(a.pop(0.1));  // right's calibration still missing
+  add(a, "CAL", info("right"), 0.2);
+  const auto r = a.pop(0.2);
+  ASSERT_TRUE(r && r->scan);
+  EXPECT_EQ(r->scan->images.size(), 2u);
+  EXPECT_EQ(r->scan->camera_infos.size(), 2u);
+  EXPECT_EQ(a.counts().incomplete, 0u);
 }
 
 }  // namespace

@@ -89,6 +89,43 @@ class ByScan {
   std::size_t foreign_ = 0, unnamed_ = 0;
 };
 
+// Messages of one channel of which a scan has several, one per camera: frame_id → events.
+class PerCamera {
+ public:
+  PerCamera(std::string channel, std::string type)
+      : channel_(std::move(channel)), type_(std::move(type)) {}
+  const std::string& channel() const { return channel_; }
+  void add(const LcmLogEvent& e) {
+    const auto stamp = peekMessageStamp(e.data.data(), e.data.size());
+    if (!stamp || stamp->type != type_) {
+      ++foreign_;
+      return;
+    }
+    events_[stamp->frame_id].push_back(e.offset);
+  }
+  std::vector<std::int64_t> take(const std::string& id) {
+    const auto it = events_.find(id);
+    if (it == events_.end()) return {};
+    std::vector<std::int64_t> out = std::move(it->second);
+    events_.erase(it);
+    return out;
+  }
+  void notes(std::vector<std::string>& out) const {
+    if (foreign_)
+      out.push_back(std::to_string(foreign_) + " event(s) on " + channel_ + " are not " + type_ +
+                    " and were ignored");
+    if (!events_.empty())
+      out.push_back(type_ + " messages on " + channel_ + " name " +
+                    std::to_string(events_.size()) + " scan(s) with no point cloud (e.g. '" +
+                    events_.begin()->first + "') and were ignored");
+  }
+
+ private:
+  std::string channel_, type_;
+  std::map<std::string, std::vector<std::int64_t>> events_;
+  std::size_t foreign_ = 0;
+};
+
 // Samples of one channel, attached by time once every cloud is known.
 struct Samples {
   std::string channel, type;
@@ -114,6 +151,7 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
   ByScan labels(ch.labels, "point_labels_t", path), pose(ch.pose, "pose_t", path),
       truth(ch.truth_pose, "pose_t", path);
   Samples imu{ch.imu, "imu_t"}, gps{ch.gps, "gps_t"}, odometry{ch.odometry, "odometry_t"};
+  PerCamera images(ch.images, "image_t"), infos(ch.camera_info, "camera_info_t");
   std::unordered_map<std::string, std::string> cloud_event;  // scan id → its event, named
 
   while (std::optional<LcmLogEvent> e = reader.next()) {
@@ -153,6 +191,8 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
     if (!ch.imu.empty() && c == ch.imu) imu.add(*e);
     if (!ch.gps.empty() && c == ch.gps) gps.add(*e);
     if (!ch.odometry.empty() && c == ch.odometry) odometry.add(*e);
+    if (!ch.images.empty() && c == ch.images) images.add(*e);
+    if (!ch.camera_info.empty() && c == ch.camera_info) infos.add(*e);
   }
   index.skipped_bytes = reader.skippedBytes();
 
@@ -162,9 +202,13 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
     f.labels = labels.take(f.id);
     f.pose = pose.take(f.id);
     f.truth_pose = truth.take(f.id);
+    f.images = images.take(f.id);
+    f.camera_infos = infos.take(f.id);
   }
   for (const ByScan* b : {&labels, &pose, &truth})
     if (!b->channel().empty()) b->notes(index.notes);
+  for (const PerCamera* p : {&images, &infos})
+    if (!p->channel().empty()) p->notes(index.notes);
 
   const bool any_samples = !imu.samples.empty() || !gps.samples.empty() ||
                            !odometry.samples.empty();

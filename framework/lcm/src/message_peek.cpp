@@ -1,5 +1,6 @@
 #include "terramrf/lcm/message_peek.hpp"
 
+#include <terramrf_msgs/camera_info_t.hpp>
 #include <terramrf_msgs/gps_t.hpp>
 #include <terramrf_msgs/image_t.hpp>
 #include <terramrf_msgs/imu_t.hpp>
@@ -38,6 +39,7 @@ std::optional<MessageStamp> peekMessageStamp(const void* data, std::size_t size)
       known<terramrf_msgs::point_labels_t>("point_labels_t", true),
       known<terramrf_msgs::pose_t>("pose_t", true),
       known<terramrf_msgs::image_t>("image_t", true),
+      known<terramrf_msgs::camera_info_t>("camera_info_t", true),
       known<terramrf_msgs::terrain_grid_t>("terrain_grid_t", true),
       known<terramrf_msgs::imu_t>("imu_t", false),
       known<terramrf_msgs::gps_t>("gps_t", false),
@@ -58,6 +60,15 @@ std::optional<MessageStamp> peekMessageStamp(const void* data, std::size_t size)
     if (len < 1 || static_cast<std::size_t>(len) > size - 20 || p[20 + len - 1] != 0)
       return std::nullopt;
     s.frame_id.assign(reinterpret_cast<const char*>(p + 20), static_cast<std::size_t>(len - 1));
+    if (s.type == "image_t" || s.type == "camera_info_t") {
+      // Both carry the camera's name right after the scan id.
+      const std::size_t at = 20 + static_cast<std::size_t>(len);
+      if (size < at + 4) return std::nullopt;
+      const auto clen = static_cast<std::int32_t>(readBigEndian(p + at, 4));
+      if (clen < 1 || static_cast<std::size_t>(clen) > size - at - 4 || p[at + 4 + clen - 1] != 0)
+        return std::nullopt;
+      s.camera.assign(reinterpret_cast<const char*>(p + at + 4), static_cast<std::size_t>(clen - 1));
+    }
     return s;
   }
   return std::nullopt;

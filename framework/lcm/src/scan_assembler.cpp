@@ -13,8 +13,38 @@ constexpr std::size_t kRecentIds = 256;  // scans remembered after they left, to
 ScanAssembler::ScanAssembler(Options options) : o_(std::move(options)) {}
 
 bool ScanAssembler::complete(const Waiting& w) const {
+  for (const std::string& c : o_.cameras)
+    if (!w.cameras.image_of.count(c) || !w.cameras.info_of.count(c)) return false;
   return (o_.channels.labels.empty() || w.scan.labels) && (o_.channels.pose.empty() || w.scan.pose) &&
          (o_.channels.truth_pose.empty() || w.scan.truth_pose);
+}
+
+void ScanAssembler::placeCamera(bool image, const std::string& id, const std::string& camera,
+                                ScanMessage m) {
+  const auto put = [&](Cameras& c) {
+    (image ? c.images : c.infos).push_back(std::move(m));
+    (image ? c.image_of : c.info_of).insert(camera);
+  };
+  for (auto w = waiting_.rbegin(); w != waiting_.rend(); ++w) {
+    if (w->scan.id != id) continue;
+    put(w->cameras);
+    return;
+  }
+  if (std::find(recent_.begin(), recent_.end(), id) != recent_.end()) {
+    ++counts_.late;
+    return;
+  }
+  auto [it, fresh] = held_.try_emplace(id);
+  if (fresh) held_order_.push_back(id);
+  put(it->second.cameras);
+  while (held_.size() > o_.max_held && !held_order_.empty()) {
+    const auto oldest = held_.find(held_order_.front());
+    if (oldest != held_.end()) {
+      counts_.unclaimed += messages(oldest->second);
+      held_.erase(oldest);
+    }
+    held_order_.pop_front();
+  }
 }
 
 void ScanAssembler::place(std::optional<ScanMessage> Held::*held_slot,
@@ -55,7 +85,8 @@ void ScanAssembler::place(std::optional<ScanMessage> Held::*held_slot,
 }
 
 std::size_t ScanAssembler::messages(const Held& h) {
-  return std::size_t(h.labels.has_value()) + h.pose.has_value() + h.truth_pose.has_value();
+  return std::size_t(h.labels.has_value()) + h.pose.has_value() + h.truth_pose.has_value() +
+         h.cameras.images.size() + h.cameras.infos.size();
 }
 
 void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, std::size_t size,
@@ -63,7 +94,7 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
   const LogChannels& ch = o_.channels;
   const bool read = channel == ch.points || channel == ch.labels || channel == ch.pose ||
                     channel == ch.truth_pose || channel == ch.imu || channel == ch.gps ||
-                    channel == ch.odometry;
+                    channel == ch.odometry || channel == ch.images || channel == ch.camera_info;
   if (channel.empty() || !read) return;
   const std::optional<MessageStamp> stamp = peekMessageStamp(data, size);
   const std::string type = stamp ? stamp->type : "";
@@ -81,6 +112,7 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
       w.scan.pose = std::move(held->second.pose);
       w.scan.truth_pose = std::move(held->second.truth_pose);
       w.error = held->second.error;
+      w.cameras = std::move(held->second.cameras);
       held_.erase(held);
       held_order_.erase(std::find(held_order_.begin(), held_order_.end(), w.scan.id));
     }
@@ -106,6 +138,14 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
   const bool pose = type == "pose_t" && channel == ch.pose;
   const bool truth = type == "pose_t" && channel == ch.truth_pose;
   if ((labels || pose || truth) && stamp->frame_id.empty()) {
+    ++counts_.unnamed;
+    return;
+  }
+  const bool image = type == "image_t" && channel == ch.images;
+  const bool info = type == "camera_info_t" && channel == ch.camera_info;
+  if ((image || info) && !stamp->frame_id.empty())
+    return placeCamera(image, stamp->frame_id, stamp->camera, std::move(m));
+  if (image || info) {
     ++counts_.unnamed;
     return;
   }
@@ -149,6 +189,8 @@ std::optional<ScanAssembler::Ready> ScanAssembler::pop(double now_s) {
   if (!complete(w) && now_s < w.deadline_s) return std::nullopt;
   Ready r;
   if (!complete(w)) ++counts_.incomplete;
+  w.scan.images = std::move(w.cameras.images);
+  w.scan.camera_infos = std::move(w.cameras.infos);
   recent_.push_back(w.scan.id);
   if (recent_.size() > kRecentIds) recent_.pop_front();
   if (w.error.empty()) {

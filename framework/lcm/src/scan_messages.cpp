@@ -2,8 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
+#include <optional>
+#include <utility>
 
 #include "terramrf/errors.hpp"
+#include "terramrf/lcm/camera_codec.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
@@ -45,6 +49,62 @@ void dropUnusablePoints(Frame& f, bool drop_no_return) {
   if (labelled) f.truth.label.resize(kept);
   if (raw) f.truth.raw.resize(kept);
 }
+
+namespace {
+
+struct Decoded {
+  std::vector<std::pair<DecodedImage, std::string>> images;      // with their sources
+  std::vector<std::pair<DecodedCameraInfo, std::string>> infos;
+};
+
+// Camera `name` of the scan: its one image_t and its one camera_info_t.
+CameraImage camera(const ScanMessages& m, Decoded& d, const ScanOptions& o,
+                   const std::string& name) {
+  DecodedImage* image = nullptr;
+  DecodedCameraInfo* info = nullptr;
+  std::string image_source, info_source;
+  for (auto& [img, source] : d.images) {
+    if (img.camera != name) continue;
+    if (image)
+      throw InputError(source, "a second image_t of camera '" + name + "' for scan '" + m.id +
+                                   "' (the first: " + image_source + "); expected one");
+    image = &img;
+    image_source = source;
+  }
+  for (auto& [inf, source] : d.infos) {
+    if (inf.model.name != name) continue;
+    if (info)
+      throw InputError(source, "a second camera_info_t of camera '" + name + "' for scan '" +
+                                   m.id + "' (the first: " + info_source + "); expected one");
+    info = &inf;
+    info_source = source;
+  }
+  if (!image || !info) {
+    throw InputError(m.points.source,
+                     "scan '" + m.id + "' has no " +
+                         (!image ? "image_t on channel " + o.images_channel
+                                 : "camera_info_t on channel " + o.camera_info_channel) +
+                         " for camera '" + name + "' (cameras lists it, so every scan needs its "
+                         "image and calibration)");
+  }
+  if (image->image.width != info->model.width || image->image.height != info->model.height) {
+    throw InputError(image_source,
+                     "image of camera '" + name + "' is " + std::to_string(image->image.width) +
+                         " x " + std::to_string(image->image.height) + " px, its calibration (" +
+                         info_source + (info->model.calibration.empty()
+                                            ? ""
+                                            : ", from " + info->model.calibration) +
+                         ") is for " + std::to_string(info->model.width) + " x " +
+                         std::to_string(info->model.height) + " px");
+  }
+  CameraImage c;
+  c.model = std::move(info->model);
+  c.image = std::make_shared<Image>(std::move(image->image));
+  c.source_path = image_source;
+  return c;
+}
+
+}  // namespace
 
 Frame frameFromMessages(const ScanMessages& m, const ScanOptions& o) {
   static const LabelSet kDefaults = LabelSet::defaults();
@@ -98,6 +158,14 @@ Frame frameFromMessages(const ScanMessages& m, const ScanOptions& o) {
     f.gps.push_back(decodeGps(s.bytes.data(), s.bytes.size(), s.source));
   for (const ScanMessage& s : m.odometry)
     f.odometry.push_back(decodeOdometry(s.bytes.data(), s.bytes.size(), s.source));
+  if (!o.cameras.empty()) {
+    Decoded d;  // each message decoded once, whatever the number of cameras
+    for (const ScanMessage& s : m.images)
+      d.images.emplace_back(decodeImage(s.bytes.data(), s.bytes.size(), s.source), s.source);
+    for (const ScanMessage& s : m.camera_infos)
+      d.infos.emplace_back(decodeCameraInfo(s.bytes.data(), s.bytes.size(), s.source), s.source);
+    for (const std::string& name : o.cameras) f.cameras.push_back(camera(m, d, o, name));
+  }
   // In time order, as the other sources give them, whatever order the publishers' messages came
   // in.
   const auto byTime = [](const auto& a, const auto& b) { return a.t_s < b.t_s; };

@@ -1,5 +1,6 @@
 // Output "lcm_publish": publishes each labelled grid as terramrf_msgs.terrain_grid_t and, if
-// asked, the scan's pose, ground truth, IMU/GPS/odometry samples and points, so that a log it writes can be read back as a
+// asked, the scan's pose, ground truth, camera images with their calibrations, IMU/GPS/odometry
+// samples and points, so that a log it writes can be read back as a
 // source (lcm_log). Writes nothing to disk, except the LCM log a file:// URL names.
 #include <memory>
 #include <set>
@@ -7,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "terramrf/lcm/camera_codec.hpp"
 #include "terramrf/lcm/grid_publisher.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/log_writer.hpp"
@@ -25,6 +27,9 @@ class LcmPublishOutput : public Output {
           "file:///path.lcmlog?mode=w to log (mode=a appends); empty = $LCM_DEFAULT_URL)");
     d.add("channel", channel_, "channel of the terrain_grid_t messages");
     d.add("layers", layers_, "float layers to send; empty = every layer of the grid").unique();
+    d.add("publish_grid", publish_grid_,
+          "publish the labelled grid (terrain_grid_t on <channel>); false records a source's "
+          "scans without classifying them (no stage needed before it)");
     d.add("publish_points", publish_points_,
           "also publish the scan's points as point_cloud_t on <channel>_POINTS");
     d.add("publish_pose", publish_pose_,
@@ -38,6 +43,10 @@ class LcmPublishOutput : public Output {
           "also publish the IMU, GPS and odometry samples that came with the scan (since the "
           "scan before) as imu_t, gps_t and odometry_t on <channel>_IMU, _GPS and _ODOMETRY, "
           "each stamped in a log with its own time under log_time: frame");
+    d.add("publish_images", publish_images_,
+          "also publish each camera's image as image_t on <channel>_IMAGE and its calibration "
+          "as camera_info_t on <channel>_CAMERA_INFO, so that a log carries what camera "
+          "features and the textured mesh need");
     d.add("log_time", log_time_,
           "time of each event in a file:// log: 'wall' (when it was written, as LCM's logger "
           "records) or 'frame' (the frame's own timestamp, so lcm-logplayer replays a dataset "
@@ -47,6 +56,11 @@ class LcmPublishOutput : public Output {
 
   void configure(const PluginContext& ctx) override {
     if (channel_.empty()) throw ParamError("channel", "is empty; expected e.g. TERRAMRF_GRID");
+    if (!publish_grid_ && !layers_.empty())
+      throw ParamError("layers", "lists layers of the grid, which publish_grid: false does not send");
+    if (!publish_grid_ && !publish_points_ && !publish_pose_ && !publish_truth_ &&
+        !publish_samples_ && !publish_images_)
+      throw ParamError("publish_grid", "is false and no publish_* is true: nothing would be sent");
     if (!url_.empty()) {
       const auto sep = url_.find("://");
       const std::string provider = sep == std::string::npos ? "" : url_.substr(0, sep);
@@ -78,6 +92,7 @@ class LcmPublishOutput : public Output {
   }
 
   std::vector<std::string> reads() const override {
+    if (!publish_grid_) return {};
     std::vector<std::string> r{artefacts::kLabels};
     r.insert(r.end(), layers_.begin(), layers_.end());
     return r;
@@ -103,7 +118,7 @@ class LcmPublishOutput : public Output {
     header.timestamp_s = ctx.frame->timestamp_s;
     const LabelSet& labels = ctx.labels ? *ctx.labels : labels_;
     const Frame& f = *ctx.frame;
-    publisher_->publish(*ctx.grid, labels, header, layers_);
+    if (publish_grid_) publisher_->publish(*ctx.grid, labels, header, layers_);
     // The points go last: a receiver assembling scans takes the cloud as the scan's end.
     if (publish_pose_) {
       if (const auto pose = framePoseMessage(f))
@@ -120,6 +135,17 @@ class LcmPublishOutput : public Output {
       if (!f.truth.empty())
         publisher_->publishForScan(channel_ + "_LABELS", encodePointLabels(f.truth, labels, header),
                                    header);
+    }
+    if (publish_images_) {
+      for (const CameraImage& c : f.cameras) {
+        if (!c.image) continue;
+        CameraModel model = c.model;
+        if (model.name.empty()) model.name = cameraName(f, &c - f.cameras.data());
+        publisher_->publishForScan(channel_ + "_IMAGE", encodeImage(*c.image, model.name, header),
+                                   header);
+        publisher_->publishForScan(channel_ + "_CAMERA_INFO", encodeCameraInfo(model, header),
+                                   header);
+      }
     }
     if (publish_samples_) {
       // Stamped with their own times, so a log replays them between the scans, as recorded.
@@ -152,10 +178,12 @@ class LcmPublishOutput : public Output {
   std::string url_ = "udpm://239.255.76.67:7667?ttl=0";
   std::string channel_ = "TERRAMRF_GRID";
   std::vector<std::string> layers_;
+  bool publish_grid_ = true;
   bool publish_points_ = false;
   bool publish_pose_ = false;
   bool publish_truth_ = false;
   bool publish_samples_ = false;
+  bool publish_images_ = false;
   std::string log_time_ = "wall";
 
   LabelSet labels_ = LabelSet::defaults();

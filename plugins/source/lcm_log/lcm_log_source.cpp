@@ -14,6 +14,7 @@
 #include "terramrf/errors.hpp"
 #include "terramrf/lcm/log_frame_index.hpp"
 #include "terramrf/lcm/log_reader.hpp"
+#include "terramrf/lcm/scan_channels.hpp"
 #include "terramrf/lcm/scan_messages.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -26,37 +27,12 @@ class LcmLogSource : public Source {
     d.add("path", log_, "LCM log file to read (lcm-logger's, or lcm_publish's with a file:// url)")
         .required()
         .existingPath();
-    d.add("points_channel", ch_.points,
-          "channel of the point_cloud_t messages: one per scan, the scan's id its frame_id "
-          "(lcm_publish with publish_points: <channel>_POINTS)");
-    d.add("labels_channel", ch_.labels,
-          "channel of point_labels_t ground truth, matched to scans by frame_id (lcm_publish "
-          "with publish_truth: <channel>_LABELS); empty = no ground truth");
-    d.add("pose_channel", ch_.pose,
-          "channel of pose_t LiDAR poses for the pipeline (Frame::pose), matched by frame_id "
-          "(lcm_publish with publish_pose: <channel>_POSE); every scan must have one; empty = "
-          "no pose");
-    d.add("truth_pose_channel", ch_.truth_pose,
-          "channel of pose_t ground-truth poses (Frame::truth_pose), matched by frame_id "
-          "(lcm_publish with publish_truth: <channel>_TRUTH_POSE); empty = none");
-    d.add("imu_channel", ch_.imu,
-          "channel of imu_t samples; each scan gets those after the previous scan's time, up to "
-          "its own (the first scan every earlier one); needs the clouds in time order "
-          "(lcm_publish with publish_samples: <channel>_IMU); empty = none");
-    d.add("gps_channel", ch_.gps, "channel of gps_t samples, given to scans as imu_channel's");
-    d.add("odometry_channel", ch_.odometry,
-          "channel of odometry_t samples, given to scans as imu_channel's");
+    declareScanChannels(d, sp_);
     d.add("drop_no_return", drop_no_return_, "drop points exactly at (0, 0, 0) (counted)");
   }
 
   void configure(const PluginContext& ctx) override {
-    if (ch_.points.empty())
-      throw ParamError("points_channel", "is empty; expected e.g. TERRAMRF_GRID_POINTS");
-    if (!ch_.pose.empty() && ch_.pose == ch_.truth_pose)
-      throw ParamError("truth_pose_channel",
-                       "is pose_channel's (" + ch_.pose +
-                           "); the pose to use and the ground truth must come on different "
-                           "channels, or they could not be told apart");
+    checkScanChannels(sp_);
     labels_ = ctx.labels ? *ctx.labels : LabelSet::defaults();
     try {
       index_ = indexLogFrames(log_, ch_);
@@ -68,7 +44,8 @@ class LcmLogSource : public Source {
         {"points_channel", &ch_.points},     {"labels_channel", &ch_.labels},
         {"pose_channel", &ch_.pose},         {"truth_pose_channel", &ch_.truth_pose},
         {"imu_channel", &ch_.imu},           {"gps_channel", &ch_.gps},
-        {"odometry_channel", &ch_.odometry}};
+        {"odometry_channel", &ch_.odometry}, {"images_channel", &ch_.images},
+        {"camera_info_channel", &ch_.camera_info}};
     for (const auto& [param, channel] : asked) {
       if (channel->empty() || index_.channel_events.count(*channel)) continue;
       std::string have;
@@ -94,6 +71,9 @@ class LcmLogSource : public Source {
   }
 
   /// Every scan has a pose when a pose channel is read: one without fails (read()).
+  /// The cameras listed (their images and calibrations come with every scan).
+  std::vector<std::string> cameraNames() const override { return sp_.cameras; }
+
   std::vector<std::string> writes() const override {
     return ch_.pose.empty() ? std::vector<std::string>{}
                             : std::vector<std::string>{artefacts::kPose};
@@ -121,10 +101,17 @@ class LcmLogSource : public Source {
     for (std::int64_t at : lf.imu) m.imu.push_back(message(at));
     for (std::int64_t at : lf.gps) m.gps.push_back(message(at));
     for (std::int64_t at : lf.odometry) m.odometry.push_back(message(at));
+    if (!sp_.cameras.empty()) {
+      for (std::int64_t at : lf.images) m.images.push_back(message(at));
+      for (std::int64_t at : lf.camera_infos) m.camera_infos.push_back(message(at));
+    }
     ScanOptions o;
     o.labels = &labels_;
     o.pose_channel = ch_.pose;
     o.drop_no_return = drop_no_return_;
+    o.cameras = sp_.cameras;
+    o.images_channel = ch_.images;
+    o.camera_info_channel = ch_.camera_info;
     o.source_path = log_;
     return frameFromMessages(m, o);
   }
@@ -132,7 +119,8 @@ class LcmLogSource : public Source {
  private:
   std::string log_;
   bool drop_no_return_ = true;
-  LogChannels ch_{"TERRAMRF_GRID_POINTS"};
+  ScanChannelParams sp_;
+  LogChannels& ch_ = sp_.channels;
   LabelSet labels_ = LabelSet::defaults();
   LogFrameIndex index_;
 };

@@ -26,6 +26,7 @@
 #include "terramrf/errors.hpp"
 #include "terramrf/lcm/lcm_instance.hpp"
 #include "terramrf/lcm/scan_assembler.hpp"
+#include "terramrf/lcm/scan_channels.hpp"
 #include "terramrf/lcm/scan_messages.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -53,22 +54,7 @@ class LcmSubscribeSource : public StreamSource {
     d.add("url", url_,
           "LCM provider URL to listen on (udpm://group:port?ttl=N; memq:// meets publishers of "
           "the same process)");
-    d.add("points_channel", ch_.points,
-          "channel of the point_cloud_t messages: one per scan, the scan's id its frame_id "
-          "(lcm_publish with publish_points: <channel>_POINTS)");
-    d.add("labels_channel", ch_.labels,
-          "channel of point_labels_t ground truth, matched to scans by frame_id; empty = none");
-    d.add("pose_channel", ch_.pose,
-          "channel of pose_t LiDAR poses (Frame::pose), matched by frame_id; every scan must "
-          "have one; empty = no pose");
-    d.add("truth_pose_channel", ch_.truth_pose,
-          "channel of pose_t ground-truth poses (Frame::truth_pose), matched by frame_id; "
-          "empty = none");
-    d.add("imu_channel", ch_.imu,
-          "channel of imu_t samples; each scan gets those up to its own time; empty = none");
-    d.add("gps_channel", ch_.gps, "channel of gps_t samples, given to scans as imu_channel's");
-    d.add("odometry_channel", ch_.odometry,
-          "channel of odometry_t samples, given to scans as imu_channel's");
+    declareScanChannels(d, sp_);
     d.add("wait_s", wait_s_,
           "how long a scan waits after its point cloud for labels and poses its channels read "
           "and it has not yet received (lcm_publish sends them before the points; a scan it "
@@ -94,18 +80,15 @@ class LcmSubscribeSource : public StreamSource {
       throw ParamError("url", "'" + url_ + "' is a log file; read it with the lcm_log source "
                                            "(a batch: indexed, read ahead, usable by compare "
                                            "and train)");
-    if (ch_.points.empty())
-      throw ParamError("points_channel", "is empty; expected e.g. TERRAMRF_GRID_POINTS");
-    if (!ch_.pose.empty() && ch_.pose == ch_.truth_pose)
-      throw ParamError("truth_pose_channel",
-                       "is pose_channel's (" + ch_.pose +
-                           "); the pose to use and the ground truth must come on different "
-                           "channels, or they could not be told apart");
+    checkScanChannels(sp_);
     if (wake_[0] < 0)
       throw std::runtime_error("lcm_subscribe: cannot make the pipe that lets Ctrl-C end a wait: " +
                                std::string(std::strerror(errno)));
     labels_ = ctx.labels ? *ctx.labels : LabelSet::defaults();
   }
+
+  /// The cameras listed (their images and calibrations come with every scan).
+  std::vector<std::string> cameraNames() const override { return sp_.cameras; }
 
   std::vector<std::string> writes() const override {
     return ch_.pose.empty() ? std::vector<std::string>{}
@@ -127,6 +110,9 @@ class LcmSubscribeSource : public StreamSource {
         o.labels = &labels_;
         o.pose_channel = ch_.pose;
         o.drop_no_return = drop_no_return_;
+    o.cameras = sp_.cameras;
+    o.images_channel = ch_.images;
+    o.camera_info_channel = ch_.camera_info;
         o.source_path = url_;
         return frameFromMessages(*r->scan, o);
       }
@@ -159,6 +145,7 @@ class LcmSubscribeSource : public StreamSource {
     o.channels = ch_;
     o.wait_s = wait_s_;
     o.max_waiting = queue_scans_;
+    o.cameras = sp_.cameras;
     assembler_ = std::make_unique<ScanAssembler>(o);
     try {
       if (url_.rfind("memq://", 0) == 0) claimMemq();
@@ -166,8 +153,12 @@ class LcmSubscribeSource : public StreamSource {
     } catch (const std::exception& e) {
       fail(e.what());
     }
-    std::vector<std::string> channels = {ch_.points, ch_.labels, ch_.pose, ch_.truth_pose,
+    std::vector<std::string> channels = {ch_.points, ch_.labels, ch_.pose,   ch_.truth_pose,
                                          ch_.imu,    ch_.gps,    ch_.odometry};
+    if (!sp_.cameras.empty()) {
+      channels.push_back(ch_.images);
+      channels.push_back(ch_.camera_info);
+    }
     std::sort(channels.begin(), channels.end());
     channels.erase(std::unique(channels.begin(), channels.end()), channels.end());
     for (const std::string& c : channels) {
@@ -280,7 +271,8 @@ class LcmSubscribeSource : public StreamSource {
   }
 
   std::string url_ = "udpm://239.255.76.67:7667?ttl=0";
-  LogChannels ch_{"TERRAMRF_GRID_POINTS"};
+  ScanChannelParams sp_;
+  LogChannels& ch_ = sp_.channels;
   double wait_s_ = 0.5;
   double idle_timeout_s_ = 0;
   int queue_scans_ = 16;

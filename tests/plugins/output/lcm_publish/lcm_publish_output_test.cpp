@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "output_test_support.hpp"
+#include "terramrf/lcm/camera_codec.hpp"
 #include "terramrf/lcm/grid_codec.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
@@ -212,6 +213,56 @@ TEST_F(LcmPublishTest, PublishesSamplesAtTheirOwnTimes) {
                         {"G", 500000}, {"G_IMU", 420000}, {"G_GPS", 450000},
                         {"G_ODOMETRY", 480000}}));
   EXPECT_EQ(decodeImu(imu_bytes.data(), imu_bytes.size()).accel_m_s2.z(), 9.81);
+}
+
+// publish_images: each camera's image and calibration; publish_grid: false records without a
+// classification (reads nothing from the stages).
+TEST_F(LcmPublishTest, PublishesImagesWithCalibrationsAndRecordsWithoutTheGrid) {
+  auto img = std::make_shared<Image>();
+  img->width = 2;
+  img->height = 1;
+  img->channels = 3;
+  img->data = {1, 2, 3, 4, 5, 6};
+  CameraImage cam;
+  cam.model.name = "image_2";
+  cam.model.width = 2;
+  cam.model.height = 1;
+  cam.image = img;
+  frame.cameras = {cam};
+  const std::string log = dir.str() + "/run.lcmlog";
+  auto out = test::makeOutput("lcm_publish",
+                              "{url: 'file://" + log +
+                                  "?mode=w', channel: G, publish_grid: false, publish_images: "
+                                  "true, publish_points: true}",
+                              pctx());
+  ASSERT_TRUE(out);
+  EXPECT_TRUE(out->reads().empty());
+  out->begin(info());
+  out->write(ctx());
+  out->end(RunSummary{});
+  lcm::LogFile file(log, "r");
+  std::vector<std::string> channels;
+  MessageBytes image, calibration;
+  while (const lcm::LogEvent* e = file.readNextEvent()) {
+    channels.push_back(e->channel);
+    const auto* p = static_cast<const uint8_t*>(e->data);
+    if (e->channel == "G_IMAGE") image.assign(p, p + e->datalen);
+    if (e->channel == "G_CAMERA_INFO") calibration.assign(p, p + e->datalen);
+  }
+  EXPECT_EQ(channels, (std::vector<std::string>{"G_IMAGE", "G_CAMERA_INFO", "G_POINTS"}));
+  const DecodedImage d = decodeImage(image.data(), image.size());
+  EXPECT_EQ(d.camera, "image_2");
+  EXPECT_EQ(d.image.data, img->data);
+  EXPECT_EQ(decodeCameraInfo(calibration.data(), calibration.size()).model.width, 2);
+
+  // Nothing to send, or layers of a grid not sent: refused.
+  EXPECT_THROW(test::makeOutput("lcm_publish", "{url: 'memq://', publish_grid: false}", pctx()),
+               std::exception);
+  EXPECT_THROW(test::makeOutput("lcm_publish",
+                                "{url: 'memq://', publish_grid: false, publish_points: true, "
+                                "layers: [height]}",
+                                pctx()),
+               std::exception);
 }
 
 // LCM's own file provider returned 0 from lcm_publish when the write failed (and dropped the

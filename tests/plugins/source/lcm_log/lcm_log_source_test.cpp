@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "terramrf/errors.hpp"
+#include "terramrf/lcm/camera_codec.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/log_writer.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
@@ -302,6 +303,63 @@ TEST_F(LcmLogSourceTest, LogOfOneCutEventSaysSo) {
               std::string::npos)
         << w;
   }
+}
+
+// Cameras: each scan's image and calibration, matched by scan and camera name; a missing one,
+// two of one camera, or an image whose size is not its calibration's fail that scan, named.
+TEST_F(LcmLogSourceTest, CamerasComeWithTheirCalibrationsAndBadOnesFailTheirScan) {
+  Image img;
+  img.width = 4;
+  img.height = 2;
+  img.channels = 3;
+  img.data.assign(24, 9);
+  CameraModel m;
+  m.name = "cam";
+  m.width = 4;
+  m.height = 2;
+  m.P(0, 0) = m.P(1, 1) = 2;
+  m.P(2, 2) = 1;
+  m.calibration = "rig.yaml";
+  CameraModel wrong = m;
+  wrong.width = 8;
+  {
+    LcmLogWriter w(log(), false);
+    const auto scan = [&](const std::string& id, int images, const CameraModel& cal) {
+      for (int k = 0; k < images; ++k) put(w, "IMG", encodeImage(img, "cam", {id, "lidar", 0}));
+      put(w, "CAL", encodeCameraInfo(cal, {id, "lidar", 0}));
+      put(w, "G_POINTS", cloud(id, 0.1));
+    };
+    scan("ok", 1, m);
+    scan("none", 0, m);
+    scan("two", 2, m);
+    scan("size", 1, wrong);
+    w.close();
+  }
+  auto src = make("points_channel: G_POINTS, images_channel: IMG, camera_info_channel: CAL, "
+                  "cameras: [cam]");
+  EXPECT_EQ(src->cameraNames(), std::vector<std::string>{"cam"});
+  const Frame f = src->read(0);
+  ASSERT_EQ(f.cameras.size(), 1u);
+  EXPECT_EQ(f.cameras[0].model.name, "cam");
+  EXPECT_EQ(f.cameras[0].model.P, m.P);
+  EXPECT_EQ(f.cameras[0].image->data, img.data);
+  EXPECT_NE(f.cameras[0].source_path.find("(IMG)"), std::string::npos) << f.cameras[0].source_path;
+  const auto refused = [&](std::size_t i, const std::string& expect) {
+    try {
+      src->read(i);
+      ADD_FAILURE() << "scan " << i << " read; expected: " << expect;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+    }
+  };
+  refused(1, "scan 'none' has no image_t on channel IMG for camera 'cam'");
+  refused(2, "a second image_t of camera 'cam' for scan 'two'");
+  refused(3, "image of camera 'cam' is 4 x 2 px, its calibration (" + log() +
+                 " event 10 (CAL), from rig.yaml) is for 8 x 2 px");
+  // Without cameras listed the images are not read.
+  EXPECT_TRUE(make("points_channel: G_POINTS")->read(0).cameras.empty());
+  // Cameras without the channels that carry them: refused at the config.
+  EXPECT_THROW(make("points_channel: G_POINTS, cameras: [cam]"), std::exception);
 }
 
 TEST_F(LcmLogSourceTest, MissingLogIsRefusedNamingIt) {

@@ -19,6 +19,9 @@ struct LogChannels {
   std::string pose;        ///< pose_t (the pose the pipeline is to use), by frame_id
   std::string truth_pose;  ///< pose_t (ground truth), by frame_id
   std::string imu, gps, odometry;  ///< samples, attached by time
+  /// image_t and camera_info_t of every camera, matched by frame_id (several per scan: one per
+  /// camera).
+  std::string images, camera_info;
 };
 
 /// Where one scan's messages are in the log (byte offsets of their events).
@@ -31,6 +34,8 @@ struct LogFrame {
   std::optional<std::int64_t> labels, pose, truth_pose;
   /// Samples with a time after the previous scan's cloud, up to and including this one's.
   std::vector<std::int64_t> imu, gps, odometry;
+  /// Its images and camera calibrations, in log order.
+  std::vector<std::int64_t> images, camera_infos;
   /// Why this scan cannot be read, "" if it can: two labels or two poses name it. Reading it
   /// fails with this (the scan alone, not the log).
   std::string error;

@@ -13,6 +13,8 @@ struct MessageStamp {
   std::int64_t utime = 0;  ///< the message's own time [µs]
   /// Scan id; empty for the types that carry none (imu_t, gps_t, odometry_t).
   std::string frame_id;
+  /// The camera's name, for image_t and camera_info_t; empty for the other types.
+  std::string camera;
 };
 
 /// nullopt if the bytes are not one of the terramrf_msgs types (by fingerprint) or are too short

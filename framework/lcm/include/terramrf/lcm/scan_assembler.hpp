@@ -13,6 +13,7 @@
 #include <deque>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,9 @@ class ScanAssembler {
     /// Scans waiting to leave at most: when the consumer falls behind the sender, the oldest
     /// are dropped (counted) so that memory stays bounded and the newest scans are the ones run.
     std::size_t max_waiting = 16;
+    /// Cameras a scan waits for, an image_t and a camera_info_t of each (channels.images,
+    /// channels.camera_info); empty = images are not read.
+    std::vector<std::string> cameras;
   };
 
   /// A ready scan, or a message that could not be placed: `error` (with `error_source`, for an
@@ -76,15 +80,22 @@ class ScanAssembler {
   const Counts& counts() const { return counts_; }
 
  private:
+  struct Cameras {
+    std::vector<ScanMessage> images, infos;
+    std::set<std::string> image_of, info_of;  ///< cameras they are of
+  };
   struct Waiting {
     ScanMessages scan;
+    Cameras cameras;
     double deadline_s = 0;
     std::string error;  ///< two labels or poses for it
   };
   struct Held {
     std::optional<ScanMessage> labels, pose, truth_pose;
+    Cameras cameras;
     std::string error;
   };
+  void placeCamera(bool image, const std::string& id, const std::string& camera, ScanMessage m);
   bool complete(const Waiting& w) const;
   static std::size_t messages(const Held& h);
   void place(std::optional<ScanMessage> Held::*held_slot, std::optional<ScanMessage> ScanMessages::*slot,

@@ -23,6 +23,7 @@ struct ScanMessages {
   ScanMessage points;
   std::optional<ScanMessage> labels, pose, truth_pose;
   std::vector<ScanMessage> imu, gps, odometry;
+  std::vector<ScanMessage> images, camera_infos;  ///< image_t and camera_info_t, any order
 };
 
 struct ScanOptions {
@@ -31,11 +32,16 @@ struct ScanOptions {
   std::string pose_channel;
   bool drop_no_return = true;  ///< drop points exactly at (0, 0, 0)
   std::string source_path;     ///< Frame::source_path (the log, or the URL)
+  /// Cameras every scan must carry (image and calibration each), in Frame::cameras' order;
+  /// empty = images are not read.
+  std::vector<std::string> cameras;
+  std::string images_channel, camera_info_channel;  ///< for errors
 };
 
 /// Decodes every message into a Frame: the cloud (which must be in the "lidar" frame), ground
 /// truth mapped by class name (one label per point), Frame::pose and covariance, the truth
-/// pose, and the samples in time order. Points with a NaN/inf coordinate or intensity, and
+/// pose, the samples in time order, and the images of `options.cameras` with their
+/// calibrations (the image's size must be the calibration's). Points with a NaN/inf coordinate or intensity, and
 /// no-returns at (0, 0, 0) if asked, are dropped and counted as every reader does, with their
 /// labels, rings and times. Throws InputError naming the message's source for anything that
 /// cannot be decoded or does not fit, and the scan's pose channel if it lacks a required pose.
