@@ -347,15 +347,49 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   info.run = &run_state;
   if (!stream) requireDistinctFrameIds(*p.source, first, n);  // a stream's: as they come
   // Stages first: one that cannot begin (a map store that does not open) then fails the run
-  // before any output has begun, so no output is left begun and never ended.
+  // before any output has begun. What began ends (stages before outputs, as after a run), so that
+  // a stage that took a resource in begin() gives it back; errors there are logged, the run's
+  // failure is the begin()'s.
+  std::size_t stages_begun = 0, outputs_begun = 0;
+  const auto endBegun = [&] {
+    RunSummary none;
+    none.frames_total = n;
+    none.run = &run_state;
+    for (std::size_t i = 0; i < stages_begun; ++i) {
+      try {
+        p.stages[i]->end(none);
+      } catch (...) {
+        log << stageText(*p.stages[i]) << "failed at the end: " << currentExceptionText() << "\n";
+      }
+    }
+    for (std::size_t i = 0; i < outputs_begun; ++i) {
+      try {
+        p.outputs[i]->end(none);
+      } catch (...) {
+        log << "output '" << p.outputs[i]->name() << "' failed at the end: "
+            << currentExceptionText() << "\n";
+      }
+    }
+  };
   for (auto& s : p.stages) {
     try {
       s->begin(info);
+      ++stages_begun;
     } catch (...) {
-      throw std::runtime_error(stageText(*s) + currentExceptionText());
+      const std::string why = stageText(*s) + currentExceptionText();
+      endBegun();
+      throw std::runtime_error(why);
     }
   }
-  for (auto& o : p.outputs) o->begin(info);
+  for (auto& o : p.outputs) {
+    try {
+      o->begin(info);
+      ++outputs_begun;
+    } catch (...) {
+      endBegun();
+      throw;
+    }
+  }
   removeSummaries();
   MetricsStream metrics_stream(opt.metrics_csv, log);
   // A failed frame's files from the outputs that did not write it this run are an earlier run's

@@ -120,13 +120,14 @@ TEST(LcmConfigsE2E, TexturedMeshFromARecordedLogIsTheSame) {
       mesh, "outputs:\n",
       "outputs:\n  - {type: lcm_publish, params: {url: 'file://" + log +
           "?mode=w', publish_grid: false, publish_points: true, publish_pose: true, "
-          "publish_images: true}}\n");
+          "publish_images: true, publish_truth: true}}\n");
   std::ofstream(dir.str() + "/record.yaml") << record;
   const std::string replay = std::regex_replace(
       mesh, std::regex("source:\n  type: simulator\n  params: [^\n]*\n"),
       "source:\n  type: lcm_log\n  params: {path: " + log +
           ", pose_channel: TERRAMRF_GRID_POSE, images_channel: TERRAMRF_GRID_IMAGE, "
-          "camera_info_channel: TERRAMRF_GRID_CAMERA_INFO, cameras: [image_2]}\n");
+          "camera_info_channel: TERRAMRF_GRID_CAMERA_INFO, image_truth_channel: "
+          "TERRAMRF_GRID_IMAGE_TRUTH, cameras: [image_2]}\n");
   ASSERT_NE(replay, mesh);
   std::ofstream(dir.str() + "/replay.yaml") << replay;
   const Result rec = sh(test::cli() + " mesh " + dir.str() + "/record.yaml --no-progress --out " +
@@ -140,6 +141,15 @@ TEST(LcmConfigsE2E, TexturedMeshFromARecordedLogIsTheSame) {
               terramrf::readFile(dir.str() + "/rep/mesh/" + f))
         << f;
   }
+  // The image segmentation scored against the per-pixel truth the log carried, as directly.
+  const auto scoreLine = [](const std::string& report) {
+    const std::size_t at = report.find("Ground pixels found");
+    return at == std::string::npos ? std::string("(none)")
+                                   : report.substr(at, report.find('\n', at) - at);
+  };
+  const std::string direct = scoreLine(terramrf::readFile(dir.str() + "/rec/mesh/report.md"));
+  EXPECT_NE(direct, "(none)");
+  EXPECT_EQ(direct, scoreLine(terramrf::readFile(dir.str() + "/rep/mesh/report.md")));
 }
 
 TEST(ConfigsE2E, SemanticKittiPrintsTheEvaluation) {

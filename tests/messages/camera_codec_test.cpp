@@ -59,9 +59,29 @@ TEST(CameraCodec, PeekNamesTheCameraOfAnImage) {
   EXPECT_EQ(stamp->camera, "left");
 }
 
+// Encoded as the message is, without encodeCameraInfo's own check, so the decoder's is tested.
+MessageBytes rawCameraInfo(const CameraModel& c) {
+  terramrf_msgs::camera_info_t m;
+  m.utime = 0;
+  m.frame_id = "1";
+  m.camera = c.name;
+  m.width = c.width;
+  m.height = c.height;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 4; ++k) {
+      m.P[4 * r + k] = c.P(r, k);
+      m.T_camera_lidar[4 * r + k] = c.T_camera_lidar.matrix()(r, k);
+    }
+  for (int i = 0; i < 5; ++i) m.distortion[i] = c.distortion[i];
+  m.calibration = c.calibration;
+  MessageBytes b(static_cast<std::size_t>(m.getEncodedSize()));
+  m.encode(b.data(), 0, static_cast<int>(b.size()));
+  return b;
+}
+
 TEST(CameraCodec, BadCalibrationsAreRefused) {
   const auto refused = [](CameraModel c, const std::string& expect) {
-    const MessageBytes b = encodeCameraInfo(c, {"1", "lidar", 0});
+    const MessageBytes b = rawCameraInfo(c);
     try {
       decodeCameraInfo(b.data(), b.size(), "chan");
       ADD_FAILURE() << "accepted; expected: " << expect;
@@ -82,8 +102,23 @@ TEST(CameraCodec, BadCalibrationsAreRefused) {
   c = someCamera();
   c.T_camera_lidar.matrix().topLeftCorner<3, 3>() *= -1;  // a reflection
   refused(c, "is not a rotation");
+  c = someCamera();
+  c.P.setZero();
+  refused(c, "the projection matrix P is singular");
   const MessageBytes b = encodeCameraInfo(someCamera(), {"1", "lidar", 0});
   EXPECT_THROW(decodeCameraInfo(b.data(), b.size() / 2), InputError);
+}
+
+// The readers' tolerance (1e-3 off orthonormal) records and replays; beyond it the recorder
+// refuses, rather than every replayed scan.
+TEST(CameraCodec, NearRotationsRoundTripAndNonRotationsAreRefusedWhenEncoding) {
+  CameraModel c = someCamera();
+  c.T_camera_lidar.matrix()(0, 0) += 1e-4;
+  const MessageBytes b = encodeCameraInfo(c, {"1", "lidar", 0});
+  EXPECT_EQ(decodeCameraInfo(b.data(), b.size()).model.T_camera_lidar.matrix(),
+            c.T_camera_lidar.matrix());
+  c.T_camera_lidar.matrix()(0, 0) += 0.1;
+  EXPECT_THROW(encodeCameraInfo(c, {"1", "lidar", 0}), std::invalid_argument);
 }
 
 }  // namespace

@@ -221,5 +221,55 @@ TEST_F(ScanAssemblerTest, ScanWaitsForEachCamerasImageAndCalibration) {
   EXPECT_EQ(a.counts().incomplete, 0u);
 }
 
+// Images of cameras not listed are dropped (counted); a second image of one camera for one scan
+// is the scan's error and is not kept; a truth image comes along; held bytes are bounded.
+TEST_F(ScanAssemblerTest, CameraMessagesAreBoundedAndCounted) {
+  ScanAssembler::Options o;
+  o.channels.points = "P";
+  o.channels.images = "IMG";
+  o.channels.camera_info = "CAL";
+  o.channels.image_truth = "TRUTH";
+  o.cameras = {"left"};
+  o.wait_s = 0;
+  o.max_held_bytes = 3000;
+  ScanAssembler a(o);
+  Image img;
+  img.width = 30;
+  img.height = 30;
+  img.channels = 1;
+  img.data.assign(900, 1);
+  CameraModel m;
+  m.name = "left";
+  m.width = m.height = 30;
+  const auto image = [&](const std::string& id, const std::string& cam) {
+    return encodeImage(img, cam, {id, "lidar", 0});
+  };
+  add(a, "IMG", image("a", "right"), 0.0);
+  EXPECT_EQ(a.counts().unlisted, 1u);
+  add(a, "IMG", image("a", "left"), 0.0);
+  add(a, "IMG", image("a", "left"), 0.0);  // a second: an error, not kept
+  add(a, "TRUTH", image("a", "left"), 0.0);
+  add(a, "CAL", encodeCameraInfo(m, {"a", "lidar", 0}), 0.0);
+  add(a, "P", cloud("a", 1.0), 0.0);
+  const auto r = a.pop(0.0);
+  ASSERT_TRUE(r);
+  EXPECT_FALSE(r->scan);
+  EXPECT_NE(r->error.find("two image_t messages of camera 'left' for scan 'a'"),
+            std::string::npos)
+      << r->error;
+
+  add(a, "IMG", image("b", "left"), 0.0);
+  add(a, "TRUTH", image("b", "left"), 0.0);
+  add(a, "CAL", encodeCameraInfo(m, {"b", "lidar", 0}), 0.0);
+  add(a, "P", cloud("b", 2.0), 0.0);
+  const auto rb = a.pop(0.0);
+  ASSERT_TRUE(rb && rb->scan);
+  EXPECT_EQ(rb->scan->image_truths.size(), 1u);
+
+  // ~1 KB per image, 3 KB held at most: the fourth scan's image evicts the first's.
+  for (const char* id : {"c", "d", "e", "f"}) add(a, "IMG", image(id, "left"), 0.0);
+  EXPECT_EQ(a.counts().unclaimed, 1u);
+}
+
 }  // namespace
 }  // namespace terramrf

@@ -1,6 +1,7 @@
 #include "terramrf/lcm/camera_codec.hpp"
 
 #include <cmath>
+#include <stdexcept>
 #include <terramrf_msgs/camera_info_t.hpp>
 
 #include "lcm_bytes.hpp"
@@ -8,7 +9,22 @@
 
 namespace terramrf {
 
+namespace {
+// The calibration readers' tolerance (io's kRotationTolerance): what they accept records and
+// replays.
+constexpr double kRotationTolerance = 1e-3;
+
+double rotationError(const Eigen::Matrix3d& R) {
+  return (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+}
+}  // namespace
+
 MessageBytes encodeCameraInfo(const CameraModel& c, const MessageHeader& header) {
+  if (rotationError(c.T_camera_lidar.linear()) > kRotationTolerance ||
+      c.T_camera_lidar.linear().determinant() < 0)
+    throw std::invalid_argument("encodeCameraInfo: camera '" + c.name +
+                                "': T_camera_lidar's rotation is not a rotation");
+
   terramrf_msgs::camera_info_t m;
   m.utime = toUtime(header.timestamp_s);
   m.frame_id = header.frame_id;
@@ -41,12 +57,22 @@ DecodedCameraInfo decodeCameraInfo(const void* data, std::size_t size, const std
   for (int r = 0; r < 3; ++r)
     for (int k = 0; k < 4; ++k) T(r, k) = m.T_camera_lidar[4 * r + k];
   const Eigen::Matrix3d R = T.leftCols<3>();
-  const double off = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  if (off > 1e-6 || R.determinant() < 0) {
+  const double off = rotationError(R);
+  if (off > kRotationTolerance || R.determinant() < 0) {
     throw InputError(source, "camera_info_t: camera '" + m.camera +
                                  "': T_camera_lidar's rotation is not a rotation (|RᵀR − I| = " +
                                  std::to_string(off) + ", det " + std::to_string(R.determinant()) +
                                  ")");
+  }
+  Eigen::Matrix<double, 3, 4> P;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 4; ++k) P(r, k) = m.P[4 * r + k];
+  // A singular left 3×3 (an all-zero P, a row missing) projects every point nowhere, silently.
+  if (!(std::abs(P.leftCols<3>().determinant()) > 1e-12)) {
+    throw InputError(source, "camera_info_t: camera '" + m.camera +
+                                 "': the projection matrix P is singular (its left 3 x 3 has "
+                                 "determinant " + std::to_string(P.leftCols<3>().determinant()) +
+                                 "); expected intrinsics such as [fx 0 cx; 0 fy cy; 0 0 1]");
   }
   DecodedCameraInfo out;
   out.header.frame_id = m.frame_id;

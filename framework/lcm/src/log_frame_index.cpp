@@ -151,7 +151,8 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
   ByScan labels(ch.labels, "point_labels_t", path), pose(ch.pose, "pose_t", path),
       truth(ch.truth_pose, "pose_t", path);
   Samples imu{ch.imu, "imu_t"}, gps{ch.gps, "gps_t"}, odometry{ch.odometry, "odometry_t"};
-  PerCamera images(ch.images, "image_t"), infos(ch.camera_info, "camera_info_t");
+  PerCamera images(ch.images, "image_t"), infos(ch.camera_info, "camera_info_t"),
+      truths(ch.image_truth, "image_t");
   std::unordered_map<std::string, std::string> cloud_event;  // scan id → its event, named
 
   while (std::optional<LcmLogEvent> e = reader.next()) {
@@ -193,6 +194,7 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
     if (!ch.odometry.empty() && c == ch.odometry) odometry.add(*e);
     if (!ch.images.empty() && c == ch.images) images.add(*e);
     if (!ch.camera_info.empty() && c == ch.camera_info) infos.add(*e);
+    if (!ch.image_truth.empty() && c == ch.image_truth) truths.add(*e);
   }
   index.skipped_bytes = reader.skippedBytes();
 
@@ -204,10 +206,11 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
     f.truth_pose = truth.take(f.id);
     f.images = images.take(f.id);
     f.camera_infos = infos.take(f.id);
+    f.image_truths = truths.take(f.id);
   }
   for (const ByScan* b : {&labels, &pose, &truth})
     if (!b->channel().empty()) b->notes(index.notes);
-  for (const PerCamera* p : {&images, &infos})
+  for (const PerCamera* p : {&images, &infos, &truths})
     if (!p->channel().empty()) p->notes(index.notes);
 
   const bool any_samples = !imu.samples.empty() || !gps.samples.empty() ||

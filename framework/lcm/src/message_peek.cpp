@@ -61,13 +61,16 @@ std::optional<MessageStamp> peekMessageStamp(const void* data, std::size_t size)
       return std::nullopt;
     s.frame_id.assign(reinterpret_cast<const char*>(p + 20), static_cast<std::size_t>(len - 1));
     if (s.type == "image_t" || s.type == "camera_info_t") {
-      // Both carry the camera's name right after the scan id.
+      // Both carry the camera's name right after the scan id. One that cannot be read leaves
+      // `camera` empty: the message is still this type's, and decoding it says what is wrong.
       const std::size_t at = 20 + static_cast<std::size_t>(len);
-      if (size < at + 4) return std::nullopt;
-      const auto clen = static_cast<std::int32_t>(readBigEndian(p + at, 4));
-      if (clen < 1 || static_cast<std::size_t>(clen) > size - at - 4 || p[at + 4 + clen - 1] != 0)
-        return std::nullopt;
-      s.camera.assign(reinterpret_cast<const char*>(p + at + 4), static_cast<std::size_t>(clen - 1));
+      if (size >= at + 4) {
+        const auto clen = static_cast<std::int32_t>(readBigEndian(p + at, 4));
+        if (clen >= 1 && static_cast<std::size_t>(clen) <= size - at - 4 &&
+            p[at + 4 + clen - 1] == 0)
+          s.camera.assign(reinterpret_cast<const char*>(p + at + 4),
+                          static_cast<std::size_t>(clen - 1));
+      }
     }
     return s;
   }

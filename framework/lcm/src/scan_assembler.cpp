@@ -19,15 +19,29 @@ bool ScanAssembler::complete(const Waiting& w) const {
          (o_.channels.truth_pose.empty() || w.scan.truth_pose);
 }
 
-void ScanAssembler::placeCamera(bool image, const std::string& id, const std::string& camera,
+void ScanAssembler::placeCamera(int kind, const std::string& id, const std::string& camera,
                                 ScanMessage m) {
-  const auto put = [&](Cameras& c) {
-    (image ? c.images : c.infos).push_back(std::move(m));
-    (image ? c.image_of : c.info_of).insert(camera);
+  if (std::find(o_.cameras.begin(), o_.cameras.end(), camera) == o_.cameras.end()) {
+    ++counts_.unlisted;
+    return;
+  }
+  const char* what[] = {"image_t", "camera_info_t", "truth image"};
+  const auto put = [&](Cameras& c, bool held) {
+    std::vector<ScanMessage>& to = kind == 0 ? c.images : kind == 1 ? c.infos : c.truths;
+    std::set<std::string>& of = kind == 0 ? c.image_of : kind == 1 ? c.info_of : c.truth_of;
+    if (!of.insert(camera).second) {
+      // Kept once: a sender repeating a scan's image must not grow memory without bound.
+      if (c.error.empty())
+        c.error = std::string("two ") + what[kind] + " messages of camera '" + camera +
+                  "' for scan '" + id + "' (the second: " + m.source + "); expected one";
+      return;
+    }
+    if (held) held_bytes_ += m.bytes.size();
+    to.push_back(std::move(m));
   };
   for (auto w = waiting_.rbegin(); w != waiting_.rend(); ++w) {
     if (w->scan.id != id) continue;
-    put(w->cameras);
+    put(w->cameras, false);
     return;
   }
   if (std::find(recent_.begin(), recent_.end(), id) != recent_.end()) {
@@ -36,15 +50,29 @@ void ScanAssembler::placeCamera(bool image, const std::string& id, const std::st
   }
   auto [it, fresh] = held_.try_emplace(id);
   if (fresh) held_order_.push_back(id);
-  put(it->second.cameras);
-  while (held_.size() > o_.max_held && !held_order_.empty()) {
+  put(it->second.cameras, true);
+  evictHeld();
+}
+
+void ScanAssembler::evictHeld() {
+  while ((held_.size() > o_.max_held || held_bytes_ > o_.max_held_bytes) && !held_order_.empty()) {
     const auto oldest = held_.find(held_order_.front());
     if (oldest != held_.end()) {
       counts_.unclaimed += messages(oldest->second);
+      held_bytes_ -= bytes(oldest->second);
       held_.erase(oldest);
     }
     held_order_.pop_front();
   }
+}
+
+std::size_t ScanAssembler::bytes(const Held& h) {
+  std::size_t n = 0;
+  for (const auto* m : {&h.labels, &h.pose, &h.truth_pose})
+    if (*m) n += (*m)->bytes.size();
+  for (const auto* v : {&h.cameras.images, &h.cameras.infos, &h.cameras.truths})
+    for (const ScanMessage& m : *v) n += m.bytes.size();
+  return n;
 }
 
 void ScanAssembler::place(std::optional<ScanMessage> Held::*held_slot,
@@ -72,21 +100,15 @@ void ScanAssembler::place(std::optional<ScanMessage> Held::*held_slot,
   if (it->second.*held_slot) {
     if (it->second.error.empty()) it->second.error = twice(*(it->second.*held_slot));
   } else {
+    held_bytes_ += m.bytes.size();
     it->second.*held_slot = std::move(m);
   }
-  while (held_.size() > o_.max_held && !held_order_.empty()) {
-    const auto oldest = held_.find(held_order_.front());
-    if (oldest != held_.end()) {
-      counts_.unclaimed += messages(oldest->second);
-      held_.erase(oldest);
-    }
-    held_order_.pop_front();
-  }
+  evictHeld();
 }
 
 std::size_t ScanAssembler::messages(const Held& h) {
   return std::size_t(h.labels.has_value()) + h.pose.has_value() + h.truth_pose.has_value() +
-         h.cameras.images.size() + h.cameras.infos.size();
+         h.cameras.images.size() + h.cameras.infos.size() + h.cameras.truths.size();
 }
 
 void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, std::size_t size,
@@ -94,7 +116,8 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
   const LogChannels& ch = o_.channels;
   const bool read = channel == ch.points || channel == ch.labels || channel == ch.pose ||
                     channel == ch.truth_pose || channel == ch.imu || channel == ch.gps ||
-                    channel == ch.odometry || channel == ch.images || channel == ch.camera_info;
+                    channel == ch.odometry || channel == ch.images || channel == ch.camera_info ||
+                    channel == ch.image_truth;
   if (channel.empty() || !read) return;
   const std::optional<MessageStamp> stamp = peekMessageStamp(data, size);
   const std::string type = stamp ? stamp->type : "";
@@ -112,6 +135,7 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
       w.scan.pose = std::move(held->second.pose);
       w.scan.truth_pose = std::move(held->second.truth_pose);
       w.error = held->second.error;
+      held_bytes_ -= bytes(held->second);
       w.cameras = std::move(held->second.cameras);
       held_.erase(held);
       held_order_.erase(std::find(held_order_.begin(), held_order_.end(), w.scan.id));
@@ -143,9 +167,10 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
   }
   const bool image = type == "image_t" && channel == ch.images;
   const bool info = type == "camera_info_t" && channel == ch.camera_info;
-  if ((image || info) && !stamp->frame_id.empty())
-    return placeCamera(image, stamp->frame_id, stamp->camera, std::move(m));
-  if (image || info) {
+  const bool truth_image = type == "image_t" && channel == ch.image_truth;
+  if ((image || info || truth_image) && !stamp->frame_id.empty())
+    return placeCamera(image ? 0 : info ? 1 : 2, stamp->frame_id, stamp->camera, std::move(m));
+  if (image || info || truth_image) {
     ++counts_.unnamed;
     return;
   }
@@ -189,8 +214,10 @@ std::optional<ScanAssembler::Ready> ScanAssembler::pop(double now_s) {
   if (!complete(w) && now_s < w.deadline_s) return std::nullopt;
   Ready r;
   if (!complete(w)) ++counts_.incomplete;
+  if (w.error.empty()) w.error = w.cameras.error;
   w.scan.images = std::move(w.cameras.images);
   w.scan.camera_infos = std::move(w.cameras.infos);
+  w.scan.image_truths = std::move(w.cameras.truths);
   recent_.push_back(w.scan.id);
   if (recent_.size() > kRecentIds) recent_.pop_front();
   if (w.error.empty()) {
@@ -213,6 +240,7 @@ void ScanAssembler::flush() {
   for (Waiting& w : waiting_) w.deadline_s = -std::numeric_limits<double>::infinity();
   for (const auto& [id, h] : held_) counts_.unclaimed += messages(h);
   held_.clear();
+  held_bytes_ = 0;
   held_order_.clear();
   counts_.samples_dropped += samples_.size();
   samples_.clear();

@@ -1,5 +1,7 @@
 #include "terramrf/lcm/scan_channels.hpp"
 
+#include <utility>
+
 #include "terramrf/errors.hpp"
 
 namespace terramrf {
@@ -32,6 +34,10 @@ void declareScanChannels(ParamDecl& d, ScanChannelParams& p) {
   d.add("camera_info_channel", ch.camera_info,
         "channel of the camera_info_t calibrations, one per camera and scan (lcm_publish with "
         "publish_images: <channel>_CAMERA_INFO)");
+  d.add("image_truth_channel", ch.image_truth,
+        "channel of per-pixel ground truth images (image_t, mono8 class ids, one per camera and "
+        "scan; lcm_publish with publish_images and publish_truth: <channel>_IMAGE_TRUTH); "
+        "empty = none");
   d.add("cameras", p.cameras,
         "cameras every scan carries, an image and a calibration each (e.g. [image_2]); empty = "
         "images are not read")
@@ -47,6 +53,17 @@ void checkScanChannels(const ScanChannelParams& p) {
                      "is pose_channel's (" + ch.pose +
                          "); the pose to use and the ground truth must come on different "
                          "channels, or they could not be told apart");
+  if (p.cameras.empty()) {
+    // Read, and then dropped: a camera left out of the list by mistake would go unnoticed.
+    for (const auto& [param, channel] : {std::pair<const char*, const std::string*>{
+                                             "images_channel", &ch.images},
+                                         {"camera_info_channel", &ch.camera_info},
+                                         {"image_truth_channel", &ch.image_truth}})
+      if (!channel->empty())
+        throw ParamError(param, "is " + *channel +
+                                    ", but cameras lists none; name the cameras to read (e.g. "
+                                    "cameras: [image_2]) or leave the channel empty");
+  }
   if (!p.cameras.empty() && ch.images.empty())
     throw ParamError("images_channel", "is empty, but cameras lists " +
                                            std::to_string(p.cameras.size()) +

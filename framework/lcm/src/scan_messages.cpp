@@ -8,6 +8,7 @@
 
 #include "terramrf/errors.hpp"
 #include "terramrf/lcm/camera_codec.hpp"
+#include "terramrf/lcm/message_peek.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
@@ -53,9 +54,18 @@ void dropUnusablePoints(Frame& f, bool drop_no_return) {
 namespace {
 
 struct Decoded {
-  std::vector<std::pair<DecodedImage, std::string>> images;      // with their sources
+  std::vector<std::pair<DecodedImage, std::string>> images, truths;  // with their sources
   std::vector<std::pair<DecodedCameraInfo, std::string>> infos;
 };
+
+// Messages of the listed cameras only: one of a camera not asked for is not decoded (a damaged
+// one must not fail the scan). A camera name that cannot be peeked is decoded, so that the
+// decoder says what is wrong with the message.
+bool listed(const ScanMessage& s, const std::vector<std::string>& cameras) {
+  const auto stamp = peekMessageStamp(s.bytes.data(), s.bytes.size());
+  return !stamp || stamp->camera.empty() ||
+         std::find(cameras.begin(), cameras.end(), stamp->camera) != cameras.end();
+}
 
 // Camera `name` of the scan: its one image_t and its one camera_info_t.
 CameraImage camera(const ScanMessages& m, Decoded& d, const ScanOptions& o,
@@ -80,12 +90,15 @@ CameraImage camera(const ScanMessages& m, Decoded& d, const ScanOptions& o,
     info_source = source;
   }
   if (!image || !info) {
-    throw InputError(m.points.source,
-                     "scan '" + m.id + "' has no " +
-                         (!image ? "image_t on channel " + o.images_channel
-                                 : "camera_info_t on channel " + o.camera_info_channel) +
-                         " for camera '" + name + "' (cameras lists it, so every scan needs its "
-                         "image and calibration)");
+    std::string missing;
+    if (!image) missing = "image_t on channel " + o.images_channel;
+    if (!info)
+      missing += (missing.empty() ? "" : " and no ") + std::string("camera_info_t on channel ") +
+                 o.camera_info_channel;
+    throw InputError(m.points.source, "scan '" + m.id + "' has no " + missing + " for camera '" +
+                                          name +
+                                          "' (cameras lists it, so every scan needs its image "
+                                          "and calibration)");
   }
   if (image->image.width != info->model.width || image->image.height != info->model.height) {
     throw InputError(image_source,
@@ -98,6 +111,22 @@ CameraImage camera(const ScanMessages& m, Decoded& d, const ScanOptions& o,
                          std::to_string(info->model.height) + " px");
   }
   CameraImage c;
+  for (auto& [truth, source] : d.truths) {
+    if (truth.camera != name) continue;
+    if (c.truth)
+      throw InputError(source, "a second truth image of camera '" + name + "' for scan '" +
+                                   m.id + "'; expected one");
+    if (truth.image.channels != 1 || truth.image.width != image->image.width ||
+        truth.image.height != image->image.height)
+      throw InputError(source, "truth image of camera '" + name + "' is " +
+                                   std::to_string(truth.image.width) + " x " +
+                                   std::to_string(truth.image.height) + " x " +
+                                   std::to_string(truth.image.channels) +
+                                   "; expected one channel of class ids, the size of its image (" +
+                                   std::to_string(image->image.width) + " x " +
+                                   std::to_string(image->image.height) + ")");
+    c.truth = std::make_shared<Image>(std::move(truth.image));
+  }
   c.model = std::move(info->model);
   c.image = std::make_shared<Image>(std::move(image->image));
   c.source_path = image_source;
@@ -161,9 +190,15 @@ Frame frameFromMessages(const ScanMessages& m, const ScanOptions& o) {
   if (!o.cameras.empty()) {
     Decoded d;  // each message decoded once, whatever the number of cameras
     for (const ScanMessage& s : m.images)
-      d.images.emplace_back(decodeImage(s.bytes.data(), s.bytes.size(), s.source), s.source);
+      if (listed(s, o.cameras))
+        d.images.emplace_back(decodeImage(s.bytes.data(), s.bytes.size(), s.source), s.source);
     for (const ScanMessage& s : m.camera_infos)
-      d.infos.emplace_back(decodeCameraInfo(s.bytes.data(), s.bytes.size(), s.source), s.source);
+      if (listed(s, o.cameras))
+        d.infos.emplace_back(decodeCameraInfo(s.bytes.data(), s.bytes.size(), s.source),
+                             s.source);
+    for (const ScanMessage& s : m.image_truths)
+      if (listed(s, o.cameras))
+        d.truths.emplace_back(decodeImage(s.bytes.data(), s.bytes.size(), s.source), s.source);
     for (const std::string& name : o.cameras) f.cameras.push_back(camera(m, d, o, name));
   }
   // In time order, as the other sources give them, whatever order the publishers' messages came

@@ -46,7 +46,8 @@ class LcmPublishOutput : public Output {
     d.add("publish_images", publish_images_,
           "also publish each camera's image as image_t on <channel>_IMAGE and its calibration "
           "as camera_info_t on <channel>_CAMERA_INFO, so that a log carries what camera "
-          "features and the textured mesh need");
+          "features and the textured mesh need (with publish_truth, per-pixel truth images on "
+          "<channel>_IMAGE_TRUTH)");
     d.add("log_time", log_time_,
           "time of each event in a file:// log: 'wall' (when it was written, as LCM's logger "
           "records) or 'frame' (the frame's own timestamp, so lcm-logplayer replays a dataset "
@@ -137,14 +138,22 @@ class LcmPublishOutput : public Output {
                                    header);
     }
     if (publish_images_) {
-      for (const CameraImage& c : f.cameras) {
-        if (!c.image) continue;
+      for (std::size_t i = 0; i < f.cameras.size(); ++i) {
+        const CameraImage& c = f.cameras[i];
         CameraModel model = c.model;
-        if (model.name.empty()) model.name = cameraName(f, &c - f.cameras.data());
+        model.name = cameraName(f, i);
+        // A calibration sent without its image would fail the scan on the receiving side with
+        // no hint of why: said here, where the frame is.
+        if (!c.image)
+          throw std::invalid_argument("lcm_publish: camera '" + model.name + "' of frame " +
+                                      f.id + " has no image to publish (publish_images)");
         publisher_->publishForScan(channel_ + "_IMAGE", encodeImage(*c.image, model.name, header),
                                    header);
         publisher_->publishForScan(channel_ + "_CAMERA_INFO", encodeCameraInfo(model, header),
                                    header);
+        if (publish_truth_ && c.truth)
+          publisher_->publishForScan(channel_ + "_IMAGE_TRUTH",
+                                     encodeImage(*c.truth, model.name, header), header);
       }
     }
     if (publish_samples_) {
@@ -194,4 +203,5 @@ class LcmPublishOutput : public Output {
 }  // namespace terramrf
 
 TERRAMRF_PLUGIN(terramrf::LcmPublishOutput, terramrf::PluginKind::kOutput, "lcm_publish",
-                "publishes the labelled grid (and optionally the points) over LCM")
+                "publishes the labelled grid, and optionally the scan's points, poses, ground "
+                "truth, camera images and samples, over LCM (live, or to a log)")

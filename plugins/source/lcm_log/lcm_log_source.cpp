@@ -45,7 +45,7 @@ class LcmLogSource : public Source {
         {"pose_channel", &ch_.pose},         {"truth_pose_channel", &ch_.truth_pose},
         {"imu_channel", &ch_.imu},           {"gps_channel", &ch_.gps},
         {"odometry_channel", &ch_.odometry}, {"images_channel", &ch_.images},
-        {"camera_info_channel", &ch_.camera_info}};
+        {"camera_info_channel", &ch_.camera_info}, {"image_truth_channel", &ch_.image_truth}};
     for (const auto& [param, channel] : asked) {
       if (channel->empty() || index_.channel_events.count(*channel)) continue;
       std::string have;
@@ -70,10 +70,10 @@ class LcmLogSource : public Source {
                    log_.c_str(), static_cast<long long>(index_.skipped_bytes));
   }
 
-  /// Every scan has a pose when a pose channel is read: one without fails (read()).
   /// The cameras listed (their images and calibrations come with every scan).
   std::vector<std::string> cameraNames() const override { return sp_.cameras; }
 
+  /// Every scan has a pose when a pose channel is read: one without fails (read()).
   std::vector<std::string> writes() const override {
     return ch_.pose.empty() ? std::vector<std::string>{}
                             : std::vector<std::string>{artefacts::kPose};
@@ -104,6 +104,7 @@ class LcmLogSource : public Source {
     if (!sp_.cameras.empty()) {
       for (std::int64_t at : lf.images) m.images.push_back(message(at));
       for (std::int64_t at : lf.camera_infos) m.camera_infos.push_back(message(at));
+      for (std::int64_t at : lf.image_truths) m.image_truths.push_back(message(at));
     }
     ScanOptions o;
     o.labels = &labels_;

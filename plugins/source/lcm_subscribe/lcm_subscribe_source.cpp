@@ -110,9 +110,9 @@ class LcmSubscribeSource : public StreamSource {
         o.labels = &labels_;
         o.pose_channel = ch_.pose;
         o.drop_no_return = drop_no_return_;
-    o.cameras = sp_.cameras;
-    o.images_channel = ch_.images;
-    o.camera_info_channel = ch_.camera_info;
+        o.cameras = sp_.cameras;
+        o.images_channel = ch_.images;
+        o.camera_info_channel = ch_.camera_info;
         o.source_path = url_;
         return frameFromMessages(*r->scan, o);
       }
@@ -158,6 +158,7 @@ class LcmSubscribeSource : public StreamSource {
     if (!sp_.cameras.empty()) {
       channels.push_back(ch_.images);
       channels.push_back(ch_.camera_info);
+      channels.push_back(ch_.image_truth);
     }
     std::sort(channels.begin(), channels.end());
     channels.erase(std::unique(channels.begin(), channels.end()), channels.end());

@@ -59,9 +59,13 @@ struct Recorder : Stage {
 struct OutputRecorder : Output {
   Journal* journal = nullptr;
   bool throws = false;
+  bool throws_in_begin = false;
   std::size_t throw_at = 0;
   RunSummary summary;
-  void begin(const RunInfo&) override { journal->push_back("begin " + name()); }
+  void begin(const RunInfo&) override {
+    journal->push_back("begin " + name());
+    if (throws_in_begin) throw std::runtime_error("cannot open the output");
+  }
   void write(const FrameContext& ctx) override {
     if (throws && ctx.index == throw_at) throw std::runtime_error("cannot write the frame");
     journal->push_back("write " + name() + " " + std::to_string(ctx.index));
@@ -237,7 +241,8 @@ TEST(StageLifecycle, AStageFailingToTakeAFrameBackIsLoggedAndTheRunGoesOn) {
 }
 
 // A stage whose begin() throws fails the run before any frame, naming the stage, whatever it
-// threw; no output has begun and nothing ends.
+// threw; no output has begun, and the stages that began end (a resource they took is given
+// back).
 TEST(StageLifecycle, AStageFailingToBeginFailsTheRunNamingTheStage) {
   for (const std::string what : {"begin", "begin int"}) {
     test::ConfigFixture f;
@@ -256,8 +261,21 @@ TEST(StageLifecycle, AStageFailingToBeginFailsTheRunNamingTheStage) {
                 what == "begin" ? "stage 'b' (recorder): cannot open the map store"
                                 : "stage 'b' (recorder): unknown exception (not a std::exception)");
     }
-    EXPECT_EQ(j, (Journal{"begin a", "begin b"})) << what;
+    EXPECT_EQ(j, (Journal{"begin a", "begin b", "end a"})) << what;
   }
+}
+
+// An output whose begin() throws fails the run; every stage and the outputs that began end.
+TEST(StageLifecycle, AnOutputFailingToBeginEndsWhatBegan) {
+  test::ConfigFixture f;
+  Pipeline p = f.loadSynthetic("{frames: 2}");
+  Journal j;
+  addRecorder(p, j, "a");
+  addOutput(p, j, "out1");
+  addOutput(p, j, "out2")->throws_in_begin = true;
+  std::ostringstream log;
+  EXPECT_THROW(runPipeline(p, quiet(log)), std::exception);
+  EXPECT_EQ(j, (Journal{"begin a", "begin out1", "begin out2", "end a", "end out1"}));
 }
 
 // A stage failing at the end costs the run its exit status (4) as an output would, named in the

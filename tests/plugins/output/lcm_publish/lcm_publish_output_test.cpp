@@ -227,6 +227,8 @@ TEST_F(LcmPublishTest, PublishesImagesWithCalibrationsAndRecordsWithoutTheGrid) 
   cam.model.name = "image_2";
   cam.model.width = 2;
   cam.model.height = 1;
+  cam.model.P(0, 0) = cam.model.P(1, 1) = 1;
+  cam.model.P(2, 2) = 1;
   cam.image = img;
   frame.cameras = {cam};
   const std::string log = dir.str() + "/run.lcmlog";
@@ -254,6 +256,22 @@ TEST_F(LcmPublishTest, PublishesImagesWithCalibrationsAndRecordsWithoutTheGrid) 
   EXPECT_EQ(d.camera, "image_2");
   EXPECT_EQ(d.image.data, img->data);
   EXPECT_EQ(decodeCameraInfo(calibration.data(), calibration.size()).model.width, 2);
+
+  // A camera without its image: the frame fails here, not on the receiving side.
+  frame.cameras[0].image.reset();
+  auto again = test::makeOutput(
+      "lcm_publish", "{url: 'file://" + log + "?mode=w', publish_grid: false, publish_images: true}",
+      pctx());
+  again->begin(info());
+  try {
+    again->write(ctx());
+    ADD_FAILURE() << "a camera without an image was published";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("camera 'image_2' of frame 000005 has no image"),
+              std::string::npos)
+        << e.what();
+  }
+  again->end(RunSummary{});
 
   // Nothing to send, or layers of a grid not sent: refused.
   EXPECT_THROW(test::makeOutput("lcm_publish", "{url: 'memq://', publish_grid: false}", pctx()),

@@ -358,8 +358,62 @@ TEST_F(LcmLogSourceTest, CamerasComeWithTheirCalibrationsAndBadOnesFailTheirScan
                  " event 10 (CAL), from rig.yaml) is for 8 x 2 px");
   // Without cameras listed the images are not read.
   EXPECT_TRUE(make("points_channel: G_POINTS")->read(0).cameras.empty());
-  // Cameras without the channels that carry them: refused at the config.
+  // Cameras without the channels that carry them, or image channels without cameras: refused
+  // at the config.
   EXPECT_THROW(make("points_channel: G_POINTS, cameras: [cam]"), std::exception);
+  try {
+    make("points_channel: G_POINTS, images_channel: IMG");
+    ADD_FAILURE() << "images_channel without cameras accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("cameras lists none"), std::string::npos) << e.what();
+  }
+}
+
+// Per-pixel truth images come with their camera; one of another size is refused.
+TEST_F(LcmLogSourceTest, TruthImagesComeWithTheirCamera) {
+  Image img;
+  img.width = 4;
+  img.height = 2;
+  img.channels = 3;
+  img.data.assign(24, 9);
+  Image truth;
+  truth.width = 4;
+  truth.height = 2;
+  truth.channels = 1;
+  truth.data = {0, 1, 1, 2, 3, 3, 1, 0};
+  Image bad = truth;
+  bad.width = 2;
+  bad.data.resize(4);
+  CameraModel m;
+  m.name = "cam";
+  m.width = 4;
+  m.height = 2;
+  m.P(0, 0) = m.P(1, 1) = 2;
+  m.P(2, 2) = 1;
+  {
+    LcmLogWriter w(log(), false);
+    for (const auto& [id, t] : {std::pair<std::string, const Image*>{"a", &truth}, {"b", &bad}}) {
+      put(w, "IMG", encodeImage(img, "cam", {id, "lidar", 0}));
+      put(w, "CAL", encodeCameraInfo(m, {id, "lidar", 0}));
+      put(w, "TRUTH", encodeImage(*t, "cam", {id, "lidar", 0}));
+      put(w, "G_POINTS", cloud(id, 0.1));
+    }
+    w.close();
+  }
+  auto src = make("points_channel: G_POINTS, images_channel: IMG, camera_info_channel: CAL, "
+                  "image_truth_channel: TRUTH, cameras: [cam]");
+  const Frame f = src->read(0);
+  ASSERT_EQ(f.cameras.size(), 1u);
+  ASSERT_TRUE(f.cameras[0].truth);
+  EXPECT_EQ(f.cameras[0].truth->data, truth.data);
+  try {
+    src->read(1);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("truth image of camera 'cam' is 2 x 2 x 1"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST_F(LcmLogSourceTest, MissingLogIsRefusedNamingIt) {

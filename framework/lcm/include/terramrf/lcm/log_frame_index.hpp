@@ -22,6 +22,7 @@ struct LogChannels {
   /// image_t and camera_info_t of every camera, matched by frame_id (several per scan: one per
   /// camera).
   std::string images, camera_info;
+  std::string image_truth;  ///< image_t of per-pixel ground truth (mono8 class ids), optional
 };
 
 /// Where one scan's messages are in the log (byte offsets of their events).
@@ -35,7 +36,7 @@ struct LogFrame {
   /// Samples with a time after the previous scan's cloud, up to and including this one's.
   std::vector<std::int64_t> imu, gps, odometry;
   /// Its images and camera calibrations, in log order.
-  std::vector<std::int64_t> images, camera_infos;
+  std::vector<std::int64_t> images, camera_infos, image_truths;
   /// Why this scan cannot be read, "" if it can: two labels or two poses name it. Reading it
   /// fails with this (the scan alone, not the log).
   std::string error;

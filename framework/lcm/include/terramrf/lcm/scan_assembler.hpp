@@ -38,8 +38,12 @@ class ScanAssembler {
     /// are dropped (counted) so that memory stays bounded and the newest scans are the ones run.
     std::size_t max_waiting = 16;
     /// Cameras a scan waits for, an image_t and a camera_info_t of each (channels.images,
-    /// channels.camera_info); empty = images are not read.
+    /// channels.camera_info; a truth image on channels.image_truth is taken if it comes, not
+    /// waited for); images of other cameras are dropped (counted). Empty = images not read.
     std::vector<std::string> cameras;
+    /// Bytes of messages held for scans whose cloud has not come, at most; the oldest scans'
+    /// are dropped (counted) beyond it. Images make most of it (about 1.4 MB for KITTI's).
+    std::size_t max_held_bytes = 64u << 20;
   };
 
   /// A ready scan, or a message that could not be placed: `error` (with `error_source`, for an
@@ -52,15 +56,16 @@ class ScanAssembler {
   /// What went unused, for the run's notes.
   struct Counts {
     std::size_t late = 0;       ///< labels or poses that came after their scan had left
-    std::size_t unclaimed = 0;  ///< held labels/poses never claimed by a cloud (or over max_held)
+    std::size_t unclaimed = 0;  ///< held messages never claimed by a cloud (or over the bounds)
     std::size_t unnamed = 0;    ///< labels or poses without a frame_id (nothing to match)
     std::size_t foreign = 0;    ///< messages of another type on a channel read
     std::size_t samples_dropped = 0;  ///< beyond max_samples, or left at the end (flush)
     std::size_t scans_dropped = 0;    ///< beyond max_waiting: the consumer fell behind
     std::size_t incomplete = 0;  ///< scans that left without labels or poses their channels read
+    std::size_t unlisted = 0;    ///< images and calibrations of cameras not in Options::cameras
     bool any() const {
       return late || unclaimed || unnamed || foreign || samples_dropped || scans_dropped ||
-             incomplete;
+             incomplete || unlisted;
     }
   };
 
@@ -81,8 +86,9 @@ class ScanAssembler {
 
  private:
   struct Cameras {
-    std::vector<ScanMessage> images, infos;
-    std::set<std::string> image_of, info_of;  ///< cameras they are of
+    std::vector<ScanMessage> images, infos, truths;
+    std::set<std::string> image_of, info_of, truth_of;  ///< cameras they are of
+    std::string error;  ///< a second message of one kind for one camera
   };
   struct Waiting {
     ScanMessages scan;
@@ -95,9 +101,13 @@ class ScanAssembler {
     Cameras cameras;
     std::string error;
   };
-  void placeCamera(bool image, const std::string& id, const std::string& camera, ScanMessage m);
+  /// kind: 0 image, 1 calibration, 2 truth image.
+  void placeCamera(int kind, const std::string& id, const std::string& camera, ScanMessage m);
+  void evictHeld();
+  std::size_t held_bytes_ = 0;
   bool complete(const Waiting& w) const;
   static std::size_t messages(const Held& h);
+  static std::size_t bytes(const Held& h);
   void place(std::optional<ScanMessage> Held::*held_slot, std::optional<ScanMessage> ScanMessages::*slot,
              const std::string& type, const std::string& id, ScanMessage m);
 

@@ -24,6 +24,7 @@ struct ScanMessages {
   std::optional<ScanMessage> labels, pose, truth_pose;
   std::vector<ScanMessage> imu, gps, odometry;
   std::vector<ScanMessage> images, camera_infos;  ///< image_t and camera_info_t, any order
+  std::vector<ScanMessage> image_truths;           ///< image_t of per-pixel truth (optional)
 };
 
 struct ScanOptions {
