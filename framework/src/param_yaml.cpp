@@ -253,7 +253,15 @@ std::vector<ParamIssue> applyParams(Plugin& plugin, const YAML::Node& params,
         const bool overridden =
             std::any_of(overrides.begin(), overrides.end(),
                         [&](const std::pair<std::string, std::string>& o) { return o.first == key; });
-        if (!overridden) setOne(*spec, it->second, it->second.Mark());
+        if (!overridden) {
+          setOne(*spec, it->second, it->second.Mark());
+        } else {
+          // Still the right kind of value: only its existence is the override's to decide.
+          ParamValue v;
+          const std::string err = convert(*spec, it->second, v);
+          if (!err.empty())
+            issues.push_back({spec->name, it->second.Mark(), "parameter '" + spec->name + "': " + err});
+        }
       }
     }
   }

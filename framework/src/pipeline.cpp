@@ -102,7 +102,9 @@ void appendMetricsRows(std::ostream& o, const std::string& frame,
 }
 
 // RunOptions::metrics_csv: rows appended and flushed per frame to `<path>.partial`, renamed when
-// the run ends. Any failure (a full disk) falls back to memory, saying where the rows so far are.
+// the run ends. A write that fails (a full disk) falls back to memory: the rows from there on are
+// written at the end by writeRunReports, those before stay in the partial file, and the run says
+// so as an error of its reports (the file is incomplete).
 class MetricsStream {
  public:
   MetricsStream(const std::string& path, std::ostream& log) : path_(path), log_(log) {
@@ -110,7 +112,14 @@ class MetricsStream {
     out_.open(partial(), std::ios::trunc);
     out_.precision(9);
     out_ << kMetricsHeader << std::flush;
-    if (!out_) fallBack("cannot be written");
+    if (!out_) {
+      // Nothing in it yet: no partial file is left to explain.
+      out_.close();
+      std::error_code ec;
+      std::filesystem::remove(partial(), ec);
+      log_ << "warning: " << partial()
+           << " cannot be written; the metrics are kept in memory and written at the end\n";
+    }
   }
   bool active() const { return out_.is_open(); }
   /// False if the rows could not be written (they then belong in memory).
@@ -119,22 +128,26 @@ class MetricsStream {
     appendMetricsRows(out_, frame, m);
     out_.flush();
     if (out_) return true;
-    fallBack("could not be written on");
+    failed_before_ = frame;
+    out_.close();
+    log_ << "warning: " << partial() << " could not be written on at frame " << frame
+         << "; the metrics from there on are kept in memory, those before stay in that file\n";
     return false;
   }
-  /// The final file's path, or "" if the rows are not all in it.
-  std::string finish() {
+  /// The final file's path, or "" if the rows are not all in it (then `error` says why).
+  std::string finish(std::string& error) {
+    if (!failed_before_.empty()) {
+      error = "metrics.csv is incomplete: the rows before frame " + failed_before_ + " are in " +
+              partial() + ", which could not be written on";
+      return "";
+    }
     if (!active()) return "";
     out_.close();
     std::error_code ec;
-    if (out_.fail()) {
-      fallBack("could not be closed");
-      return "";
-    }
-    std::filesystem::rename(partial(), path_, ec);
-    if (ec) {
-      log_ << "warning: the metrics are in " << partial() << ": renaming it to " << path_
-           << " failed: " << ec.message() << "\n";
+    if (!out_.fail()) std::filesystem::rename(partial(), path_, ec);
+    if (out_.fail() || ec) {
+      error = "metrics.csv is incomplete: " + partial() + " could not be " +
+              (out_.fail() ? "closed" : "renamed to " + path_ + " (" + ec.message() + ")");
       return "";
     }
     return path_;
@@ -142,15 +155,10 @@ class MetricsStream {
 
  private:
   std::string partial() const { return path_ + ".partial"; }
-  void fallBack(const char* what) {
-    log_ << "warning: " << partial() << " " << what << " (" << std::strerror(errno)
-         << "); the metrics from here on are kept in memory and written at the end, those "
-            "before stay in that file\n";
-    out_.close();
-  }
   std::string path_;
   std::ostream& log_;
   std::ofstream out_;
+  std::string failed_before_;  ///< the frame whose rows could not be written
 };
 
 using Clock = std::chrono::steady_clock;
@@ -309,7 +317,9 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   // config is written. Asked again after begin(), for an output that names them only then. Its
   // per-frame files are removed only for frames that fail (below).
   auto removeSummaries = [&] {
-    std::vector<std::string> summaries = {kTimingFile, kMetricsFile};
+    std::vector<std::string> summaries = {kTimingFile, kMetricsFile,
+                                          std::string(kMetricsFile) + ".partial"};
+    if (!opt.metrics_csv.empty()) summaries.push_back(opt.metrics_csv + ".partial");
     for (auto& o : p.outputs)
       for (const auto& f : o->summaryFiles()) summaries.push_back(f);
     for (const auto& f : summaries) {
@@ -347,49 +357,17 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   info.run = &run_state;
   if (!stream) requireDistinctFrameIds(*p.source, first, n);  // a stream's: as they come
   // Stages first: one that cannot begin (a map store that does not open) then fails the run
-  // before any output has begun. What began ends (stages before outputs, as after a run), so that
-  // a stage that took a resource in begin() gives it back; errors there are logged, the run's
-  // failure is the begin()'s.
-  std::size_t stages_begun = 0, outputs_begun = 0;
-  const auto endBegun = [&] {
-    RunSummary none;
-    none.frames_total = n;
-    none.run = &run_state;
-    for (std::size_t i = 0; i < stages_begun; ++i) {
-      try {
-        p.stages[i]->end(none);
-      } catch (...) {
-        log << stageText(*p.stages[i]) << "failed at the end: " << currentExceptionText() << "\n";
-      }
-    }
-    for (std::size_t i = 0; i < outputs_begun; ++i) {
-      try {
-        p.outputs[i]->end(none);
-      } catch (...) {
-        log << "output '" << p.outputs[i]->name() << "' failed at the end: "
-            << currentExceptionText() << "\n";
-      }
-    }
-  };
+  // before any output has begun, so no output is left begun and never ended. Nothing ends then:
+  // end() of a run that never ran would write summaries and maps of no frame beside the failed
+  // run's config; a stage releases what begin() took in its destructor too (Stage::begin).
   for (auto& s : p.stages) {
     try {
       s->begin(info);
-      ++stages_begun;
     } catch (...) {
-      const std::string why = stageText(*s) + currentExceptionText();
-      endBegun();
-      throw std::runtime_error(why);
+      throw std::runtime_error(stageText(*s) + currentExceptionText());
     }
   }
-  for (auto& o : p.outputs) {
-    try {
-      o->begin(info);
-      ++outputs_begun;
-    } catch (...) {
-      endBegun();
-      throw;
-    }
-  }
+  for (auto& o : p.outputs) o->begin(info);
   removeSummaries();
   MetricsStream metrics_stream(opt.metrics_csv, log);
   // A failed frame's files from the outputs that did not write it this run are an earlier run's
@@ -629,7 +607,12 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
   }
   // Would dangle once the run returns.
   res.summary.run = nullptr;
-  res.metrics_file = metrics_stream.finish();
+  std::string metrics_error;
+  res.metrics_file = metrics_stream.finish(metrics_error);
+  if (!metrics_error.empty()) {
+    log << "error: " << metrics_error << "\n";
+    res.output_errors.push_back(metrics_error);
+  }
   return res;
 }
 
@@ -684,7 +667,8 @@ void writeRunReports(const std::string& dir, const RunResult& r) {
                       timingTable(r) +
                       (r.egomotion_error.frames ? "\n" + egomotionErrorText(r) + ".\n" : ""));
   // Always written, if only its header: an earlier run's file would pass for this one's.
-  if (r.metrics_file.empty()) writeFileAtomic(dir + "/" + kMetricsFile, metricsCsv(r));
+  if (r.metrics_file != dir + "/" + kMetricsFile)
+    writeFileAtomic(dir + "/" + kMetricsFile, metricsCsv(r));
 }
 
 }  // namespace terramrf

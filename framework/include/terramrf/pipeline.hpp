@@ -83,7 +83,8 @@ struct RunResult {
   std::vector<std::pair<std::string, std::map<std::string, double>>> metrics;
   /// The file the metrics went to as the frames completed (RunOptions::metrics_csv); "" when
   /// they are in `metrics` (not asked for, or the file could not be written: then `metrics`
-  /// holds the rows from the failure on, and a warning names the partial file with the rest).
+  /// holds the rows from the failure on, and output_errors says the file is incomplete, naming
+  /// the partial file with the rows before).
   std::string metrics_file;
   /// The egomotion stages' poses against the source's truth, over the frames that completed
   /// with both (Frame::pose after those stages, Frame::truth_pose); also each such frame's
@@ -118,7 +119,7 @@ std::string egomotionErrorText(const RunResult& r);
 /// The stage metrics as CSV: `frame,metric,value`, one row per frame and metric.
 std::string metricsCsv(const RunResult& r);
 
-/// Writes `timing.md` and `metrics.csv` (if only its header; not when the run streamed it,
+/// Writes `timing.md` and `metrics.csv` (if only its header; not when the run streamed it there,
 /// RunResult::metrics_file) into `dir` (atomically, like every output); the timing of an
 /// interrupted run says so in its first line, and the egomotion's error against the truth
 /// (egomotionErrorText) follows the table when frames were scored.

@@ -225,9 +225,9 @@ struct RunSummary {
 class Stage : public Plugin {
  public:
   /// Once per run, before the first frame (RunInfo::run: the run's state, where a stage may make
-  /// its maps). A throw fails the run before any frame, as `stage '<name>' (<type>): <what>`;
-  /// the stages that began before it end (with a summary of no frame), as they do, with the
-  /// outputs that began, when an output's begin() throws.
+  /// its maps). A throw fails the run before any frame, as `stage '<name>' (<type>): <what>`,
+  /// and then no stage or output ends (nor when an output's begin() throws after the stages
+  /// began): a stage that takes a resource in begin() releases it in its destructor too.
   virtual void begin(const RunInfo& /*info*/) {}
   virtual void process(FrameContext& ctx) = 0;
   /// Called when a frame this stage processed fails in a later stage or output (not when this

@@ -75,4 +75,17 @@ void checkScanChannels(const ScanChannelParams& p) {
                          "TERRAMRF_GRID_CAMERA_INFO");
 }
 
+ScanOptions scanOptions(const ScanChannelParams& p, const LabelSet& labels, bool drop_no_return,
+                        const std::string& source_path) {
+  ScanOptions o;
+  o.labels = &labels;
+  o.pose_channel = p.channels.pose;
+  o.drop_no_return = drop_no_return;
+  o.source_path = source_path;
+  o.cameras = p.cameras;
+  o.images_channel = p.channels.images;
+  o.camera_info_channel = p.channels.camera_info;
+  return o;
+}
+
 }  // namespace terramrf

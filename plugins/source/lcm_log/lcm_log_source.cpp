@@ -106,15 +106,7 @@ class LcmLogSource : public Source {
       for (std::int64_t at : lf.camera_infos) m.camera_infos.push_back(message(at));
       for (std::int64_t at : lf.image_truths) m.image_truths.push_back(message(at));
     }
-    ScanOptions o;
-    o.labels = &labels_;
-    o.pose_channel = ch_.pose;
-    o.drop_no_return = drop_no_return_;
-    o.cameras = sp_.cameras;
-    o.images_channel = ch_.images;
-    o.camera_info_channel = ch_.camera_info;
-    o.source_path = log_;
-    return frameFromMessages(m, o);
+    return frameFromMessages(m, scanOptions(sp_, labels_, drop_no_return_, log_));
   }
 
  private:

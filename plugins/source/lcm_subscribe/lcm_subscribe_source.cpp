@@ -106,15 +106,7 @@ class LcmSubscribeSource : public StreamSource {
       const double now = steadyNow();
       if (std::optional<ScanAssembler::Ready> r = assembler_->pop(now)) {
         if (!r->scan) throw InputError(r->error_source, r->error);
-        ScanOptions o;
-        o.labels = &labels_;
-        o.pose_channel = ch_.pose;
-        o.drop_no_return = drop_no_return_;
-        o.cameras = sp_.cameras;
-        o.images_channel = ch_.images;
-        o.camera_info_channel = ch_.camera_info;
-        o.source_path = url_;
-        return frameFromMessages(*r->scan, o);
+        return frameFromMessages(*r->scan, scanOptions(sp_, labels_, drop_no_return_, url_));
       }
       if (idle_timeout_s_ > 0 && now - last_cloud_s_ >= idle_timeout_s_) {
         assembler_->flush();

@@ -198,6 +198,10 @@ TEST(Config, DataOverrideReplacesAMissingConfigPath) {
   errs = errorsOf(f, test::ConfigFixture::validPipeline("{path: no/such/folder}"), lo);
   EXPECT_TRUE(contains(errs, "elsewhere' does not exist")) << joined(errs);
   EXPECT_FALSE(contains(errs, "no/such/folder")) << joined(errs);
+  // A value of the wrong kind is still refused.
+  lo.data_override = f.dir.str();
+  errs = errorsOf(f, test::ConfigFixture::validPipeline("{path: [a, b]}"), lo);
+  EXPECT_TRUE(contains(errs, "parameter 'path'")) << joined(errs);
 }
 
 TEST(Config, WrongKindAndWrongTypeAndChoices) {

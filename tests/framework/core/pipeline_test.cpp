@@ -281,6 +281,18 @@ TEST(Pipeline, StageMetricsFallBackToMemoryWhenTheFileCannotBeWritten) {
       << log.str();
 }
 
+// A partial file a killed run left is removed by the next run into the folder, even one that
+// keeps its metrics in memory or fails before any frame.
+TEST(Pipeline, AKilledRunsPartialMetricsAreRemovedByTheNext) {
+  test::ConfigFixture f;
+  const std::string out = f.dir.str() + "/out";
+  std::filesystem::create_directories(out);
+  std::ofstream(out + "/metrics.csv.partial") << "frame,metric,value\n000000,x,1\n";
+  std::ostringstream log;
+  runSynthetic(f, "{frames: 1}", log);
+  EXPECT_FALSE(std::filesystem::exists(out + "/metrics.csv.partial"));
+}
+
 // The resolved config reproduces the run: numbers to the last bit, folders as this run found
 // them, and the frames chosen on the command line said in its first line.
 TEST(Pipeline, TheResolvedConfigReproducesTheRun) {

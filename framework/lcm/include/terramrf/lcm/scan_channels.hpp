@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "terramrf/lcm/log_frame_index.hpp"
+#include "terramrf/lcm/scan_messages.hpp"
 #include "terramrf/params.hpp"
 
 namespace terramrf {
@@ -15,10 +16,15 @@ struct ScanChannelParams {
   std::vector<std::string> cameras;
 };
 
-/// Declares points_channel … odometry_channel, images_channel, camera_info_channel, cameras.
+/// Declares points_channel … odometry_channel, images_channel, camera_info_channel,
+/// image_truth_channel, cameras.
 void declareScanChannels(ParamDecl& d, ScanChannelParams& p);
 /// Throws ParamError for an empty points channel, one channel for the pose and the truth pose,
-/// or cameras without both image channels.
+/// cameras without both image channels, or image channels without cameras.
 void checkScanChannels(const ScanChannelParams& p);
+
+/// What frameFromMessages needs from these parameters, the run's labels and the source.
+ScanOptions scanOptions(const ScanChannelParams& p, const LabelSet& labels, bool drop_no_return,
+                        const std::string& source_path);
 
 }  // namespace terramrf
