@@ -39,19 +39,27 @@ void ScanAssembler::placeCamera(int kind, const std::string& id, const std::stri
     if (held) held_bytes_ += m.bytes.size();
     to.push_back(std::move(m));
   };
-  for (auto w = waiting_.rbegin(); w != waiting_.rend(); ++w) {
-    if (w->scan.id != id) continue;
-    put(w->cameras, false);
-    return;
+  if (Waiting* w = waitingScan(id)) return put(w->cameras, false);
+  if (Held* h = heldFor(id)) {
+    put(h->cameras, true);
+    evictHeld();
   }
+}
+
+ScanAssembler::Waiting* ScanAssembler::waitingScan(const std::string& id) {
+  for (auto w = waiting_.rbegin(); w != waiting_.rend(); ++w)
+    if (w->scan.id == id) return &*w;
+  return nullptr;
+}
+
+ScanAssembler::Held* ScanAssembler::heldFor(const std::string& id) {
   if (std::find(recent_.begin(), recent_.end(), id) != recent_.end()) {
     ++counts_.late;
-    return;
+    return nullptr;
   }
   auto [it, fresh] = held_.try_emplace(id);
   if (fresh) held_order_.push_back(id);
-  put(it->second.cameras, true);
-  evictHeld();
+  return &it->second;
 }
 
 void ScanAssembler::evictHeld() {
@@ -82,8 +90,7 @@ void ScanAssembler::place(std::optional<ScanMessage> Held::*held_slot,
     return "two " + type + " messages for scan '" + id + "' (" + first.source + ", then " +
            m.source + "); expected one per scan";
   };
-  for (auto w = waiting_.rbegin(); w != waiting_.rend(); ++w) {
-    if (w->scan.id != id) continue;
+  if (Waiting* w = waitingScan(id)) {
     if (w->scan.*slot) {
       if (w->error.empty()) w->error = twice(*(w->scan.*slot));
     } else {
@@ -91,17 +98,13 @@ void ScanAssembler::place(std::optional<ScanMessage> Held::*held_slot,
     }
     return;
   }
-  if (std::find(recent_.begin(), recent_.end(), id) != recent_.end()) {
-    ++counts_.late;
-    return;
-  }
-  auto [it, fresh] = held_.try_emplace(id);
-  if (fresh) held_order_.push_back(id);
-  if (it->second.*held_slot) {
-    if (it->second.error.empty()) it->second.error = twice(*(it->second.*held_slot));
+  Held* h = heldFor(id);
+  if (!h) return;
+  if (h->*held_slot) {
+    if (h->error.empty()) h->error = twice(*(h->*held_slot));
   } else {
     held_bytes_ += m.bytes.size();
-    it->second.*held_slot = std::move(m);
+    h->*held_slot = std::move(m);
   }
   evictHeld();
 }

@@ -104,6 +104,11 @@ class ScanAssembler {
   /// kind: 0 image, 1 calibration, 2 truth image.
   void placeCamera(int kind, const std::string& id, const std::string& camera, ScanMessage m);
   void evictHeld();
+  /// The waiting scan `id`, if its cloud came.
+  Waiting* waitingScan(const std::string& id);
+  /// Where messages of a scan whose cloud has not come are held; nullptr (counted late) if the
+  /// scan already left.
+  Held* heldFor(const std::string& id);
   std::size_t held_bytes_ = 0;
   bool complete(const Waiting& w) const;
   static std::size_t messages(const Held& h);
