@@ -12,7 +12,9 @@
 
 #include "terramrf/config.hpp"
 #include "terramrf/errors.hpp"
+#include "terramrf/lcm/camera_codec.hpp"
 #include "terramrf/lcm/grid_publisher.hpp"
+#include "terramrf/lcm/sensor_codec.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/param_values.hpp"
 #include "terramrf/pipeline.hpp"
@@ -30,11 +32,30 @@ PointCloud patch() {
   return c;
 }
 
-/// Publishes scan s<k> (pose first, then the points) every 20 ms on `url` until stopped.
+/// A 4 × 2 camera looking along x, and its image.
+CameraModel camModel() {
+  CameraModel m;
+  m.name = "cam";
+  m.width = 4;
+  m.height = 2;
+  m.P << 2, 0, 2, 0, 0, 2, 1, 0, 0, 0, 1, 0;
+  return m;
+}
+Image camImage(int k) {
+  Image img;
+  img.width = 4;
+  img.height = 2;
+  img.channels = 3;
+  img.data.assign(24, static_cast<std::uint8_t>(k));
+  return img;
+}
+
+/// Publishes scan s<k> (pose and camera first, then the points) every 20 ms on `url` until
+/// stopped.
 class Publisher {
  public:
-  Publisher(const std::string& url, bool with_pose) : pub_(url, "G") {
-    thread_ = std::thread([this, with_pose] {
+  Publisher(const std::string& url, bool with_pose, bool with_camera = false) : pub_(url, "G") {
+    thread_ = std::thread([this, with_pose, with_camera] {
       for (int k = 0; !stop_; ++k) {
         MessageHeader h{"s" + std::to_string(k), "lidar", 0.1 * k};
         if (with_pose) {
@@ -42,6 +63,11 @@ class Publisher {
           p.header = {h.frame_id, "world", h.timestamp_s};
           p.pose = Eigen::Translation3d(k, 0, 0);
           pub_.publishForScan("G_POSE", encodePose(p), h);
+        }
+        if (with_camera) {
+          pub_.publishForScan("G_IMAGE", encodeImage(camImage(k), "cam", h), h);
+          pub_.publishForScan("G_IMAGE", encodeImage(camImage(k), "other", h), h);
+          pub_.publishForScan("G_CAMERA_INFO", encodeCameraInfo(camModel(), h), h);
         }
         pub_.publishPoints(patch(), h);
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -110,6 +136,32 @@ TEST_F(LcmSubscribeTest, ReceivesScansWithTheirPosesInOrder) {
   EXPECT_DOUBLE_EQ(a->pose->translation().x(), ka);
   EXPECT_DOUBLE_EQ(b->pose->translation().x(), kb);
   EXPECT_DOUBLE_EQ(b->timestamp_s, 0.1 * kb);
+}
+
+// Cameras come live too: each scan with its listed camera's image and calibration (another
+// camera's image is dropped, counted).
+TEST_F(LcmSubscribeTest, ReceivesTheListedCamerasWithTheirCalibrations) {
+  auto src = make("{url: '" + url() + "', points_channel: G_POINTS, images_channel: G_IMAGE, "
+                  "camera_info_channel: G_CAMERA_INFO, cameras: [cam], idle_timeout_s: 5, "
+                  "wait_s: 0.05}");
+  EXPECT_EQ(src->cameraNames(), std::vector<std::string>{"cam"});
+  // The first scan may be cut by the subscription (its image before, its points after).
+  auto first = std::async(std::launch::async, [&] {
+    try {
+      return src->next();
+    } catch (const InputError&) {
+      return src->next();
+    }
+  });
+  Publisher pub(url(), false, true);
+  ASSERT_EQ(first.wait_for(std::chrono::seconds(20)), std::future_status::ready);
+  const std::optional<Frame> f = first.get();
+  pub.stop();
+  ASSERT_TRUE(f);
+  ASSERT_EQ(f->cameras.size(), 1u);
+  EXPECT_EQ(f->cameras[0].model.P, camModel().P);
+  const int k = std::stoi(f->id.substr(1));
+  EXPECT_EQ(f->cameras[0].image->data, camImage(k).data);
 }
 
 // idle_timeout_s ends the stream when no cloud comes.
