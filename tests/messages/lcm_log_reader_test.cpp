@@ -310,6 +310,34 @@ TEST_F(LogFrameIndexTest, TwoPosesOfOneScanFailThatScanOnly) {
   EXPECT_TRUE(idx.frames[1].pose);
 }
 
+// Images name their scan too: one without a frame_id, or of a scan with no cloud, is noted as
+// such, like a pose.
+TEST_F(LogFrameIndexTest, ImagesThatNameNoScanAreNoted) {
+  Image img;
+  img.width = img.height = img.channels = 1;
+  img.data = {0};
+  {
+    LcmLogWriter w(log(), false);
+    put(w, "IMG", encodeImage(img, "cam", {"", "lidar", 0}));
+    put(w, "IMG", encodeImage(img, "cam", {"zz", "lidar", 0}));
+    put(w, "IMG", encodeImage(img, "cam", {"a", "lidar", 0}));
+    put(w, "PTS", cloud("a", 0.1));
+    w.close();
+  }
+  LogChannels ch{"PTS"};
+  ch.images = "IMG";
+  const LogFrameIndex idx = indexLogFrames(log(), ch);
+  ASSERT_EQ(idx.frames.size(), 1u);
+  EXPECT_EQ(idx.frames[0].images.size(), 1u);
+  ASSERT_EQ(idx.notes.size(), 2u);
+  EXPECT_NE(idx.notes[0].find("1 image_t message(s) on IMG name no scan"), std::string::npos)
+      << idx.notes[0];
+  EXPECT_NE(idx.notes[1].find("1 image_t message(s) on IMG name a scan with no point cloud "
+                              "(e.g. 'zz')"),
+            std::string::npos)
+      << idx.notes[1];
+}
+
 // A cloud that is no point_cloud_t stays a scan of its own, so that reading it fails alone.
 TEST_F(LogFrameIndexTest, UnreadableCloudIsAScanNamedByItsEvent) {
   {

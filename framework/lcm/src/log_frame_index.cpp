@@ -22,6 +22,21 @@ std::string eventName(std::int64_t eventnum, std::int64_t offset) {
   return "event " + std::to_string(eventnum) + " (byte " + std::to_string(offset) + ")";
 }
 
+// Why some messages of one channel were not used, one line per reason (LogFrameIndex::notes).
+void unusedNotes(std::vector<std::string>& out, const std::string& channel,
+                 const std::string& type, std::size_t foreign, std::size_t unnamed,
+                 std::size_t unclaimed, const std::string& example) {
+  if (foreign)
+    out.push_back(std::to_string(foreign) + " event(s) on " + channel + " are not " + type +
+                  " and were ignored");
+  if (unnamed)
+    out.push_back(std::to_string(unnamed) + " " + type + " message(s) on " + channel +
+                  " name no scan (empty frame_id) and were ignored");
+  if (unclaimed)
+    out.push_back(std::to_string(unclaimed) + " " + type + " message(s) on " + channel +
+                  " name a scan with no point cloud (e.g. '" + example + "') and were ignored");
+}
+
 struct Sample {
   std::int64_t utime = 0;
   std::int64_t offset = 0;
@@ -70,16 +85,9 @@ class ByScan {
   }
 
   void notes(std::vector<std::string>& out) const {
-    if (foreign_)
-      out.push_back(std::to_string(foreign_) + " event(s) on " + channel_ + " are not " + type_ +
-                    " and were ignored");
-    if (unnamed_)
-      out.push_back(std::to_string(unnamed_) + " " + type_ + " message(s) on " + channel_ +
-                    " name no scan (empty frame_id) and were ignored");
-    if (!events_.empty())
-      out.push_back(std::to_string(events_.size()) + " " + type_ + " message(s) on " + channel_ +
-                    " name a scan with no point cloud (e.g. '" + events_.begin()->first +
-                    "') and were ignored");
+    std::size_t unclaimed = events_.size();
+    unusedNotes(out, channel_, type_, foreign_, unnamed_, unclaimed,
+                unclaimed ? events_.begin()->first : "");
   }
 
  private:
@@ -101,6 +109,10 @@ class PerCamera {
       ++foreign_;
       return;
     }
+    if (stamp->frame_id.empty()) {
+      ++unnamed_;
+      return;
+    }
     events_[stamp->frame_id].push_back(e.offset);
   }
   std::vector<std::int64_t> take(const std::string& id) {
@@ -111,19 +123,16 @@ class PerCamera {
     return out;
   }
   void notes(std::vector<std::string>& out) const {
-    if (foreign_)
-      out.push_back(std::to_string(foreign_) + " event(s) on " + channel_ + " are not " + type_ +
-                    " and were ignored");
-    if (!events_.empty())
-      out.push_back(type_ + " messages on " + channel_ + " name " +
-                    std::to_string(events_.size()) + " scan(s) with no point cloud (e.g. '" +
-                    events_.begin()->first + "') and were ignored");
+    std::size_t unclaimed = 0;
+    for (const auto& [id, offsets] : events_) unclaimed += offsets.size();
+    unusedNotes(out, channel_, type_, foreign_, unnamed_, unclaimed,
+                unclaimed ? events_.begin()->first : "");
   }
 
  private:
   std::string channel_, type_;
   std::map<std::string, std::vector<std::int64_t>> events_;
-  std::size_t foreign_ = 0;
+  std::size_t foreign_ = 0, unnamed_ = 0;
 };
 
 // Samples of one channel, attached by time once every cloud is known.
@@ -239,9 +248,7 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
       }
       ((*it).*member).push_back(smp.offset);
     }
-    if (s->foreign)
-      index.notes.push_back(std::to_string(s->foreign) + " event(s) on " + s->channel +
-                            " are not " + s->type + " and were ignored");
+    unusedNotes(index.notes, s->channel, s->type, s->foreign, 0, 0, "");
     if (after_last)
       index.notes.push_back(std::to_string(after_last) + " " + s->type + " sample(s) on " +
                             s->channel + " come after the last scan and were ignored");
