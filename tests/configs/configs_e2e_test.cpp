@@ -41,6 +41,19 @@ double cellScore(const YAML::Node& s, const std::string& cls, const std::string&
 double cellRecall(const YAML::Node& s, const std::string& cls) {
   return cellScore(s, cls, "recall");
 }
+/// A config reading the sequence `terramrf simulate` wrote to `seq` (beside it) with the
+/// simulator's label map, classifying with height difference, and one output of type `output`.
+std::string simulatedSeqConfig(const std::string& output) {
+  return "version: 1\nsource: {type: semantickitti, params: {path: seq, label_map: " +
+         test::sourceDir() +
+         "/configs/label_maps/simulator.yaml}}\n"
+         "stages:\n  - {name: hdiff, type: height_difference}\n"
+         "  - {name: mrf, type: potts_gaussian, params: {model: " +
+         test::sourceDir() +
+         "/configs/models/laser_simulator.yaml, features: [height_diff]}}\n"
+         "  - {name: solve, type: icm}\n"
+         "outputs:\n  - {type: " + output + "}\n";
+}
 }  // namespace
 
 TEST(ConfigsE2E, DemoOnTheSimulator) {
@@ -182,16 +195,7 @@ TEST(ConfigsE2E, SimulateWritesAReadableSequence) {
     EXPECT_TRUE(std::filesystem::exists(out.str() + "/seq/" + f)) << f;
   // The real-data reader reads it back and the pipeline scores it with the simulator label map.
   const std::string cfg = out.str() + "/c.yaml";
-  std::ofstream(cfg)
-      << "version: 1\nsource: {type: semantickitti, params: {path: seq, label_map: " +
-             test::sourceDir() +
-             "/configs/label_maps/simulator.yaml}}\n"
-             "stages:\n  - {name: hdiff, type: height_difference}\n"
-             "  - {name: mrf, type: potts_gaussian, params: {model: " +
-             test::sourceDir() +
-             "/configs/models/laser_simulator.yaml, features: [height_diff]}}\n"
-             "  - {name: solve, type: icm}\n"
-             "outputs:\n  - {type: evaluation}\n";
+  std::ofstream(cfg) << simulatedSeqConfig("evaluation");
   r = sh(test::cli() + " run " + cfg + " --no-progress --out " + out.str() + "/o");
   EXPECT_EQ(r.status, 0) << r.out;
   const YAML::Node s = YAML::LoadFile(out.str() + "/o/evaluation/summary.json");
@@ -204,16 +208,7 @@ TEST(ConfigsE2E, BadScanInABatchIsSkippedAndReported) {
   ASSERT_EQ(r.status, 0) << r.out;
   std::ofstream(out.str() + "/seq/velodyne/000001.bin", std::ios::app) << "xyz";  // 3 stray bytes
   const std::string cfg = out.str() + "/c.yaml";
-  std::ofstream(cfg)
-      << "version: 1\nsource: {type: semantickitti, params: {path: seq, label_map: " +
-             test::sourceDir() +
-             "/configs/label_maps/simulator.yaml}}\n"
-             "stages:\n  - {name: hdiff, type: height_difference}\n"
-             "  - {name: mrf, type: potts_gaussian, params: {model: " +
-             test::sourceDir() +
-             "/configs/models/laser_simulator.yaml, features: [height_diff]}}\n"
-             "  - {name: solve, type: icm}\n"
-             "outputs:\n  - {type: grid_csv}\n";
+  std::ofstream(cfg) << simulatedSeqConfig("grid_csv");
   r = sh(test::cli() + " run " + cfg + " --no-progress --out " + out.str() + "/o");
   EXPECT_EQ(r.status, 3) << r.out;
   EXPECT_NE(r.out.find("000001"), std::string::npos) << r.out;
