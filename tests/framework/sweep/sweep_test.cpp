@@ -2323,6 +2323,20 @@ TEST(SweepRun, AStopDuringATestRunEndsTheSweepWithItsReport) {
   EXPECT_EQ(readFile(run_dir + "/timing.md").rfind("Run interrupted (SIGINT) after 1 of 2", 0), 0u);
 }
 
+/// Training options for `config` whose model goes to `<dir>/models/sim.yaml`, where a model from
+/// an earlier training ("a good model") is already: a training that fails must leave it as it is.
+TrainOptions overAGoodModel(const test::TempDir& dir, const std::string& config,
+                            std::vector<std::string> plugin_dirs) {
+  TrainOptions o;
+  o.config_path = config;
+  o.model_out = dir.str() + "/models/sim.yaml";
+  fs::create_directories(dir.str() + "/models");
+  std::ofstream(o.model_out) << "a good model\n";
+  o.progress = false;
+  o.plugin_dirs = std::move(plugin_dirs);
+  return o;
+}
+
 // `train` asked to stop: no model is written (one learnt from part of the data would pass for
 // one learnt from all of it), the one there is kept, the scratch runs are removed, and the error
 // says all this.
@@ -2340,13 +2354,7 @@ stages:
   - {name: mrf, type: potts_gaussian, params: {model: m.yaml, features: [height_diff]}}
   - {name: solve, type: icm}
 )");
-  TrainOptions o;
-  o.config_path = config;
-  o.model_out = dir.str() + "/models/sim.yaml";
-  fs::create_directories(dir.str() + "/models");
-  std::ofstream(o.model_out) << "a good model\n";
-  o.progress = false;
-  o.plugin_dirs = {test::pluginDir()};
+  TrainOptions o = overAGoodModel(dir, config, {test::pluginDir()});
   std::ostringstream log;
   o.log = &log;
   requestStop(SIGTERM);
@@ -2418,13 +2426,8 @@ stages:
   - {name: mrf, type: potts_gaussian, params: {model: m.yaml, features: [height_diff]}}
   - {name: solve, type: icm}
 )");
-  TrainOptions o;
-  o.config_path = config;
-  o.model_out = dir.str() + "/models/sim.yaml";
-  fs::create_directories(dir.str() + "/models");
-  std::ofstream(o.model_out) << "a good model\n";
-  o.progress = false;
-  o.plugin_dirs = {test::pluginDir(), std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/run_map"};
+  TrainOptions o = overAGoodModel(
+      dir, config, {test::pluginDir(), std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/run_map"});
   std::ostringstream log;
   o.log = &log;
   try {
