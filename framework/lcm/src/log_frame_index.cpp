@@ -37,6 +37,23 @@ void unusedNotes(std::vector<std::string>& out, const std::string& channel,
                   " name a scan with no point cloud (e.g. '" + example + "') and were ignored");
 }
 
+// How much of each message the index reads: a message's time and scan id (and a camera's name)
+// sit in its first bytes (message_peek.hpp). A message whose stamp lies further in is read whole.
+constexpr std::size_t kPeekBytes = 4096;
+
+// The stamp of `e`, read with kPeekBytes of its message: read whole when the prefix was too
+// short to tell (a scan id or camera name longer than the prefix).
+std::optional<MessageStamp> stampOf(LcmLogReader& reader, LcmLogEvent& e) {
+  std::optional<MessageStamp> s = peekMessageStamp(e.data.data(), e.data.size());
+  const bool cut = static_cast<std::int64_t>(e.data.size()) < e.data_size;
+  const bool camera_cut = s && s->camera.empty() && (s->type == "image_t" || s->type == "camera_info_t");
+  if (cut && (!s || camera_cut)) {
+    e = reader.readAt(e.offset);
+    s = peekMessageStamp(e.data.data(), e.data.size());
+  }
+  return s;
+}
+
 struct Sample {
   std::int64_t utime = 0;
   std::int64_t offset = 0;
@@ -50,8 +67,7 @@ class ByScan {
       : channel_(std::move(channel)), type_(std::move(type)), path_(std::move(path)) {}
   const std::string& channel() const { return channel_; }
 
-  void add(const LcmLogEvent& e) {
-    const auto stamp = peekMessageStamp(e.data.data(), e.data.size());
+  void add(const LcmLogEvent& e, const std::optional<MessageStamp>& stamp) {
     if (!stamp || stamp->type != type_) {
       ++foreign_;
       return;
@@ -103,8 +119,7 @@ class PerCamera {
   PerCamera(std::string channel, std::string type)
       : channel_(std::move(channel)), type_(std::move(type)) {}
   const std::string& channel() const { return channel_; }
-  void add(const LcmLogEvent& e) {
-    const auto stamp = peekMessageStamp(e.data.data(), e.data.size());
+  void add(const LcmLogEvent& e, const std::optional<MessageStamp>& stamp) {
     if (!stamp || stamp->type != type_) {
       ++foreign_;
       return;
@@ -141,8 +156,7 @@ struct Samples {
   std::vector<Sample> samples;
   std::size_t foreign = 0;
 
-  void add(const LcmLogEvent& e) {
-    const auto stamp = peekMessageStamp(e.data.data(), e.data.size());
+  void add(const LcmLogEvent& e, const std::optional<MessageStamp>& stamp) {
     if (!stamp || stamp->type != type) {
       ++foreign;
       return;
@@ -164,16 +178,21 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
       truths(ch.image_truth, "image_t");
   std::unordered_map<std::string, std::string> cloud_event;  // scan id → its event, named
 
-  while (std::optional<LcmLogEvent> e = reader.next()) {
+  const std::string* ours[] = {&ch.points, &ch.labels, &ch.pose, &ch.truth_pose, &ch.imu, &ch.gps,
+                              &ch.odometry, &ch.images, &ch.camera_info, &ch.image_truth};
+  while (std::optional<LcmLogEvent> e = reader.next(kPeekBytes)) {
     ++index.channel_events[e->channel];
     const std::string& c = e->channel;
+    if (std::none_of(std::begin(ours), std::end(ours),
+                     [&](const std::string* o) { return !o->empty() && *o == c; }))
+      continue;
+    const std::optional<MessageStamp> stamp = stampOf(reader, *e);
     if (c == ch.points) {
       LogFrame f;
       f.points = e->offset;
       f.eventnum = e->eventnum;
       // A cloud that cannot be peeked stays a scan of its own: its read fails, naming the event,
       // and the run reports it and goes on, as for a damaged file in a folder.
-      const auto stamp = peekMessageStamp(e->data.data(), e->data.size());
       const bool cloud = stamp && stamp->type == "point_cloud_t";
       f.id = cloud && !stamp->frame_id.empty() ? stamp->frame_id
                                                : "event" + std::to_string(e->eventnum);
@@ -195,15 +214,15 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
     }
     // One channel may carry several kinds (a pose and a truth pose on the same channel would be
     // ambiguous, but a sender may put samples wherever it likes): test each.
-    if (!ch.labels.empty() && c == ch.labels) labels.add(*e);
-    if (!ch.pose.empty() && c == ch.pose) pose.add(*e);
-    if (!ch.truth_pose.empty() && c == ch.truth_pose) truth.add(*e);
-    if (!ch.imu.empty() && c == ch.imu) imu.add(*e);
-    if (!ch.gps.empty() && c == ch.gps) gps.add(*e);
-    if (!ch.odometry.empty() && c == ch.odometry) odometry.add(*e);
-    if (!ch.images.empty() && c == ch.images) images.add(*e);
-    if (!ch.camera_info.empty() && c == ch.camera_info) infos.add(*e);
-    if (!ch.image_truth.empty() && c == ch.image_truth) truths.add(*e);
+    if (!ch.labels.empty() && c == ch.labels) labels.add(*e, stamp);
+    if (!ch.pose.empty() && c == ch.pose) pose.add(*e, stamp);
+    if (!ch.truth_pose.empty() && c == ch.truth_pose) truth.add(*e, stamp);
+    if (!ch.imu.empty() && c == ch.imu) imu.add(*e, stamp);
+    if (!ch.gps.empty() && c == ch.gps) gps.add(*e, stamp);
+    if (!ch.odometry.empty() && c == ch.odometry) odometry.add(*e, stamp);
+    if (!ch.images.empty() && c == ch.images) images.add(*e, stamp);
+    if (!ch.camera_info.empty() && c == ch.camera_info) infos.add(*e, stamp);
+    if (!ch.image_truth.empty() && c == ch.image_truth) truths.add(*e, stamp);
   }
   index.skipped_bytes = reader.skippedBytes();
 

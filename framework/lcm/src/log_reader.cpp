@@ -2,6 +2,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
@@ -57,7 +58,7 @@ std::optional<LcmLogReader::Header> LcmLogReader::headerAt(std::int64_t at) {
   return r;
 }
 
-std::optional<LcmLogEvent> LcmLogReader::eventAt(std::int64_t at) {
+std::optional<LcmLogEvent> LcmLogReader::eventAt(std::int64_t at, std::size_t max_data_bytes) {
   const std::optional<Header> h = headerAt(at);
   if (!h) return std::nullopt;
   const std::int32_t channel_len = h->channel_len, data_len = h->data_len;
@@ -68,7 +69,8 @@ std::optional<LcmLogEvent> LcmLogReader::eventAt(std::int64_t at) {
   if (::fseeko(file_, at + static_cast<std::int64_t>(kHeaderBytes), SEEK_SET) != 0)
     return std::nullopt;
   e.channel.resize(static_cast<std::size_t>(channel_len));
-  e.data.resize(static_cast<std::size_t>(data_len));
+  e.data_size = data_len;
+  e.data.resize(std::min(static_cast<std::size_t>(data_len), max_data_bytes));
   if (std::fread(e.channel.data(), 1, e.channel.size(), file_) != e.channel.size() ||
       std::fread(e.data.data(), 1, e.data.size(), file_) != e.data.size())
     return std::nullopt;
@@ -94,7 +96,7 @@ bool LcmLogReader::wholeEventWithin(std::int64_t from, std::int64_t to) {
   return false;
 }
 
-std::optional<LcmLogEvent> LcmLogReader::next() {
+std::optional<LcmLogEvent> LcmLogReader::next(std::size_t max_data_bytes) {
   if (at_end_) return std::nullopt;
   // Where the previous event ended, or else the next sync word that starts a whole event.
   for (std::int64_t at = end_; at + static_cast<std::int64_t>(kHeaderBytes) <= size_; ++at) {
@@ -105,9 +107,9 @@ std::optional<LcmLogEvent> LcmLogReader::next() {
       while ((c = std::fgetc(file_)) != EOF && c != static_cast<int>(kMagic >> 24)) ++at;
       if (c == EOF) break;
     }
-    if (std::optional<LcmLogEvent> e = eventAt(at)) {
+    if (std::optional<LcmLogEvent> e = eventAt(at, max_data_bytes)) {
       const std::int64_t end =
-          at + static_cast<std::int64_t>(kHeaderBytes + e->channel.size() + e->data.size());
+          at + static_cast<std::int64_t>(kHeaderBytes + e->channel.size()) + e->data_size;
       // An event whose lengths fit the file but run into later events is a cut one (a writer
       // killed mid-event, then the log appended to): its "data" would swallow them. It is told
       // by a whole event starting inside its span when no sync word follows it.
@@ -129,7 +131,7 @@ LcmLogEvent LcmLogReader::readAt(std::int64_t offset) {
                                 " (the log changed since it was indexed?)");
   }
   at_end_ = false;
-  end_ = offset + static_cast<std::int64_t>(kHeaderBytes + e->channel.size() + e->data.size());
+  end_ = offset + static_cast<std::int64_t>(kHeaderBytes + e->channel.size()) + e->data_size;
   return std::move(*e);
 }
 

@@ -8,6 +8,7 @@
 // bytes), it drops that whole event and returns NULL as at the end of the log, so everything
 // from there on is lost, with only "Invalid header after log data" on stderr. This reader keeps
 // every whole event and goes on at the next sync word, counting what it passed over.
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <optional>
@@ -21,7 +22,10 @@ struct LcmLogEvent {
   std::int64_t eventnum = 0;   ///< as its writer numbered it
   std::int64_t log_utime = 0;  ///< the event's time in the log [µs]
   std::string channel;
-  std::vector<std::uint8_t> data;  ///< the encoded message
+  std::vector<std::uint8_t> data;  ///< the encoded message, or its first bytes (next()'s limit)
+  /// The encoded message's length in the log [bytes]; more than data.size() when next() was told
+  /// to read only a prefix of it.
+  std::int64_t data_size = 0;
 };
 
 /// Not thread-safe; open one reader per thread (opening costs one fopen).
@@ -35,8 +39,12 @@ class LcmLogReader {
 
   const std::string& path() const { return path_; }
 
-  /// The next whole event in file order; nullopt once no whole event is left.
-  std::optional<LcmLogEvent> next();
+  /// The next whole event in file order; nullopt once no whole event is left. Of its message
+  /// only the first `max_data_bytes` are read (LcmLogEvent::data_size gives its length): an index
+  /// that needs a message's time and scan id (peekMessageStamp) then reads a few KiB per event
+  /// instead of the whole log. The event is still checked whole (its lengths fit the file and a
+  /// sync word or the end of the file follows it).
+  std::optional<LcmLogEvent> next(std::size_t max_data_bytes = SIZE_MAX);
   /// The event whose sync word is at `offset` (an earlier LcmLogEvent::offset). Throws
   /// InputError naming the file and the offset if no whole event starts there (the file changed
   /// since it was indexed). next() then goes on after that event.
@@ -56,8 +64,8 @@ class LcmLogReader {
   };
   /// The header of an event starting at `at` whose lengths are valid and fit in the file.
   std::optional<Header> headerAt(std::int64_t at);
-  /// The whole event starting at `at`, if one does (`at` is then left past it).
-  std::optional<LcmLogEvent> eventAt(std::int64_t at);
+  /// The whole event starting at `at`, if one does, with at most `max_data_bytes` of its message.
+  std::optional<LcmLogEvent> eventAt(std::int64_t at, std::size_t max_data_bytes = SIZE_MAX);
   bool followedBySyncOrEnd(std::int64_t end);
   /// True if an event header (headerAt) starts in [from, to).
   bool wholeEventWithin(std::int64_t from, std::int64_t to);
