@@ -18,35 +18,132 @@
 
 namespace terramrf {
 
-void writeFileAtomic(const std::string& path, std::string_view bytes) {
+namespace {
+
+/// write(2) of all `n` bytes; false with errno set on failure.
+bool writeAll(int fd, const char* data, std::size_t n) {
+  while (n > 0) {
+    const ssize_t w = ::write(fd, data, n);
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    data += w;
+    n -= static_cast<std::size_t>(w);
+  }
+  return true;
+}
+
+}  // namespace
+
+/// A stream buffer over the temporary file's descriptor: large writes go straight to the file,
+/// small ones are gathered. After a failed write it takes nothing more and keeps the reason.
+class AtomicFileWriter::Buffer : public std::streambuf {
+ public:
+  explicit Buffer(int fd) : fd_(fd) {}
+  int fd() const { return fd_; }
+  const std::string& error() const { return error_; }
+  std::uint64_t bytes() const { return flushed_ + static_cast<std::uint64_t>(pptr() - pbase()); }
+  bool flush() { return sync() == 0; }
+  void release() { fd_ = -1; }
+
+ protected:
+  int_type overflow(int_type c) override {
+    if (!flush()) return traits_type::eof();
+    if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+    gather();
+    *pptr() = traits_type::to_char_type(c);
+    pbump(1);
+    return c;
+  }
+  std::streamsize xsputn(const char* s, std::streamsize n) override {
+    if (n <= epptr() - pptr()) {
+      std::copy(s, s + n, pptr());
+      pbump(static_cast<int>(n));
+      return n;
+    }
+    if (!flush()) return 0;
+    if (static_cast<std::size_t>(n) >= kDirect) return put(s, static_cast<std::size_t>(n)) ? n : 0;
+    gather();
+    std::copy(s, s + n, pptr());
+    pbump(static_cast<int>(n));
+    return n;
+  }
+  int sync() override {
+    const std::size_t n = static_cast<std::size_t>(pptr() - pbase());
+    if (n == 0) return error_.empty() ? 0 : -1;
+    const bool ok = put(pbase(), n);
+    setp(pbase(), epptr());
+    return ok ? 0 : -1;
+  }
+
+ private:
+  // Writes this large go to the file as they come: a whole file in one string (writeFileAtomic)
+  // is not copied. Smaller ones are gathered in a buffer made on first need.
+  static constexpr std::size_t kDirect = 64 << 10, kBytes = 1 << 20;
+  void gather() {
+    if (buf_) return;
+    buf_.reset(new char[kBytes]);
+    setp(buf_.get(), buf_.get() + kBytes);
+  }
+  bool put(const char* s, std::size_t n) {
+    if (!error_.empty()) return false;
+    if (!writeAll(fd_, s, n)) {
+      error_ = std::strerror(errno);
+      return false;
+    }
+    flushed_ += n;
+    return true;
+  }
+  int fd_;
+  std::unique_ptr<char[]> buf_;
+  std::uint64_t flushed_ = 0;
+  std::string error_;
+};
+
+AtomicFileWriter::AtomicFileWriter(std::string path) : path_(std::move(path)) {
   namespace fs = std::filesystem;
-  const fs::path target(path);
+  const fs::path target(path_);
   std::error_code ec;
   if (target.has_parent_path()) {
     fs::create_directories(target.parent_path(), ec);
     if (ec) {
       throw std::runtime_error("cannot create folder '" + target.parent_path().string() +
-                               "' for output '" + path + "': " + ec.message());
+                               "' for output '" + path_ + "': " + ec.message());
     }
   }
-  std::string tmpl = (target.has_parent_path() ? target.parent_path() / "" : fs::path()).string() +
-                     "." + target.filename().string() + ".tmp." + std::to_string(::getpid()) +
-                     ".XXXXXX";
-  const int fd = ::mkstemp(tmpl.data());
+  temp_ = (target.has_parent_path() ? target.parent_path() / "" : fs::path()).string() + "." +
+          target.filename().string() + ".tmp." + std::to_string(::getpid()) + ".XXXXXX";
+  const int fd = ::mkstemp(temp_.data());
   if (fd < 0) {
-    throw std::runtime_error("cannot write output '" + path + "': " + std::strerror(errno));
+    throw std::runtime_error("cannot write output '" + path_ + "': " + std::strerror(errno));
   }
-  std::size_t off = 0;
-  while (off < bytes.size()) {
-    const ssize_t w = ::write(fd, bytes.data() + off, bytes.size() - off);
-    if (w < 0) {
-      if (errno == EINTR) continue;
-      const std::string why = std::strerror(errno);
-      ::close(fd);
-      ::unlink(tmpl.c_str());
-      throw std::runtime_error("cannot write output '" + path + "': " + why);
-    }
-    off += static_cast<std::size_t>(w);
+  buffer_ = std::make_unique<Buffer>(fd);
+  stream_ = std::make_unique<std::ostream>(buffer_.get());
+}
+
+AtomicFileWriter::~AtomicFileWriter() { discard(); }
+
+std::ostream& AtomicFileWriter::stream() { return *stream_; }
+
+std::uint64_t AtomicFileWriter::bytes() const { return buffer_ ? buffer_->bytes() : 0; }
+
+void AtomicFileWriter::discard() {
+  if (!buffer_ || buffer_->fd() < 0) return;
+  ::close(buffer_->fd());
+  buffer_->release();
+  ::unlink(temp_.c_str());
+}
+
+void AtomicFileWriter::commit() {
+  if (!buffer_ || buffer_->fd() < 0)
+    throw std::runtime_error("cannot write output '" + path_ + "': already committed or discarded");
+  const int fd = buffer_->fd();
+  const bool written = buffer_->flush();
+  if (!written) {
+    const std::string why = buffer_->error();
+    discard();
+    throw std::runtime_error("cannot write output '" + path_ + "': " + why);
   }
   ::fchmod(fd, 0644);
   // A write error can surface only at fsync or close (a full disk, NFS); renaming then would
@@ -54,16 +151,23 @@ void writeFileAtomic(const std::string& path, std::string_view bytes) {
   const bool synced = ::fsync(fd) == 0 || errno == EINVAL;  // EINVAL: a file that cannot sync
   const std::string sync_why = synced ? "" : std::strerror(errno);
   const bool closed = ::close(fd) == 0;
+  const std::string close_why = closed ? "" : std::strerror(errno);
+  buffer_->release();
   if (!synced || !closed) {
-    const std::string why = !synced ? sync_why : std::strerror(errno);
-    ::unlink(tmpl.c_str());
-    throw std::runtime_error("cannot write output '" + path + "': " + why);
+    ::unlink(temp_.c_str());
+    throw std::runtime_error("cannot write output '" + path_ + "': " + (!synced ? sync_why : close_why));
   }
-  if (::rename(tmpl.c_str(), path.c_str()) != 0) {
+  if (::rename(temp_.c_str(), path_.c_str()) != 0) {
     const std::string why = std::strerror(errno);
-    ::unlink(tmpl.c_str());
-    throw std::runtime_error("cannot replace output '" + path + "': " + why);
+    ::unlink(temp_.c_str());
+    throw std::runtime_error("cannot replace output '" + path_ + "': " + why);
   }
+}
+
+void writeFileAtomic(const std::string& path, std::string_view bytes) {
+  AtomicFileWriter w(path);
+  w.stream().write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  w.commit();
 }
 
 namespace {

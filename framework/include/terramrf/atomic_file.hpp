@@ -1,6 +1,9 @@
 #pragma once
 // Outputs are written to a temporary file in the target folder and renamed over the target, so a
 // crash or a failing frame never leaves a truncated file or replaces a good one.
+#include <cstdint>
+#include <memory>
+#include <ostream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -12,6 +15,35 @@ namespace terramrf {
 /// The temporary file, `.<name>.tmp.<pid>.XXXXXX` beside `path`, names its writer's process, so
 /// one left by a writer that was killed can be told from one being written (removeStaleTemps).
 void writeFileAtomic(const std::string& path, std::string_view bytes);
+
+/// Streams a file to `path` atomically, for outputs too large to hold in memory first: bytes go
+/// through stream() to the temporary file writeFileAtomic would use, and commit() syncs it and
+/// renames it over `path`. Without commit() (a throw while writing) the temporary file is removed
+/// in the destructor and `path` is untouched. Write errors (a full disk) are reported by commit(),
+/// with writeFileAtomic's messages naming the path; the stream stops taking bytes after one.
+class AtomicFileWriter {
+ public:
+  /// Creates parent folders and the temporary file; throws std::runtime_error naming `path`.
+  explicit AtomicFileWriter(std::string path);
+  ~AtomicFileWriter();
+  AtomicFileWriter(const AtomicFileWriter&) = delete;
+  AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
+
+  std::ostream& stream();
+  /// Bytes taken by stream() so far (buffered ones included).
+  std::uint64_t bytes() const;
+  /// Flushes, syncs and renames; throws std::runtime_error naming the path on any failure (the
+  /// temporary file is then removed). Once only.
+  void commit();
+  /// Removes the temporary file now (a result found wrong after writing); `path` is untouched.
+  void discard();
+
+ private:
+  class Buffer;
+  std::string path_, temp_;
+  std::unique_ptr<Buffer> buffer_;
+  std::unique_ptr<std::ostream> stream_;
+};
 
 /// Removes, in `dir` and its folders at most `max_depth` levels down (symbolic links not
 /// followed), what

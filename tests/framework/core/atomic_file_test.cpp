@@ -2,11 +2,14 @@
 
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <csignal>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -70,6 +73,87 @@ TEST(AtomicFile, AFolderInTheWayIsNamedAndLeftAsItWas) {
   int n = 0;
   for (auto& e : std::filesystem::directory_iterator(d.str())) ++n, (void)e;
   EXPECT_EQ(n, 1);  // the folder alone: the temporary file was removed
+}
+
+int entries(const std::string& dir) {
+  int n = 0;
+  for (auto& e : std::filesystem::directory_iterator(dir)) ++n, (void)e;
+  return n;
+}
+
+// Small pieces gathered, large ones written through, in order; the target appears only at commit.
+TEST(AtomicFileWriter, StreamsPiecesOfAnySizeAndReplacesOnlyAtCommit) {
+  test::TempDir d;
+  const std::string p = d.str() + "/mesh.obj";
+  writeFileAtomic(p, "old");
+  std::string expected;
+  {
+    AtomicFileWriter w(p);
+    for (int i = 0; i < 5000; ++i) {
+      const std::string line = "v " + std::to_string(i) + "\n";
+      w.stream() << line;
+      expected += line;
+      if (i % 1000 == 0) {
+        const std::string big(200 * 1024, char('a' + i / 1000));  // past the gathering size
+        w.stream().write(big.data(), std::streamsize(big.size()));
+        expected += big;
+      }
+    }
+    EXPECT_EQ(w.bytes(), expected.size());
+    EXPECT_EQ(readFile(p), "old");  // not yet
+    w.commit();
+  }
+  EXPECT_EQ(readFile(p), expected);
+  EXPECT_EQ(entries(d.str()), 1);
+}
+
+TEST(AtomicFileWriter, WithoutCommitNothingIsReplacedAndNoTemporaryStays) {
+  test::TempDir d;
+  const std::string p = d.str() + "/mesh.ply";
+  writeFileAtomic(p, "good");
+  try {
+    AtomicFileWriter w(p);
+    w.stream() << std::string(3 << 20, 'x');
+    throw std::runtime_error("encoder failed");
+  } catch (const std::runtime_error&) {
+  }
+  EXPECT_EQ(readFile(p), "good");
+  EXPECT_EQ(entries(d.str()), 1);
+  AtomicFileWriter w(p);
+  w.stream() << "too large";
+  w.discard();
+  EXPECT_EQ(readFile(p), "good");
+  EXPECT_EQ(entries(d.str()), 1);
+  EXPECT_THROW(w.commit(), std::runtime_error);
+}
+
+// A disk that fills up while streaming (RLIMIT_FSIZE stands in for it: writes past the limit fail
+// with EFBIG): commit() names the file and the reason, the old file stays, no temporary is left.
+TEST(AtomicFileWriter, AFullDiskIsReportedAtCommitNamingTheFile) {
+  test::TempDir d;
+  const std::string p = d.str() + "/terrain.obj";
+  writeFileAtomic(p, "previous");
+  struct rlimit old {};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
+  auto* old_handler = std::signal(SIGXFSZ, SIG_IGN);  // else the process is killed at the limit
+  std::string what;
+  {
+    AtomicFileWriter w(p);
+    struct rlimit lim = old;
+    lim.rlim_cur = 100000;
+    ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &lim), 0);
+    for (int i = 0; i < 100000; ++i) w.stream() << "f 1/1 2/2 3/3\n";
+    try {
+      w.commit();
+    } catch (const std::runtime_error& e) {
+      what = e.what();
+    }
+  }
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &old), 0);
+  std::signal(SIGXFSZ, old_handler);
+  EXPECT_EQ(what, "cannot write output '" + p + "': " + std::strerror(EFBIG));
+  EXPECT_EQ(readFile(p), "previous");
+  EXPECT_EQ(entries(d.str()), 1);
 }
 
 TEST(AtomicFile, ReadMissingFileNamesIt) {
