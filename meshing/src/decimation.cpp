@@ -33,8 +33,8 @@ struct State {
   SurfaceMesh sm;
   const TileMesh* tile = nullptr;
   double tol = 0;
-  SurfaceMesh::Property_map<VI, uint32_t> orig;    // index into the tile's vertex arrays
-  SurfaceMesh::Property_map<VI, uint8_t> fixed;    // on the tile's edge or a class boundary
+  SurfaceMesh::Property_map<VI, uint32_t> orig;  // index into the tile's vertex arrays
+  SurfaceMesh::Property_map<VI, uint8_t> fixed;  // on the tile's edge or a class boundary
   SurfaceMesh::Property_map<FI, std::vector<uint32_t>> inside;  // removed originals in the face
   // Scratch of one evaluation.
   std::vector<std::array<VI, 3>> tris;
@@ -72,8 +72,10 @@ struct State {
       const VI a = sm.source(in_border), b = sm.target(sm.next(in_border));
       if (k != a && k != b) return std::nullopt;
       const Point &pa = sm.point(a), &pb = sm.point(b), &pr = sm.point(r);
-      const double cross = (pr.x() - pa.x()) * (pb.y() - pa.y()) - (pr.y() - pa.y()) * (pb.x() - pa.x());
-      const double dot = (pr.x() - pa.x()) * (pb.x() - pr.x()) + (pr.y() - pa.y()) * (pb.y() - pr.y());
+      const double cross =
+          (pr.x() - pa.x()) * (pb.y() - pa.y()) - (pr.y() - pa.y()) * (pb.x() - pa.x());
+      const double dot =
+          (pr.x() - pa.x()) * (pb.x() - pr.x()) + (pr.y() - pa.y()) * (pb.y() - pr.y());
       if (std::abs(cross) > 1e-9 || dot <= 0) return std::nullopt;
     }
     tris.clear();
@@ -89,7 +91,8 @@ struct State {
       const VI a = sm.target(sm.next(h)), b = sm.source(h);
       if (a == k || b == k) continue;  // the two triangles on the collapsed edge disappear
       const Point &pk = sm.point(k), &pa = sm.point(a), &pb = sm.point(b);
-      const double area2 = (pa.x() - pk.x()) * (pb.y() - pk.y()) - (pa.y() - pk.y()) * (pb.x() - pk.x());
+      const double area2 =
+          (pa.x() - pk.x()) * (pb.y() - pk.y()) - (pa.y() - pk.y()) * (pb.x() - pk.x());
       if (area2 <= 1e-9) return std::nullopt;  // the fan would fold over (x-y projection)
       tris.push_back({k, a, b});
     }
@@ -147,11 +150,14 @@ struct Placement {
 
 struct Cost {
   State* s;
-  boost::optional<double> operator()(const Profile& pr, const boost::optional<Point>& placement) const {
+  boost::optional<double> operator()(const Profile& pr,
+                                     const boost::optional<Point>& placement) const {
     if (!placement) return boost::none;
     const bool keep1 = *placement == pr.p1();
-    if (pr.v0() == s->last_v0 && pr.v1() == s->last_v1 && keep1 == s->last_keep1) return s->last_dev;
-    const auto d = keep1 ? s->evaluate(pr.v0(), pr.v1(), false) : s->evaluate(pr.v1(), pr.v0(), false);
+    if (pr.v0() == s->last_v0 && pr.v1() == s->last_v1 && keep1 == s->last_keep1)
+      return s->last_dev;
+    const auto d =
+        keep1 ? s->evaluate(pr.v0(), pr.v1(), false) : s->evaluate(pr.v1(), pr.v0(), false);
     if (!d) return boost::none;
     return *d;
   }
@@ -273,7 +279,8 @@ DecimationStats decimateTileMesh(TileMesh& m, double tol) {
   }
   for (VI v : sm.vertices()) {
     const Point& p = sm.point(v);
-    if (p.x() == xmin || p.x() == xmax || p.y() == ymin || p.y() == ymax || std::size_t(v) >= vi.size())
+    if (p.x() == xmin || p.x() == xmax || p.y() == ymin || p.y() == ymax ||
+        std::size_t(v) >= vi.size())
       s.fixed[v] = 1;
   }
   for (auto e : sm.edges()) {
@@ -288,8 +295,9 @@ DecimationStats decimateTileMesh(TileMesh& m, double tol) {
   for (VI v : sm.vertices())
     if (sm.halfedge(v) == SurfaceMesh::null_halfedge()) s.fixed[v] = 1;
   Visitor vis(&s);
-  SMS::edge_collapse(sm, NeverStop(),
-                     CGAL::parameters::get_cost(Cost{&s}).get_placement(Placement{&s}).visitor(vis));
+  SMS::edge_collapse(
+      sm, NeverStop(),
+      CGAL::parameters::get_cost(Cost{&s}).get_placement(Placement{&s}).visitor(vis));
   // Back to an indexed mesh of the kept original vertices.
   TileMesh out;
   out.name = m.name;

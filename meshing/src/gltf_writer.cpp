@@ -26,10 +26,13 @@ std::vector<unsigned char> encodePng(const Image& img) {
   cv::Mat rgb(img.height, img.width, img.channels == 3 ? CV_8UC3 : CV_8UC1,
               const_cast<uint8_t*>(img.data.data()));
   cv::Mat out;
-  if (img.channels == 3) cv::cvtColor(rgb, out, cv::COLOR_RGB2BGR);
-  else out = rgb;
+  if (img.channels == 3)
+    cv::cvtColor(rgb, out, cv::COLOR_RGB2BGR);
+  else
+    out = rgb;
   std::vector<unsigned char> png;
-  if (!cv::imencode(".png", out, png)) throw std::runtime_error("PNG encoding of a tile texture failed");
+  if (!cv::imencode(".png", out, png))
+    throw std::runtime_error("PNG encoding of a tile texture failed");
   return png;
 }
 
@@ -99,7 +102,8 @@ void writeGlb(const std::vector<TileMesh>& tiles, const std::string& path,
       lo = lo.cwiseMin(Eigen::Vector3d(p[0], p[1], p[2]));
       hi = hi.cwiseMax(Eigen::Vector3d(p[0], p[1], p[2]));
     }
-  const Eigen::Vector3d centre = tiles.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(0.5 * (lo + hi));
+  const Eigen::Vector3d centre =
+      tiles.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(0.5 * (lo + hi));
 
   tinygltf::Sampler sampler;
   sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
@@ -118,7 +122,8 @@ void writeGlb(const std::vector<TileMesh>& tiles, const std::string& path,
     pos.reserve(m.positions.size() * 3);
     std::vector<double> pmin(3, std::numeric_limits<double>::infinity()), pmax(3, -pmin[0]);
     for (const auto& p : m.positions) {
-      const float g[3] = {float(p[0] - centre.x()), float(p[2] - centre.z()), float(-(p[1] - centre.y()))};
+      const float g[3] = {float(p[0] - centre.x()), float(p[2] - centre.z()),
+                          float(-(p[1] - centre.y()))};
       for (int c = 0; c < 3; ++c) {
         pos.push_back(g[c]);
         pmin[c] = std::min(pmin[c], double(g[c]));
@@ -141,9 +146,9 @@ void writeGlb(const std::vector<TileMesh>& tiles, const std::string& path,
                                   m.positions.size(), pmin, pmax);
     const int a_uv = bb.accessor(bb.view(uv.data(), uv.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER),
                                  TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, m.uvs.size());
-    const int a_idx = bb.accessor(
-        bb.view(idx.data(), idx.size() * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
-        TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR, idx.size());
+    const int a_idx =
+        bb.accessor(bb.view(idx.data(), idx.size() * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
+                    TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR, idx.size());
 
     int material = -1;
     if (m.texture && !m.texture->empty()) {

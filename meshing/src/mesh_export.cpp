@@ -89,14 +89,16 @@ std::vector<TileMesh> extractTileMeshes(const TerrainMesh& mesh) {
 void writeObj(const std::vector<TileMesh>& tiles, const std::string& dir, const std::string& base) {
   std::ostringstream mtl, obj;
   mtl << "# TerraMRF textured terrain mesh: one material per tile\n";
-  obj << "# TerraMRF textured terrain mesh (paper 004): world frame x forward/north, y left, z up [m]\n";
+  obj << "# TerraMRF textured terrain mesh (paper 004): world frame x forward/north, y left, z up "
+         "[m]\n";
   obj << "mtllib " << base << ".mtl\n";
   char buf[160];
   std::size_t offset = 1;  // OBJ indices are 1-based and global
   for (const TileMesh& m : tiles) {
     const std::string png = "textures/" + m.name + ".png";
     if (m.texture) writeImageAtomic((fs::path(dir) / png).string(), *m.texture);
-    mtl << "\nnewmtl " << m.name << "\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nillum 1\nmap_Kd " << png << "\n";
+    mtl << "\nnewmtl " << m.name << "\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nillum 1\nmap_Kd " << png
+        << "\n";
     obj << "\no " << m.name << "\nusemtl " << m.name << "\n";
     for (const auto& p : m.positions) {
       std::snprintf(buf, sizeof buf, "v %.4f %.4f %.4f\n", p[0], p[1], p[2]);
@@ -125,10 +127,12 @@ void checkWritableFolder(const std::string& dir) {
                              (ec ? ec.message() : std::string("a file of that name exists")) +
                              "); expected a writable folder");
   }
-  const std::string probe = (fs::path(dir) / (".write_probe_" + std::to_string(::getpid()))).string();
+  const std::string probe =
+      (fs::path(dir) / (".write_probe_" + std::to_string(::getpid()))).string();
   std::FILE* f = std::fopen(probe.c_str(), "wb");
   if (!f) {
-    throw std::runtime_error("mesh output folder '" + dir + "' is not writable; expected a "
+    throw std::runtime_error("mesh output folder '" + dir +
+                             "' is not writable; expected a "
                              "writable folder");
   }
   std::fclose(f);
@@ -191,14 +195,16 @@ ExportStats exportMesh(const TerrainMesh& mesh, const std::string& dir,
     fs::rename(target, old, ec);
     if (ec) {
       fs::remove_all(tmp, ec);
-      throw std::runtime_error("mesh export: cannot replace '" + target.string() + "': " + ec.message());
+      throw std::runtime_error("mesh export: cannot replace '" + target.string() +
+                               "': " + ec.message());
     }
   }
   fs::rename(tmp, target, ec);
   if (ec) {
     const std::string why = ec.message();
     if (fs::exists(old)) fs::rename(old, target, ec);
-    throw std::runtime_error("mesh export: cannot move the new export to '" + target.string() + "': " + why);
+    throw std::runtime_error("mesh export: cannot move the new export to '" + target.string() +
+                             "': " + why);
   }
   fs::remove_all(old, ec);
   return st;

@@ -20,7 +20,8 @@ using VI = SurfaceMesh::Vertex_index;
 
 void writePly(const std::vector<TileMesh>& tiles, const std::string& path) {
   SurfaceMesh sm;
-  auto colour = sm.add_property_map<VI, CGAL::IO::Color>("v:color", CGAL::IO::Color(128, 128, 128)).first;
+  auto colour =
+      sm.add_property_map<VI, CGAL::IO::Color>("v:color", CGAL::IO::Color(128, 128, 128)).first;
   auto cls = sm.add_property_map<VI, uint8_t>("v:class", 0).first;
   std::size_t relinked = 0;
   for (const TileMesh& m : tiles) {
@@ -50,8 +51,10 @@ void writePly(const std::vector<TileMesh>& tiles, const std::string& path) {
   const std::string comments =
       "TerraMRF textured terrain mesh (paper 004); world frame [m]; class: 0 unknown, 1 ground, "
       "2 object, 3 tree, 4 building" +
-      (relinked ? "; " + std::to_string(relinked) + " triangles with duplicated corners" : std::string());
-  if (!CGAL::IO::write_PLY(os, sm, comments)) throw std::runtime_error("CGAL could not encode the PLY");
+      (relinked ? "; " + std::to_string(relinked) + " triangles with duplicated corners"
+                : std::string());
+  if (!CGAL::IO::write_PLY(os, sm, comments))
+    throw std::runtime_error("CGAL could not encode the PLY");
   writeFileAtomic(path, os.str());
 }
 
