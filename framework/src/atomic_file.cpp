@@ -135,16 +135,19 @@ void AtomicFileWriter::discard() {
   ::unlink(temp_.c_str());
 }
 
-void AtomicFileWriter::commit() {
+void AtomicFileWriter::checkWritten() {
   if (!buffer_ || buffer_->fd() < 0)
     throw std::runtime_error("cannot write output '" + path_ + "': already committed or discarded");
-  const int fd = buffer_->fd();
-  const bool written = buffer_->flush();
-  if (!written) {
+  if (!buffer_->flush()) {
     const std::string why = buffer_->error();
     discard();
     throw std::runtime_error("cannot write output '" + path_ + "': " + why);
   }
+}
+
+void AtomicFileWriter::commit() {
+  checkWritten();
+  const int fd = buffer_->fd();
   ::fchmod(fd, 0644);
   // A write error can surface only at fsync or close (a full disk, NFS); renaming then would
   // replace a good file with a short one.
@@ -155,7 +158,8 @@ void AtomicFileWriter::commit() {
   buffer_->release();
   if (!synced || !closed) {
     ::unlink(temp_.c_str());
-    throw std::runtime_error("cannot write output '" + path_ + "': " + (!synced ? sync_why : close_why));
+    throw std::runtime_error("cannot write output '" + path_ +
+                             "': " + (!synced ? sync_why : close_why));
   }
   if (::rename(temp_.c_str(), path_.c_str()) != 0) {
     const std::string why = std::strerror(errno);

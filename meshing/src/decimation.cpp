@@ -303,6 +303,11 @@ DecimationStats decimateTileMesh(TileMesh& m, double tol) {
   out.name = m.name;
   out.texture = m.texture;
   std::vector<int32_t> index(m.positions.size(), -1);
+  out.positions.reserve(sm.number_of_vertices());  // exact: every kept vertex is in a face
+  out.uvs.reserve(sm.number_of_vertices());
+  out.colours.reserve(sm.number_of_vertices());
+  out.classes.reserve(sm.number_of_vertices());
+  out.triangles.reserve(sm.number_of_faces());
   auto id = [&](VI v) -> uint32_t {
     const uint32_t q = s.orig[v];
     if (index[q] < 0) {

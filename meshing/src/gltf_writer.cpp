@@ -11,7 +11,6 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <sstream>
 #include <stdexcept>
 
 #include "terramrf/atomic_file.hpp"
@@ -198,14 +197,19 @@ void writeGlb(const std::vector<TileMesh>& tiles, const std::string& path,
   model.defaultScene = 0;
   model.buffers[0].data.resize((model.buffers[0].data.size() + 3) & ~std::size_t(3), 0);
 
-  std::ostringstream os(std::ios::binary);
+  // Streamed to the file: an encoded copy of the buffer in memory would double the peak.
+  AtomicFileWriter file(path);
   tinygltf::TinyGLTF writer;
-  if (!writer.WriteGltfSceneToStream(&model, os, false, true))
+  if (!writer.WriteGltfSceneToStream(&model, file.stream(), false, true)) {
+    file.checkWritten();  // a full disk names the file; else it was the encoding
     throw std::runtime_error("tinygltf could not encode the glTF model");
-  // The stream holds every byte (tinygltf truncates only the length fields it writes), so its
-  // size is the file's, JSON included: above the limit the header would lie about it.
-  checkGlbSize(std::uint64_t(os.tellp()), tiles.size(), max_bytes);
-  writeFileAtomic(path, os.str());
+  }
+  // Every byte went to the file (tinygltf truncates only the length fields it writes), so the
+  // count is the file's size, JSON included: above the limit the header would lie about it, and
+  // the file is not kept.
+  file.checkWritten();
+  checkGlbSize(file.bytes(), tiles.size(), max_bytes);
+  file.commit();
 }
 
 }  // namespace terramrf::meshing

@@ -4,7 +4,6 @@
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/Surface_mesh.h>
 
-#include <sstream>
 #include <stdexcept>
 
 #include "terramrf/atomic_file.hpp"
@@ -46,16 +45,20 @@ void writePly(const std::vector<TileMesh>& tiles, const std::string& path) {
       ++relinked;
     }
   }
-  std::ostringstream os(std::ios::binary);
+  // Streamed to the file: an encoded copy in memory would be another mesh's worth.
+  AtomicFileWriter file(path);
+  std::ostream& os = file.stream();
   CGAL::IO::set_binary_mode(os);
   const std::string comments =
       "TerraMRF textured terrain mesh (paper 004); world frame [m]; class: 0 unknown, 1 ground, "
       "2 object, 3 tree, 4 building" +
       (relinked ? "; " + std::to_string(relinked) + " triangles with duplicated corners"
                 : std::string());
-  if (!CGAL::IO::write_PLY(os, sm, comments))
+  if (!CGAL::IO::write_PLY(os, sm, comments)) {
+    file.checkWritten();  // a full disk names the file; else it was the encoding
     throw std::runtime_error("CGAL could not encode the PLY");
-  writeFileAtomic(path, os.str());
+  }
+  file.commit();
 }
 
 }  // namespace terramrf::meshing

@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -600,6 +601,38 @@ TEST(MeshExport, FailedExportKeepsThePreviousOne) {
   EXPECT_EQ(readFile(out + "/terrain.glb"), glb);
   for (const auto& e : fs::directory_iterator(dir.path()))
     EXPECT_EQ(e.path().filename(), "mesh") << "left behind: " << e.path();
+}
+
+// Each format is streamed to its file: a disk that fills up midway is an error naming that file
+// and the reason, and neither the file nor a temporary one is left.
+TEST(MeshExport, EachWriterNamesItsFileWhenTheDiskFills) {
+  Scene s;
+  const std::vector<TileMesh> tiles = extractTileMeshes(s.mesh);
+  ASSERT_FALSE(tiles.empty());
+  test::TempDir dir;
+  const std::string obj = (dir.path() / "terrain.obj").string();
+  const std::string ply = (dir.path() / "terrain.ply").string();
+  const std::string glb = (dir.path() / "terrain.glb").string();
+  const std::vector<std::pair<std::string, std::function<void()>>> writers = {
+      {obj, [&] { writeObj(tiles, dir.str(), "terrain"); }},
+      {ply, [&] { writePly(tiles, ply); }},
+      {glb, [&] { writeGlb(tiles, glb); }}};
+  for (const auto& [path, write] : writers) {
+    std::string what;
+    {
+      test::FileSizeLimit limit(8192);
+      ASSERT_TRUE(limit.ok());
+      try {
+        write();
+      } catch (const std::runtime_error& e) {
+        what = e.what();
+      }
+    }
+    EXPECT_EQ(what, "cannot write output '" + path + "': " + std::strerror(EFBIG)) << path;
+    EXPECT_FALSE(fs::exists(path)) << path;
+  }
+  for (const auto& e : fs::recursive_directory_iterator(dir.path()))
+    EXPECT_EQ(e.path().filename().string().find(".tmp."), std::string::npos) << "left behind: " << e.path();
 }
 
 // A .glb's total length and chunk lengths are uint32, and tinygltf truncates larger sizes without

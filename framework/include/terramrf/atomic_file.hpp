@@ -32,8 +32,11 @@ class AtomicFileWriter {
   std::ostream& stream();
   /// Bytes taken by stream() so far (buffered ones included).
   std::uint64_t bytes() const;
-  /// Flushes, syncs and renames; throws std::runtime_error naming the path on any failure (the
-  /// temporary file is then removed). Once only.
+  /// Flushes, and throws std::runtime_error naming the path if a write failed (the temporary
+  /// file is then removed): so an encoder that reports only "failed" can be told from a full disk.
+  void checkWritten();
+  /// checkWritten(), then syncs and renames; throws std::runtime_error naming the path on any
+  /// failure (the temporary file is then removed). Once only.
   void commit();
   /// Removes the temporary file now (a result found wrong after writing); `path` is untouched.
   void discard();
