@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "terramrf/atomic_file.hpp"
 #include "terramrf/lcm/grid_publisher.hpp"
 #include "terramrf/lcm/log_writer.hpp"
 #include "test_support.hpp"
@@ -295,15 +296,34 @@ TEST(LcmLogWriter, CutEventThatCannotBeRemovedStopsTheLog) {
   EXPECT_EQ(events[0].channel, "A");
 }
 
-TEST(LcmLogWriter, OpenFailureNamesTheFile) {
+// A missing folder is made, as for every output (`out/x.lcm` on a fresh clone); a folder that
+// cannot be made, or a path that cannot be opened, is an error naming it.
+TEST(LcmLogWriter, MakesItsFolderAndOpenFailureNamesTheFile) {
   test::TempDir dir;
   const std::string path = dir.str() + "/no/such/folder/run.lcmlog";
-  try {
+  {
     LcmLogWriter w(path, false);
-    FAIL() << "opened a log in a missing folder";
+    w.close();
+  }
+  EXPECT_TRUE(std::filesystem::is_regular_file(path));
+  writeFileAtomic(dir.str() + "/file", "x");
+  const std::string under_file = dir.str() + "/file/run.lcmlog";
+  try {
+    LcmLogWriter w(under_file, false);
+    FAIL() << "opened a log under a file";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(
+        std::string(e.what()).rfind(
+            "cannot create folder '" + dir.str() + "/file' for LCM log '" + under_file + "': ", 0),
+        0u)
+        << e.what();
+  }
+  try {
+    LcmLogWriter w(dir.str() + "/no", false);  // a folder
+    FAIL() << "opened a folder as a log";
   } catch (const std::runtime_error& e) {
     EXPECT_EQ(std::string(e.what()),
-              "cannot open LCM log '" + path + "' for writing: " + std::strerror(ENOENT));
+              "cannot open LCM log '" + dir.str() + "/no' for writing: " + std::strerror(EISDIR));
   }
 }
 

@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <filesystem>
 #include <mutex>
 #include <stdexcept>
 #include <vector>
@@ -98,6 +99,15 @@ struct LcmLogWriter::Impl {
 
 LcmLogWriter::LcmLogWriter(const std::string& path, bool append) : impl_(std::make_unique<Impl>()) {
   impl_->path = path;
+  // Its folder is made as every output's is (writeFileAtomic): `out/x.lcm` on a fresh clone.
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  std::error_code ec;
+  if (!parent.empty() && !std::filesystem::is_directory(parent)) {
+    std::filesystem::create_directories(parent, ec);
+    if (ec)
+      throw std::runtime_error("cannot create folder '" + parent.string() + "' for LCM log '" +
+                               path + "': " + ec.message());
+  }
   const int flags = O_WRONLY | O_CREAT | O_CLOEXEC | (append ? O_APPEND : O_TRUNC);
   do {
     impl_->fd = ::open(path.c_str(), flags, 0666);
