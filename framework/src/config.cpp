@@ -12,6 +12,7 @@
 
 #include "config_internal.hpp"
 #include "param_yaml.hpp"
+#include "terramrf/text_format.hpp"
 #include "terramrf/yaml_keys.hpp"
 
 namespace terramrf {
@@ -184,11 +185,6 @@ std::vector<std::string> presentKeys(const YAML::Node& root, const std::vector<s
   return out;
 }
 
-std::string joined(const std::vector<std::string>& v) {
-  std::string s;
-  for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + v[i];
-  return s;
-}
 }  // namespace
 
 void requireTopLevelMap(const YAML::Node& root, Diags& d, const std::string& expected) {
@@ -205,13 +201,13 @@ void refuseOtherKind(const YAML::Node& root, FileKind expected, Diags& d) {
   const auto sweep = presentKeys(root, kSweepOnlyKeys);
   const auto pipeline = presentKeys(root, kPipelineOnlyKeys);
   if (expected == FileKind::kPipeline && !sweep.empty() && pipeline.empty()) {
-    d.add(root.Mark(), "this is a sweep (it has " + joined(sweep) +
+    d.add(root.Mark(), "this is a sweep (it has " + joinNames(sweep, "") +
                            "): run it with 'terramrf compare'; run, train and mesh read a "
                            "pipeline config (version, grid, source, stages, outputs)");
     d.throwIfAny();
   }
   if (expected == FileKind::kSweep && !pipeline.empty() && sweep.empty()) {
-    d.add(root.Mark(), "this is a pipeline config (it has " + joined(pipeline) +
+    d.add(root.Mark(), "this is a pipeline config (it has " + joinNames(pipeline, "") +
                            "): run it with 'terramrf run' or 'terramrf train'; compare reads a "
                            "sweep (version, datasets, split, feature_sets, optimisers; "
                            "docs/compare.md)");
@@ -611,6 +607,10 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
   // stages + the order and read/write check
   detail::StageFlow flow(c);
   if (p.source) flow.source(*p.source, root["source"].Mark());
+  // A source that failed may have been the one to bring layers made elsewhere (Frame::grid):
+  // what it writes is unknown, so reads are not checked against it (as after a failed stage).
+  else if (root["source"])
+    flow.entryFailed();
   if (const auto st = root["stages"]) {
     if (!st.IsSequence()) {
       c.add(detail::valueMark(root, "stages"), "'stages' must be a list");

@@ -251,6 +251,29 @@ void requireDistinctFrameIds(const Source& src, std::size_t first, std::size_t n
       "in more than '/', ':' and spaces)");
 }
 
+// The layers a source received made (Frame::grid) become the frame's grid. A frame without
+// them fails, naming the source, the frame's file and what is missing: stages were let through
+// on the source's declaration (the loaders' read/write check).
+void adoptSourceGrid(const Source& source, const std::vector<std::string>& layers, const Frame& f,
+                     TerrainGrid& grid) {
+  const std::string who = "source '" + source.name() + "' (" + source.type() + ")";
+  if (!f.grid)
+    throw InputError(f.source_path, "has no grid, though " + who +
+                                        " declares that it writes grid layers (" +
+                                        joinNames(layers) + ") for every frame");
+  for (const auto& l : layers) {
+    if (l != artefacts::kLabels && !f.grid->has(l))
+      throw InputError(f.source_path, "has no grid layer '" + l + "', though " + who +
+                                          " declares that it writes it (layers received: " +
+                                          joinNames(f.grid->layerNames()) + ")");
+  }
+  try {
+    grid.adoptLayers(*f.grid);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(f.source_path, e.what());
+  }
+}
+
 /// Warns about a frame whose points nearly all miss the grid, which is centred on the sensor: a
 /// cloud stored in a map frame (a UTM PLY, a PCD without its VIEWPOINT) lies kilometres away, and
 /// it gave an all-unknown grid and exit 0 without a word. Under 1 % of the points inside is named,
@@ -414,6 +437,10 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
     return std::find(w.begin(), w.end(), artefacts::kPose) != w.end();
   };
   const bool source_poses = declaresPose(*p.source);
+  // Grid layers the source declares it receives made (Frame::grid): every frame must bring them.
+  std::vector<std::string> source_layers;
+  for (const auto& w : p.source->writes())
+    if (!artefacts::isFrameArtefact(w)) source_layers.push_back(w);
   std::vector<bool> stage_poses;
   for (const auto& s : p.stages) stage_poses.push_back(declaresPose(*s));
   // Only a pose an egomotion stage wrote is its estimate: a stage that leaves the source's own
@@ -523,6 +550,8 @@ RunResult runPipeline(Pipeline& p, const RunOptions& opt) {
       stage_name = "grid";
       t = Clock::now();
       grids[cur].reset(p.grid);
+      if (!source_layers.empty())
+        adoptSourceGrid(*p.source, source_layers, frames[cur], grids[cur]);
       grids[cur].binPoints(frames[cur].points);
       noteCloudOutsideGrid(frames[cur], grids[cur], res, log, opt.progress);
       slot_ms[slot++] = msSince(t);

@@ -24,19 +24,23 @@ std::string StageFlow::availableText() const {
 void StageFlow::source(const Source& s, const YAML::Mark& m) {
   source_ = "source '" + s.name() + "' (" + s.type() + ")";
   for (const auto& w : s.writes()) {
-    if (artefacts::isFrameArtefact(w)) {
-      addWrite(w);
-    } else {
-      // The grid is made from each frame after it is read (and after the egomotion stages):
-      // nothing a source did to a grid could survive, so the declaration is a plugin's mistake.
+    // Frame artefacts, and grid layers (with the label layer) that a source receives made
+    // elsewhere (Frame::grid). The rest the runner makes per frame, after the source.
+    if (w == artefacts::kPoints || w == artefacts::kEnergy || w == artefacts::kCellPixels) {
       d_.add(m,
              "declares that it writes '" + w +
-                 "', which a source cannot: the grid (its layers and point lists) is built from "
-                 "each frame after it is read, so a source provides the frame only (its points, "
-                 "and frame artefacts such as '" +
-                 artefacts::kPose + "')",
+                 "', which a source cannot: the runner bins each frame's points into the grid "
+                 "('" +
+                 artefacts::kPoints + "') after it is read, and the energy model ('" +
+                 artefacts::kEnergy + "') and the cameras' pixels per cell ('" +
+                 artefacts::kCellPixels +
+                 "') are made by stages; a source provides the frame (its points, frame "
+                 "artefacts such as '" +
+                 artefacts::kPose + "', and grid layers received with it: Frame::grid)",
              s.name(), s.type());
+      continue;
     }
+    addWrite(w);
   }
 }
 

@@ -24,6 +24,25 @@ void TerrainGrid::reset(const GridGeometry& g) {
   z_range_valid_ = false;
 }
 
+void TerrainGrid::adoptLayers(const TerrainGrid& from) {
+  const GridGeometry& g = from.geom_;
+  auto text = [](const TerrainGrid& t) {
+    const GridGeometry& x = t.geom_;
+    return std::to_string(t.rows_) + " x " + std::to_string(t.cols_) + " cells of " +
+           std::to_string(x.cell_m) + " m centred at (" + std::to_string(x.centre_m.x()) + ", " +
+           std::to_string(x.centre_m.y()) + ") m";
+  };
+  if (from.rows_ != rows_ || from.cols_ != cols_ || std::abs(g.cell_m - geom_.cell_m) > 1e-9 ||
+      (g.centre_m - geom_.centre_m).cwiseAbs().maxCoeff() > 1e-6)
+    throw std::invalid_argument("the grid received is " + text(from) + "; the run's is " +
+                                text(*this) + " (the config's grid)");
+  if (from.labels_.size() != cells())
+    throw std::invalid_argument("the grid received has " + std::to_string(from.labels_.size()) +
+                                " labels for " + std::to_string(cells()) + " cells");
+  for (const auto& [name, layer] : from.layers_) layers_[name] = layer;
+  labels_ = from.labels_;
+}
+
 const TerrainGrid::ZRange& TerrainGrid::zRange(const PointCloud& cloud) {
   if (cloud.size() != cell_of_point_.size())
     throw std::logic_error("TerrainGrid::zRange: the cloud has " + std::to_string(cloud.size()) +

@@ -53,4 +53,11 @@ std::string byteSize(double bytes) {
   return buf;
 }
 
+std::string joinNames(const std::vector<std::string>& names, const std::string& empty) {
+  if (names.empty()) return empty;
+  std::string s;
+  for (std::size_t k = 0; k < names.size(); ++k) s += (k ? ", " : "") + names[k];
+  return s;
+}
+
 }  // namespace terramrf

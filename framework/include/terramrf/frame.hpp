@@ -1,5 +1,6 @@
 #pragma once
 #include <Eigen/Geometry>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -7,6 +8,7 @@
 #include "terramrf/camera.hpp"
 #include "terramrf/label_set.hpp"
 #include "terramrf/point_cloud.hpp"
+#include "terramrf/terrain_grid.hpp"
 
 namespace terramrf {
 
@@ -69,6 +71,12 @@ struct Frame {
   /// Ouster scan), counted in the run's summary.
   std::size_t dropped_nonfinite_points = 0;
   std::size_t dropped_no_return_points = 0;
+  /// Grid layers computed elsewhere (another process's stages, received as terrain_grid_t), from
+  /// a source that lists their names in writes(): the runner starts the frame's grid from them
+  /// (and its label layer) instead of an empty one, then bins `points` as usually, so stages
+  /// after it (an energy and an optimiser) use them as if computed here. Its geometry must be
+  /// the run's. Null when the source made none (every reader of files).
+  std::shared_ptr<const TerrainGrid> grid;
 };
 
 /// Camera `i` of `f` as outputs name it in file names: its model's name, or "camera<i>" when it

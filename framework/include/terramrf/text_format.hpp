@@ -2,6 +2,7 @@
 // Quoting for the text formats the outputs and reports write (JSON, CSV), in one place so every
 // file escapes names the same way; sizes in messages.
 #include <string>
+#include <vector>
 
 namespace terramrf {
 
@@ -16,5 +17,8 @@ std::string csvField(const std::string& s);
 /// A memory or file size for messages, in binary units with three significant digits:
 /// "512 bytes", "1.5 KiB", "256 MiB", "45.8 GiB", "1.2 TiB" (`bytes` [bytes], may exceed 2^64).
 std::string byteSize(double bytes);
+
+/// Names for messages: "a, b, c", or `empty` when there are none.
+std::string joinNames(const std::vector<std::string>& names, const std::string& empty = "none");
 
 }  // namespace terramrf

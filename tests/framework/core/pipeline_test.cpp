@@ -6,6 +6,7 @@
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -1180,20 +1181,108 @@ TEST(Pipeline, AStageThatReadsThePoseNeedsASourceOrStageThatWritesIt) {
   ego.insert(ego.find("stages:\n") + 8, "  - {name: ego, type: test_egomotion}\n");
   const auto with_ego = loadErrors(f, reg, "ego.yaml", ego);
   EXPECT_TRUE(with_ego.empty()) << joinedLines(with_ego);
-  // A source declaring a grid layer: refused at the source (the stage after it writes it too).
-  const std::string layer =
-      test::ConfigFixture::validPipeline("{frames: 2, declared_writes: [height_diff]}");
-  const auto layer_errs = loadErrors(f, reg, "layer.yaml", layer);
-  EXPECT_EQ(layer_errs,
+  // A source may declare grid layers it receives made (Frame::grid), but not what the runner
+  // or stages make per frame.
+  const auto layer_errs =
+      loadErrors(f, reg, "layer.yaml",
+                 test::ConfigFixture::validPipeline("{frames: 2, declared_writes: [height_diff]}"));
+  EXPECT_TRUE(layer_errs.empty()) << joinedLines(layer_errs);
+  const std::string energy =
+      test::ConfigFixture::validPipeline("{frames: 2, declared_writes: ['@energy']}");
+  const auto energy_errs = loadErrors(f, reg, "energy.yaml", energy);
+  EXPECT_EQ(energy_errs,
             std::vector<std::string>{
-                f.dir.str() + "/layer.yaml:" + test::positionOf(layer, "{type: test_synthetic") +
-                ": stage 'test_synthetic' (test_synthetic): declares that it writes "
-                "'height_diff', which a source cannot: the grid (its layers and point lists) is "
-                "built from each frame after it is read, so a source provides the frame only (its "
-                "points, and frame artefacts such as '@pose')"})
-      << joinedLines(layer_errs);
+                f.dir.str() + "/energy.yaml:" + test::positionOf(energy, "{type: test_synthetic") +
+                ": stage 'test_synthetic' (test_synthetic): declares that it writes '@energy', "
+                "which a source cannot: the runner bins each frame's points into the grid "
+                "('@points') after it is read, and the energy model ('@energy') and the cameras' "
+                "pixels per cell ('@cell_pixels') are made by stages; a source provides the frame "
+                "(its points, frame artefacts such as '@pose', and grid layers received with it: "
+                "Frame::grid)"})
+      << joinedLines(energy_errs);
 }
 
+// A grid made elsewhere (another process's feature stages, received over LCM) comes with the
+// frame: the stages after the source use its layers as if computed here, and with them the
+// height-difference stage is not needed. A frame without it, without a declared layer, or with
+// another geometry fails, naming the frame's file and the source; the other frames go on.
+TEST(Pipeline, ASourcesGridLayersAreTheFramesAndAFrameWithoutThemFails) {
+  test::ConfigFixture f;
+  PluginRegistry reg(
+      {test::pluginDir(), std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_source"});
+  auto config = [](const std::string& source_params) {
+    std::string t = test::ConfigFixture::validPipeline(source_params);
+    t.erase(t.find("  - {name: hdiff"),
+            std::string("  - {name: hdiff, type: height_difference}\n").size());
+    t.replace(t.find("outputs: []"), 11,
+              "outputs: [{type: grid_csv, params: {layers: [height_diff]}}]");
+    return t;
+  };
+  auto run = [&](const std::string& name, const std::string& source_params) {
+    LoadOptions lo;
+    lo.output_dir = f.dir.str() + "/out_" + name;
+    Pipeline p = loadPipeline(f.write(name + ".yaml", config(source_params)), lo, reg);
+    RunOptions ro;
+    ro.progress = false;
+    std::ostringstream log;
+    ro.log = &log;
+    return std::make_pair(runPipeline(p, ro), lo.output_dir);
+  };
+  {
+    const auto [res, out] =
+        run("received", "{frames: 3, grid_layers: [height_diff], gridless_frames: [1]}");
+    EXPECT_EQ(res.summary.frames_ok, 2u);
+    ASSERT_EQ(res.summary.failed.size(), 1u);
+    EXPECT_EQ(res.summary.failed[0].first, "000001");
+    EXPECT_NE(res.summary.failed[0].second.find(
+                  "synthetic/000001.bin: has no grid, though source 'test_synthetic' "
+                  "(test_synthetic) declares that it writes grid layers (height_diff) for every "
+                  "frame"),
+              std::string::npos)
+        << res.summary.failed[0].second;
+    // Frame 2's layer as the source made it (2 in every cell), not as height_difference would.
+    const std::string csv = readFile(out + "/grid_csv/000002.csv");
+    const std::string header = csv.substr(0, csv.find('\n'));
+    ASSERT_NE(header.find("height_diff"), std::string::npos) << header;
+    std::istringstream rows(csv);
+    std::string line;
+    std::getline(rows, line);
+    std::size_t cells = 0;
+    const std::size_t column =
+        std::count(header.begin(), header.begin() + header.find("height_diff"), ',');
+    while (std::getline(rows, line)) {
+      std::vector<std::string> fields;
+      std::stringstream ls(line);
+      for (std::string x; std::getline(ls, x, ',');) fields.push_back(x);
+      ASSERT_GT(fields.size(), column) << line;
+      EXPECT_EQ(std::stod(fields[column]), 2.0) << line;
+      ++cells;
+    }
+    EXPECT_EQ(cells, 80u * 80u);
+  }
+  {
+    const auto [res, out] =
+        run("missing", "{frames: 2, grid_layers: [height_diff], declared_writes: [roughness]}");
+    EXPECT_EQ(res.summary.frames_ok, 0u);
+    ASSERT_EQ(res.summary.failed.size(), 2u);
+    EXPECT_NE(res.summary.failed[0].second.find(
+                  "synthetic/000000.bin: has no grid layer 'roughness', though source "
+                  "'test_synthetic' (test_synthetic) declares that it writes it (layers "
+                  "received: height_diff)"),
+              std::string::npos)
+        << res.summary.failed[0].second;
+  }
+  {
+    const auto [res, out] =
+        run("geometry", "{frames: 1, grid_layers: [height_diff], grid_cell_m: 0.25}");
+    ASSERT_EQ(res.summary.failed.size(), 1u);
+    EXPECT_NE(res.summary.failed[0].second.find(
+                  "synthetic/000000.bin: the grid received is 160 x 160 cells of 0.250000 m "
+                  "centred at (0.000000, 0.000000) m; the run's is 80 x 80 cells of 0.500000 m"),
+              std::string::npos)
+        << res.summary.failed[0].second;
+  }
+}
 
 // A writer of `@pose` promises a pose for every frame: the stages that read it were let through
 // on that promise. A frame that comes out of the source, or out of an egomotion stage, without

@@ -1,6 +1,8 @@
 // Test-only source: a flat ground plane with one box obstacle, known truth, and frames that can be
 // told to fail, so the runner's skip-and-report path and config checks are testable without data.
+#include <algorithm>
 #include <cmath>
+#include <memory>
 #include <random>
 
 #include "terramrf/plugin.hpp"
@@ -32,9 +34,18 @@ class SyntheticSource final : public Source {
           "every frame has a pose (the identity), and '@pose' is declared written");
     d.add("declared_writes", declared_writes_,
           "declared written besides the pose (tests of the read/write check; nothing is written)");
+    d.add("grid_layers", grid_layers_,
+          "grid layers every frame brings made (Frame::grid, as a received terrain_grid_t), "
+          "declared written; each cell of layer k holds 100·k + the frame index");
+    d.add("grid_cell_m", grid_cell_m_, "cell size of that grid; 0 = the run's")
+        .unit("m")
+        .range(0, 10);
+    d.add("gridless_frames", gridless_, "indices of frames that come without that grid");
   }
+  void configure(const PluginContext& ctx) override { run_grid_ = ctx.grid; }
   std::vector<std::string> writes() const override {
     std::vector<std::string> w = declared_writes_;
+    w.insert(w.end(), grid_layers_.begin(), grid_layers_.end());
     if (poses_ || truth_pose_) w.push_back(artefacts::kPose);
     return w;
   }
@@ -58,6 +69,15 @@ class SyntheticSource final : public Source {
     if (truth_pose_) {
       f.truth_pose = Eigen::Isometry3d(Eigen::Translation3d(double(i), 0, 0));
       f.pose = f.truth_pose;
+    }
+    if (!grid_layers_.empty() &&
+        std::find(gridless_.begin(), gridless_.end(), double(i)) == gridless_.end()) {
+      GridGeometry g = run_grid_;
+      if (grid_cell_m_ > 0) g.cell_m = grid_cell_m_;
+      auto grid = std::make_shared<TerrainGrid>(g);
+      for (std::size_t k = 0; k < grid_layers_.size(); ++k)
+        if (grid_layers_[k][0] != '@') grid->add(grid_layers_[k], float(100 * k + i));
+      f.grid = std::move(grid);
     }
     if (mode_ == "empty") return f;
     std::mt19937 rng(static_cast<unsigned>(i));
@@ -99,6 +119,10 @@ class SyntheticSource final : public Source {
   bool truth_pose_ = false;
   bool poses_ = false;
   std::vector<std::string> declared_writes_;
+  std::vector<std::string> grid_layers_;
+  double grid_cell_m_ = 0;
+  std::vector<double> gridless_;
+  GridGeometry run_grid_;
 };
 
 }  // namespace terramrf
