@@ -120,6 +120,25 @@ TEST(LcmConfigsE2E, RecordedLogReplaysToTheSameEvaluation) {
   }
   EXPECT_EQ(images, 5);
   EXPECT_EQ(rep.out.find("lcm: "), std::string::npos) << rep.out;  // no message went unused
+
+  // configs/lcm_classify.yaml, the classifier node of a pipeline split across processes, takes
+  // the feature layers from the grids the recording published and runs no feature stage: the
+  // same evaluation to the byte, and the same grid images.
+  const Result cls =
+      sh(test::cli() + " run " + test::sourceDir() +
+         "/configs/lcm_classify.yaml --no-progress --data " + log + " --out " + dir.str() + "/cls");
+  ASSERT_EQ(cls.status, 0) << cls.out;
+  EXPECT_NE(cls.out.find("5 of 5 frame(s) ok"), std::string::npos) << cls.out;
+  EXPECT_EQ(a, terramrf::readFile(dir.str() + "/cls/evaluation/summary.json"));
+  const std::string timing = terramrf::readFile(dir.str() + "/cls/timing.md");
+  EXPECT_EQ(timing.find("| rough |"), std::string::npos) << timing;  // no feature stage ran
+  for (const auto& e : std::filesystem::directory_iterator(dir.str() + "/rec/grid")) {
+    const std::string name = e.path().filename().string();
+    if (name.find("image_2") != std::string::npos) continue;  // cameras not read here
+    EXPECT_EQ(terramrf::readFile(e.path().string()),
+              terramrf::readFile(dir.str() + "/cls/grid/" + name))
+        << name;
+  }
 }
 
 // A recorder (lcm_publish with publish_grid: false, no stage) and the textured mesh from the

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "terramrf/lcm/camera_codec.hpp"
+#include "terramrf/lcm/grid_codec.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
@@ -63,6 +64,36 @@ TEST_F(ScanAssemblerTest, ScanIsReadyOnceItHasWhatItsChannelsPromise) {
   EXPECT_TRUE(r->scan->pose && r->scan->labels);
   EXPECT_EQ(r->scan->points.source, "channel P (scan 'a')");
   EXPECT_TRUE(a.empty());
+}
+
+// A grid made by another process (a feature node) is one more message a scan waits for: before
+// its cloud (as lcm_publish sends it: the points last) or after it; two for one scan are an error
+// of that scan.
+TEST_F(ScanAssemblerTest, ScanWaitsForItsGridWhenAGridChannelIsRead) {
+  ScanAssembler::Options o;
+  o.channels.points = "P";
+  o.channels.grid = "G";
+  o.wait_s = 0.5;
+  ScanAssembler a(o);
+  GridGeometry geom;
+  geom.size_m = 2;
+  const MessageBytes ga = encodeGrid(TerrainGrid(geom), LabelSet::defaults(), {"a", "lidar", 0});
+  const MessageBytes gb = encodeGrid(TerrainGrid(geom), LabelSet::defaults(), {"b", "lidar", 0});
+  add(a, "G", ga, 0.0);  // held
+  add(a, "P", cloud("a", 1.0), 0.1);
+  auto r = a.pop(0.1);
+  ASSERT_TRUE(r && r->scan);
+  ASSERT_TRUE(r->scan->grid);
+  EXPECT_EQ(r->scan->grid->bytes, std::vector<std::uint8_t>(ga.begin(), ga.end()));
+  add(a, "P", cloud("b", 2.0), 0.2);
+  EXPECT_FALSE(a.pop(0.2));  // its grid still missing
+  add(a, "G", gb, 0.3);
+  add(a, "G", gb, 0.3);
+  r = a.pop(0.3);
+  ASSERT_TRUE(r);
+  EXPECT_FALSE(r->scan);
+  EXPECT_NE(r->error.find("two terrain_grid_t messages for scan 'b'"), std::string::npos)
+      << r->error;
 }
 
 TEST_F(ScanAssemblerTest, WaitRunsOutAndLateMessagesAreCounted) {

@@ -68,8 +68,9 @@ class Fuzzer:
                 os.remove(link)
             if not os.path.lexists(link):
                 os.symlink(self.data, link)
-            # configs/lcm_replay.yaml reads the log configs/lcm_record.yaml writes (out/ of the
-            # working folder, the tree here): record one scan so the replay has its log.
+            # configs/lcm_replay.yaml and lcm_classify.yaml read the log configs/lcm_record.yaml
+            # writes (out/ of the working folder, the tree here): record one scan so that they
+            # have their log.
             tree = os.path.dirname(self.configs)
             rc, out = self.run([self.bin, 'run', 'configs/lcm_record.yaml', '--limit', '1',
                                 '--no-progress', '--out', os.path.join(tree, 'out', 'record')],
@@ -382,7 +383,8 @@ class Fuzzer:
             'config-validate': glob.glob(configs + '/*.yaml') + glob.glob(configs + '/train/*.yaml'),
             'config-run': [configs + '/demo.yaml', configs + '/semantickitti.yaml',
                            configs + '/mesh_demo.yaml', configs + '/mesh_kitti.yaml',
-                           configs + '/mesh_rellis.yaml', configs + '/lcm_replay.yaml'],
+                           configs + '/mesh_rellis.yaml', configs + '/lcm_replay.yaml',
+                           configs + '/lcm_classify.yaml'],
             'sweep': glob.glob(configs + '/sweeps/*.yaml'),
             'train': glob.glob(configs + '/train/*.yaml'),
             'compare': [configs + '/sweeps/simulator.yaml'],

@@ -69,23 +69,28 @@ DecodedPointLabels decodePointLabels(const void* data, std::size_t size,
   return out;
 }
 
-PointLabels mapPointLabels(DecodedPointLabels decoded, const LabelSet& labels,
-                           const std::string& source) {
-  std::vector<LabelId> to(decoded.label_names.size(), labels::kUnknown);
-  std::vector<bool> used(decoded.label_names.size(), false);
-  for (LabelId l : decoded.truth.label) used[l] = true;
-  for (std::size_t id = 1; id < decoded.label_names.size(); ++id) {
-    const int mine = labels.find(decoded.label_names[id]);
+void mapLabelsByName(std::vector<LabelId>& ids, const std::vector<std::string>& names,
+                     const LabelSet& labels, const std::string& source, const std::string& type) {
+  std::vector<LabelId> to(names.size(), labels::kUnknown);
+  std::vector<bool> used(names.size(), false);
+  for (LabelId l : ids) used[l] = true;
+  for (std::size_t id = 1; id < names.size(); ++id) {
+    const int mine = labels.find(names[id]);
     if (mine < 0 && used[id]) {
       std::string have;
       for (const std::string& n : labels.names()) have += (have.empty() ? "" : ", ") + n;
-      throw InputError(source, "point_labels_t: class \"" + decoded.label_names[id] +
+      throw InputError(source, type + ": class \"" + names[id] +
                                    "\" is not in this run's label set (" + have +
                                    "); add it to the config's labels or send mapped labels");
     }
     if (mine >= 0) to[id] = static_cast<LabelId>(mine);
   }
-  for (LabelId& l : decoded.truth.label) l = to[l];
+  for (LabelId& l : ids) l = to[l];
+}
+
+PointLabels mapPointLabels(DecodedPointLabels decoded, const LabelSet& labels,
+                           const std::string& source) {
+  mapLabelsByName(decoded.truth.label, decoded.label_names, labels, source, "point_labels_t");
   return std::move(decoded.truth);
 }
 

@@ -15,8 +15,10 @@ ScanAssembler::ScanAssembler(Options options) : o_(std::move(options)) {}
 bool ScanAssembler::complete(const Waiting& w) const {
   for (const std::string& c : o_.cameras)
     if (!w.cameras.image_of.count(c) || !w.cameras.info_of.count(c)) return false;
-  return (o_.channels.labels.empty() || w.scan.labels) && (o_.channels.pose.empty() || w.scan.pose) &&
-         (o_.channels.truth_pose.empty() || w.scan.truth_pose);
+  return (o_.channels.labels.empty() || w.scan.labels) &&
+         (o_.channels.pose.empty() || w.scan.pose) &&
+         (o_.channels.truth_pose.empty() || w.scan.truth_pose) &&
+         (o_.channels.grid.empty() || w.scan.grid);
 }
 
 void ScanAssembler::placeCamera(int kind, const std::string& id, const std::string& camera,
@@ -76,7 +78,7 @@ void ScanAssembler::evictHeld() {
 
 std::size_t ScanAssembler::bytes(const Held& h) {
   std::size_t n = 0;
-  for (const auto* m : {&h.labels, &h.pose, &h.truth_pose})
+  for (const auto* m : {&h.labels, &h.pose, &h.truth_pose, &h.grid})
     if (*m) n += (*m)->bytes.size();
   for (const auto* v : {&h.cameras.images, &h.cameras.infos, &h.cameras.truths})
     for (const ScanMessage& m : *v) n += m.bytes.size();
@@ -111,7 +113,8 @@ void ScanAssembler::place(std::optional<ScanMessage> Held::*held_slot,
 
 std::size_t ScanAssembler::messages(const Held& h) {
   return std::size_t(h.labels.has_value()) + h.pose.has_value() + h.truth_pose.has_value() +
-         h.cameras.images.size() + h.cameras.infos.size() + h.cameras.truths.size();
+         h.grid.has_value() + h.cameras.images.size() + h.cameras.infos.size() +
+         h.cameras.truths.size();
 }
 
 void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, std::size_t size,
@@ -120,7 +123,7 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
   const bool read = channel == ch.points || channel == ch.labels || channel == ch.pose ||
                     channel == ch.truth_pose || channel == ch.imu || channel == ch.gps ||
                     channel == ch.odometry || channel == ch.images || channel == ch.camera_info ||
-                    channel == ch.image_truth;
+                    channel == ch.image_truth || channel == ch.grid;
   if (channel.empty() || !read) return;
   const std::optional<MessageStamp> stamp = peekMessageStamp(data, size);
   const std::string type = stamp ? stamp->type : "";
@@ -137,6 +140,7 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
       w.scan.labels = std::move(held->second.labels);
       w.scan.pose = std::move(held->second.pose);
       w.scan.truth_pose = std::move(held->second.truth_pose);
+      w.scan.grid = std::move(held->second.grid);
       w.error = held->second.error;
       held_bytes_ -= bytes(held->second);
       w.cameras = std::move(held->second.cameras);
@@ -164,7 +168,8 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
   const bool labels = type == "point_labels_t" && channel == ch.labels;
   const bool pose = type == "pose_t" && channel == ch.pose;
   const bool truth = type == "pose_t" && channel == ch.truth_pose;
-  if ((labels || pose || truth) && stamp->frame_id.empty()) {
+  const bool grid = type == "terrain_grid_t" && channel == ch.grid;
+  if ((labels || pose || truth || grid) && stamp->frame_id.empty()) {
     ++counts_.unnamed;
     return;
   }
@@ -183,6 +188,7 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
   if (truth)
     return place(&Held::truth_pose, &ScanMessages::truth_pose, type, stamp->frame_id,
                  std::move(m));
+  if (grid) return place(&Held::grid, &ScanMessages::grid, type, stamp->frame_id, std::move(m));
   const int kind = type == "imu_t" && channel == ch.imu           ? 0
                    : type == "gps_t" && channel == ch.gps         ? 1
                    : type == "odometry_t" && channel == ch.odometry ? 2

@@ -3,6 +3,7 @@
 #include <utility>
 
 #include "terramrf/errors.hpp"
+#include "terramrf/plugin.hpp"
 
 namespace terramrf {
 
@@ -42,6 +43,15 @@ void declareScanChannels(ParamDecl& d, ScanChannelParams& p) {
         "cameras every scan carries, an image and a calibration each (e.g. [image_2]); empty = "
         "images are not read")
       .unique();
+  d.add("grid_channel", ch.grid,
+        "channel of terrain_grid_t grids whose layers another process computed (a feature node: "
+        "lcm_publish with publish_grid), matched to scans by frame_id; every scan must have "
+        "one, of the run's grid geometry; empty = the grid is built here from the points alone");
+  d.add("grid_layers", p.grid_layers,
+        "layers taken from those grids, which the stages after the source then read as if "
+        "computed here (e.g. [height_diff, log_roughness]); '@labels' takes their label layer "
+        "too (classes mapped by name; for outputs of another process's classification)")
+      .unique();
 }
 
 void checkScanChannels(const ScanChannelParams& p) {
@@ -64,6 +74,19 @@ void checkScanChannels(const ScanChannelParams& p) {
                                     ", but cameras lists none; name the cameras to read (e.g. "
                                     "cameras: [image_2]) or leave the channel empty");
   }
+  if (!ch.grid.empty() && p.grid_layers.empty())
+    throw ParamError("grid_layers", "is empty, but grid_channel is " + ch.grid +
+                                        "; name the layers the stages after the source read "
+                                        "from those grids (e.g. [height_diff])");
+  if (ch.grid.empty() && !p.grid_layers.empty())
+    throw ParamError("grid_channel", "is empty, but grid_layers lists " +
+                                         std::to_string(p.grid_layers.size()) +
+                                         " layer(s); expected the channel of their grids (e.g. "
+                                         "TERRAMRF_GRID)");
+  for (const std::string& l : p.grid_layers)
+    if (l.empty() || (l[0] == '@' && l != artefacts::kLabels))
+      throw ParamError("grid_layers", "lists '" + l + "'; expected layer names, or '" +
+                                          artefacts::kLabels + "' for the grids' label layer");
   if (!p.cameras.empty() && ch.images.empty())
     throw ParamError("images_channel", "is empty, but cameras lists " +
                                            std::to_string(p.cameras.size()) +
@@ -73,6 +96,12 @@ void checkScanChannels(const ScanChannelParams& p) {
                      "is empty, but cameras lists " + std::to_string(p.cameras.size()) +
                          " camera(s) whose calibration it carries; expected e.g. "
                          "TERRAMRF_GRID_CAMERA_INFO");
+}
+
+std::vector<std::string> scanWrites(const ScanChannelParams& p) {
+  std::vector<std::string> w = p.grid_layers;
+  if (!p.channels.pose.empty()) w.push_back(artefacts::kPose);
+  return w;
 }
 
 ScanOptions scanOptions(const ScanChannelParams& p, const LabelSet& labels, bool drop_no_return,
@@ -85,6 +114,8 @@ ScanOptions scanOptions(const ScanChannelParams& p, const LabelSet& labels, bool
   o.cameras = p.cameras;
   o.images_channel = p.channels.images;
   o.camera_info_channel = p.channels.camera_info;
+  o.grid_channel = p.channels.grid;
+  o.grid_layers = p.grid_layers;
   return o;
 }
 

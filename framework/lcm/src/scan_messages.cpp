@@ -8,10 +8,13 @@
 
 #include "terramrf/errors.hpp"
 #include "terramrf/lcm/camera_codec.hpp"
-#include "terramrf/lcm/message_peek.hpp"
+#include "terramrf/lcm/grid_codec.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
+#include "terramrf/lcm/message_peek.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
+#include "terramrf/plugin.hpp"
+#include "terramrf/text_format.hpp"
 
 namespace terramrf {
 
@@ -133,6 +136,33 @@ CameraImage camera(const ScanMessages& m, Decoded& d, const ScanOptions& o,
   return c;
 }
 
+// The layers of a scan's terrain_grid_t that the source declares (options.grid_layers), with its
+// label layer in the run's class ids.
+std::shared_ptr<const TerrainGrid> receivedGrid(const ScanMessage& g, const ScanOptions& o,
+                                                const LabelSet& labels, const std::string& id) {
+  DecodedGrid d = decodeGrid(g.bytes.data(), g.bytes.size(), g.source);
+  auto grid = std::make_shared<TerrainGrid>(d.grid.geometry());
+  for (const std::string& l : o.grid_layers) {
+    const bool have = l == artefacts::kLabels ? d.has_labels : d.grid.has(l);
+    if (!have)
+      throw InputError(
+          g.source,
+          "terrain_grid_t of scan '" + id + "' has no " +
+              (l == artefacts::kLabels ? std::string("label layer") : "layer '" + l + "'") +
+              " (grid_layers lists it); its layers: " + joinNames(d.grid.layerNames()) +
+              (d.has_labels ? ", and labels" : ", no labels"));
+    if (l != artefacts::kLabels) grid->add(l) = std::move(d.grid.layer(l));
+  }
+  // Its labels only when asked for: a stage after the source that reads no '@labels' must not
+  // start from another process's classification without saying so.
+  if (std::find(o.grid_layers.begin(), o.grid_layers.end(), artefacts::kLabels) !=
+      o.grid_layers.end()) {
+    mapLabelsByName(d.grid.labels(), d.label_names, labels, g.source, "terrain_grid_t");
+    grid->labels() = std::move(d.grid.labels());
+  }
+  return grid;
+}
+
 }  // namespace
 
 Frame frameFromMessages(const ScanMessages& m, const ScanOptions& o) {
@@ -179,6 +209,14 @@ Frame frameFromMessages(const ScanMessages& m, const ScanOptions& o) {
       throw InputError(t.source, "ground-truth pose of '" + p.child_frame +
                                      "'; expected the LiDAR's (child_frame \"lidar\")");
     f.truth_pose = p.pose;
+  }
+  if (m.grid) {
+    f.grid = receivedGrid(*m.grid, o, labels, f.id);
+  } else if (!o.grid_channel.empty()) {
+    throw InputError(m.points.source, "no terrain_grid_t on channel " + o.grid_channel +
+                                          " for scan '" + f.id +
+                                          "'; a grid channel is read, so every scan needs its "
+                                          "grid");
   }
   dropUnusablePoints(f, o.drop_no_return);
   for (const ScanMessage& s : m.imu)

@@ -41,11 +41,17 @@ class LcmLogSource : public Source {
     }
     // A channel that the log does not carry at all is a typo or the wrong log, not "no data".
     const std::pair<const char*, const std::string*> asked[] = {
-        {"points_channel", &ch_.points},     {"labels_channel", &ch_.labels},
-        {"pose_channel", &ch_.pose},         {"truth_pose_channel", &ch_.truth_pose},
-        {"imu_channel", &ch_.imu},           {"gps_channel", &ch_.gps},
-        {"odometry_channel", &ch_.odometry}, {"images_channel", &ch_.images},
-        {"camera_info_channel", &ch_.camera_info}, {"image_truth_channel", &ch_.image_truth}};
+        {"points_channel", &ch_.points},
+        {"labels_channel", &ch_.labels},
+        {"pose_channel", &ch_.pose},
+        {"truth_pose_channel", &ch_.truth_pose},
+        {"imu_channel", &ch_.imu},
+        {"gps_channel", &ch_.gps},
+        {"odometry_channel", &ch_.odometry},
+        {"images_channel", &ch_.images},
+        {"camera_info_channel", &ch_.camera_info},
+        {"image_truth_channel", &ch_.image_truth},
+        {"grid_channel", &ch_.grid}};
     for (const auto& [param, channel] : asked) {
       if (channel->empty() || index_.channel_events.count(*channel)) continue;
       std::string have;
@@ -74,10 +80,7 @@ class LcmLogSource : public Source {
   std::vector<std::string> cameraNames() const override { return sp_.cameras; }
 
   /// Every scan has a pose when a pose channel is read: one without fails (read()).
-  std::vector<std::string> writes() const override {
-    return ch_.pose.empty() ? std::vector<std::string>{}
-                            : std::vector<std::string>{artefacts::kPose};
-  }
+  std::vector<std::string> writes() const override { return scanWrites(sp_); }
 
   std::size_t size() const override { return index_.frames.size(); }
   std::string frameId(std::size_t i) const override { return index_.frames.at(i).id; }
@@ -98,6 +101,7 @@ class LcmLogSource : public Source {
     if (lf.labels) m.labels = message(*lf.labels);
     if (lf.pose) m.pose = message(*lf.pose);
     if (lf.truth_pose) m.truth_pose = message(*lf.truth_pose);
+    if (lf.grid) m.grid = message(*lf.grid);
     for (std::int64_t at : lf.imu) m.imu.push_back(message(at));
     for (std::int64_t at : lf.gps) m.gps.push_back(message(at));
     for (std::int64_t at : lf.odometry) m.odometry.push_back(message(at));

@@ -90,10 +90,7 @@ class LcmSubscribeSource : public StreamSource {
   /// The cameras listed (their images and calibrations come with every scan).
   std::vector<std::string> cameraNames() const override { return sp_.cameras; }
 
-  std::vector<std::string> writes() const override {
-    return ch_.pose.empty() ? std::vector<std::string>{}
-                            : std::vector<std::string>{artefacts::kPose};
-  }
+  std::vector<std::string> writes() const override { return scanWrites(sp_); }
 
   std::optional<Frame> next() override {
     if (ended_) return std::nullopt;
@@ -145,8 +142,8 @@ class LcmSubscribeSource : public StreamSource {
     } catch (const std::exception& e) {
       fail(e.what());
     }
-    std::vector<std::string> channels = {ch_.points, ch_.labels, ch_.pose,   ch_.truth_pose,
-                                         ch_.imu,    ch_.gps,    ch_.odometry};
+    std::vector<std::string> channels = {ch_.points, ch_.labels, ch_.pose,     ch_.truth_pose,
+                                         ch_.imu,    ch_.gps,    ch_.odometry, ch_.grid};
     if (!sp_.cameras.empty()) {
       channels.push_back(ch_.images);
       channels.push_back(ch_.camera_info);

@@ -8,6 +8,7 @@
 
 #include "terramrf/errors.hpp"
 #include "terramrf/lcm/camera_codec.hpp"
+#include "terramrf/lcm/grid_codec.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/log_writer.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
@@ -115,6 +116,86 @@ TEST_F(LcmLogSourceTest, ReadsScansWithTheirTruthPosesAndSamples) {
   EXPECT_DOUBLE_EQ(b.pose->translation().x(), 2.0);
   ASSERT_EQ(b.imu.size(), 1u);
   EXPECT_DOUBLE_EQ(b.imu[0].t_s, 0.15);
+}
+
+// A grid made by another process (its feature stages): the declared layers, exactly as sent,
+// become Frame::grid, its labels only when '@labels' is asked for (mapped by class name into the
+// run's ids). A grid without a declared layer fails its scan naming the event; a scan without
+// a grid fails naming the channel; the other scans read.
+TEST_F(LcmLogSourceTest, GridsMadeElsewhereComeWithTheirScans) {
+  GridGeometry geom;  // the run's (ctx_.grid), 80 x 80 cells of 0.5 m
+  auto grid = [&](const std::string& id, float value, bool with_roughness) {
+    TerrainGrid g(geom);
+    g.add("height_diff", value).at(0) = 0.123456789f;
+    if (with_roughness) g.add("roughness", 2 * value);
+    g.add("other", 7);
+    g.labels()[5] = labels::kObstacle;
+    // The sender orders its classes otherwise: mapped by name, not id.
+    LabelSet sender({{"unknown", {0, 0, 0}},
+                     {"obstacle", {1, 1, 1}},
+                     {"road", {2, 2, 2}},
+                     {"rough", {3, 3, 3}}});
+    g.labels()[5] = 1;
+    return encodeGrid(g, sender, {id, "lidar", 0});
+  };
+  {
+    LcmLogWriter w(log(), false);
+    put(w, "G", grid("a", 0.5f, true));
+    put(w, "G_POINTS", cloud("a", 0.1));
+    put(w, "G_POINTS", cloud("b", 0.2));  // no grid
+    put(w, "G", grid("c", 1.5f, false));  // no roughness
+    put(w, "G_POINTS", cloud("c", 0.3));
+    w.close();
+  }
+  ctx_.grid = geom;
+  auto src = make(
+      "points_channel: G_POINTS, grid_channel: G, grid_layers: [height_diff, "
+      "roughness, '@labels']");
+  EXPECT_EQ(src->writes(), (std::vector<std::string>{"height_diff", "roughness", "@labels"}));
+  const Frame a = src->read(0);
+  ASSERT_TRUE(a.grid);
+  EXPECT_EQ(a.grid->layerNames(), (std::vector<std::string>{"height_diff", "roughness"}));
+  EXPECT_EQ(a.grid->layer("height_diff")[0], 0.123456789f);
+  EXPECT_EQ(a.grid->layer("height_diff")[1], 0.5f);
+  EXPECT_EQ(a.grid->layer("roughness")[9], 1.0f);
+  EXPECT_EQ(a.grid->labels()[5], labels::kObstacle);
+  EXPECT_EQ(a.grid->labels()[6], labels::kUnknown);
+  try {
+    src->read(1);
+    FAIL() << "a scan without its grid was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no terrain_grid_t on channel G for scan 'b'; a grid "
+                                         "channel is read, so every scan needs its grid"),
+              std::string::npos)
+        << e.what();
+  }
+  try {
+    src->read(2);
+    FAIL() << "a grid without a declared layer was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(" (G): terrain_grid_t of scan 'c' has no layer "
+                                         "'roughness' (grid_layers lists it); its layers: "
+                                         "height_diff, other, and labels"),
+              std::string::npos)
+        << e.what();
+  }
+  // Without '@labels' the grid's labels stay behind.
+  auto layers_only = make("points_channel: G_POINTS, grid_channel: G, grid_layers: [height_diff]");
+  EXPECT_EQ(layers_only->read(0).grid->labels()[5], labels::kUnknown);
+  // A grid channel without layers, and layers without a channel, are refused.
+  const std::pair<std::string, std::string> refused[] = {
+      {"grid_channel: G", "parameter 'grid_layers': is empty, but grid_channel is G"},
+      {"grid_layers: [height_diff]", "parameter 'grid_channel': is empty, but grid_layers lists 1"},
+      {"grid_channel: G, grid_layers: ['@energy']",
+       "parameter 'grid_layers': lists '@energy'; expected layer names, or '@labels'"}};
+  for (const auto& [params, expected] : refused) {
+    try {
+      make("points_channel: G_POINTS, " + params);
+      ADD_FAILURE() << params << " accepted";
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST_F(LcmLogSourceTest, WithoutAPoseChannelItWritesNoPose) {

@@ -27,6 +27,13 @@ struct DecodedPointLabels {
 DecodedPointLabels decodePointLabels(const void* data, std::size_t size,
                                      const std::string& source = "point_labels_t");
 
+/// `ids`, numbered by the sender's class `names`, in place into the ids of `labels` (the
+/// receiving run's classes), matched by name. Throws InputError (file = `source`) naming a class
+/// that some id carries and `labels` lacks, listing those it has (`type`, the message's, leads
+/// the message); names no id carries need no counterpart. Id 0 is unknown on both sides.
+void mapLabelsByName(std::vector<LabelId>& ids, const std::vector<std::string>& names,
+                     const LabelSet& labels, const std::string& source, const std::string& type);
+
 /// The decoded labels in the ids of `labels` (the receiving run's classes), matched by name.
 /// Throws InputError (file = `source`) naming a class that some point carries and `labels`
 /// lacks, listing those it has: a class silently dropped to unknown would be one never scored.

@@ -97,7 +97,7 @@ class ScanAssembler {
     std::string error;  ///< two labels or poses for it
   };
   struct Held {
-    std::optional<ScanMessage> labels, pose, truth_pose;
+    std::optional<ScanMessage> labels, pose, truth_pose, grid;
     Cameras cameras;
     std::string error;
   };

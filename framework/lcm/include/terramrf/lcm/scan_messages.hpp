@@ -25,6 +25,7 @@ struct ScanMessages {
   std::vector<ScanMessage> imu, gps, odometry;
   std::vector<ScanMessage> images, camera_infos;  ///< image_t and camera_info_t, any order
   std::vector<ScanMessage> image_truths;           ///< image_t of per-pixel truth (optional)
+  std::optional<ScanMessage> grid;  ///< terrain_grid_t of layers made elsewhere (optional)
 };
 
 struct ScanOptions {
@@ -37,15 +38,22 @@ struct ScanOptions {
   /// empty = images are not read.
   std::vector<std::string> cameras;
   std::string images_channel, camera_info_channel;  ///< for errors
+  /// Set when every scan must have a grid made elsewhere (a grid channel is read): the channel,
+  /// for errors, and the layers to take from it (Frame::grid); "@labels" takes its label layer.
+  std::string grid_channel;
+  std::vector<std::string> grid_layers;
 };
 
 /// Decodes every message into a Frame: the cloud (which must be in the "lidar" frame), ground
 /// truth mapped by class name (one label per point), Frame::pose and covariance, the truth
 /// pose, the samples in time order, and the images of `options.cameras` with their
-/// calibrations (the image's size must be the calibration's). Points with a NaN/inf coordinate or intensity, and
-/// no-returns at (0, 0, 0) if asked, are dropped and counted as every reader does, with their
-/// labels, rings and times. Throws InputError naming the message's source for anything that
-/// cannot be decoded or does not fit, and the scan's pose channel if it lacks a required pose.
+/// calibrations (the image's size must be the calibration's). Points with a NaN/inf coordinate or
+/// intensity, and no-returns at (0, 0, 0) if asked, are dropped and counted as every reader does,
+/// with their labels, rings and times. Throws InputError naming the message's source for anything
+/// that cannot be decoded or does not fit, and the scan's pose channel if it lacks a required pose.
+/// With a grid channel, Frame::grid holds `options.grid_layers` of the scan's terrain_grid_t
+/// (and its label layer, classes mapped by name): a grid without one of them, or a scan without
+/// a grid, is an error naming the message or the channel.
 Frame frameFromMessages(const ScanMessages& messages, const ScanOptions& options);
 
 /// The dropping above, on its own: for a frame whose points came from elsewhere.
