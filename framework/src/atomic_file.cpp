@@ -43,11 +43,23 @@ class AtomicFileWriter::Buffer : public std::streambuf {
   explicit Buffer(int fd) : fd_(fd) {}
   int fd() const { return fd_; }
   const std::string& error() const { return error_; }
-  std::uint64_t bytes() const { return flushed_ + static_cast<std::uint64_t>(pptr() - pbase()); }
+  /// Bytes taken so far, written or buffered (a failed write does not take them back).
+  std::uint64_t bytes() const { return taken_ + static_cast<std::uint64_t>(pptr() - pbase()); }
   bool flush() { return sync() == 0; }
   void release() { fd_ = -1; }
+  /// `n` bytes written through, after what is buffered: no copy of a whole file in one string.
+  bool writeThrough(const char* s, std::size_t n) {
+    if (!flush()) return false;
+    taken_ += n;
+    return put(s, n);
+  }
 
  protected:
+  // tellp(): the bytes taken so far (the file is only ever appended to).
+  pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override {
+    if (off != 0 || dir != std::ios_base::cur) return pos_type(off_type(-1));
+    return pos_type(static_cast<off_type>(bytes()));
+  }
   int_type overflow(int_type c) override {
     if (!flush()) return traits_type::eof();
     if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
@@ -57,13 +69,15 @@ class AtomicFileWriter::Buffer : public std::streambuf {
     return c;
   }
   std::streamsize xsputn(const char* s, std::streamsize n) override {
+    if (n <= 0 || !error_.empty()) return 0;
     if (n <= epptr() - pptr()) {
       std::copy(s, s + n, pptr());
       pbump(static_cast<int>(n));
       return n;
     }
+    if (static_cast<std::size_t>(n) >= kDirect)
+      return writeThrough(s, static_cast<std::size_t>(n)) ? n : 0;
     if (!flush()) return 0;
-    if (static_cast<std::size_t>(n) >= kDirect) return put(s, static_cast<std::size_t>(n)) ? n : 0;
     gather();
     std::copy(s, s + n, pptr());
     pbump(static_cast<int>(n));
@@ -72,6 +86,7 @@ class AtomicFileWriter::Buffer : public std::streambuf {
   int sync() override {
     const std::size_t n = static_cast<std::size_t>(pptr() - pbase());
     if (n == 0) return error_.empty() ? 0 : -1;
+    taken_ += n;
     const bool ok = put(pbase(), n);
     setp(pbase(), epptr());
     return ok ? 0 : -1;
@@ -92,12 +107,11 @@ class AtomicFileWriter::Buffer : public std::streambuf {
       error_ = std::strerror(errno);
       return false;
     }
-    flushed_ += n;
     return true;
   }
   int fd_;
   std::unique_ptr<char[]> buf_;
-  std::uint64_t flushed_ = 0;
+  std::uint64_t taken_ = 0;
   std::string error_;
 };
 
@@ -118,8 +132,14 @@ AtomicFileWriter::AtomicFileWriter(std::string path) : path_(std::move(path)) {
   if (fd < 0) {
     throw std::runtime_error("cannot write output '" + path_ + "': " + std::strerror(errno));
   }
-  buffer_ = std::make_unique<Buffer>(fd);
-  stream_ = std::make_unique<std::ostream>(buffer_.get());
+  try {
+    buffer_ = std::make_unique<Buffer>(fd);
+    stream_ = std::make_unique<std::ostream>(buffer_.get());
+  } catch (...) {
+    ::close(fd);
+    ::unlink(temp_.c_str());
+    throw;
+  }
 }
 
 AtomicFileWriter::~AtomicFileWriter() { discard(); }
@@ -138,8 +158,10 @@ void AtomicFileWriter::discard() {
 void AtomicFileWriter::checkWritten() {
   if (!buffer_ || buffer_->fd() < 0)
     throw std::runtime_error("cannot write output '" + path_ + "': already committed or discarded");
-  if (!buffer_->flush()) {
-    const std::string why = buffer_->error();
+  if (!buffer_->flush() || stream_->bad()) {
+    // bad() without an OS error: a writer gave the stream something it could not take.
+    const std::string why =
+        buffer_->error().empty() ? "a write to its stream failed" : buffer_->error();
     discard();
     throw std::runtime_error("cannot write output '" + path_ + "': " + why);
   }
@@ -168,9 +190,13 @@ void AtomicFileWriter::commit() {
   }
 }
 
+void AtomicFileWriter::write(std::string_view bytes) {
+  if (buffer_ && buffer_->fd() >= 0) buffer_->writeThrough(bytes.data(), bytes.size());
+}
+
 void writeFileAtomic(const std::string& path, std::string_view bytes) {
   AtomicFileWriter w(path);
-  w.stream().write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  w.write(bytes);
   w.commit();
 }
 

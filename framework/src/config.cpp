@@ -607,10 +607,9 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
   // stages + the order and read/write check
   detail::StageFlow flow(c);
   if (p.source) flow.source(*p.source, root["source"].Mark());
-  // A source that failed may have been the one to bring layers made elsewhere (Frame::grid):
-  // what it writes is unknown, so reads are not checked against it (as after a failed stage).
+  // A source that failed may have been the one to bring layers made elsewhere (Frame::grid).
   else if (root["source"])
-    flow.entryFailed();
+    flow.sourceFailed();
   if (const auto st = root["stages"]) {
     if (!st.IsSequence()) {
       c.add(detail::valueMark(root, "stages"), "'stages' must be a list");

@@ -165,6 +165,10 @@ class StageFlow {
   /// An entry that could not be made: what it would have written is unknown, so reads that miss
   /// it are no longer reported (they would only repeat its error).
   void entryFailed() { an_entry_failed_ = true; }
+  /// A source that could not be made: what it brings (grid layers made elsewhere, `@labels`) is
+  /// unknown, so reads of those are no longer reported; reads of what only stages make
+  /// (`@energy`, `@cell_pixels`) still are.
+  void sourceFailed() { source_failed_ = true; }
 
  private:
   void checkRead(const Plugin& p, const std::string& r, const YAML::Mark& m);
@@ -175,6 +179,7 @@ class StageFlow {
 
   Diags& d_;
   bool an_entry_failed_ = false;
+  bool source_failed_ = false;
   bool grid_built_ = false;
   std::string source_;         ///< "source 'name' (type)"; empty while the source is not known
   std::string first_non_ego_;  ///< "'name' (type)" of the first feature/energy/optimiser stage

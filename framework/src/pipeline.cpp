@@ -251,7 +251,8 @@ void requireDistinctFrameIds(const Source& src, std::size_t first, std::size_t n
       "in more than '/', ':' and spaces)");
 }
 
-// The layers a source received made (Frame::grid) become the frame's grid. A frame without
+// The layers a source received made (Frame::grid) become the frame's grid: those it declares,
+// and the labels only if it declares '@labels' (nothing undeclared slips in). A frame without
 // them fails, naming the source, the frame's file and what is missing: stages were let through
 // on the source's declaration (the loaders' read/write check).
 void adoptSourceGrid(const Source& source, const std::vector<std::string>& layers, const Frame& f,
@@ -261,16 +262,23 @@ void adoptSourceGrid(const Source& source, const std::vector<std::string>& layer
     throw InputError(f.source_path, "has no grid, though " + who +
                                         " declares that it writes grid layers (" +
                                         joinNames(layers) + ") for every frame");
+  std::vector<std::string> names;
+  bool labels = false;
   for (const auto& l : layers) {
-    if (l != artefacts::kLabels && !f.grid->has(l))
+    if (l == artefacts::kLabels) {
+      labels = true;
+      continue;
+    }
+    if (!f.grid->has(l))
       throw InputError(f.source_path, "has no grid layer '" + l + "', though " + who +
                                           " declares that it writes it (layers received: " +
                                           joinNames(f.grid->layerNames()) + ")");
+    names.push_back(l);
   }
   try {
-    grid.adoptLayers(*f.grid);
+    grid.adoptLayers(*f.grid, names, labels);
   } catch (const std::invalid_argument& e) {
-    throw InputError(f.source_path, e.what());
+    throw InputError(f.source_path, who + ": " + e.what());
   }
 }
 

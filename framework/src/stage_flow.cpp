@@ -46,6 +46,7 @@ void StageFlow::source(const Source& s, const YAML::Mark& m) {
 
 void StageFlow::checkRead(const Plugin& p, const std::string& r, const YAML::Mark& m) {
   if (available_.count(r) || an_entry_failed_) return;
+  if (source_failed_ && r != artefacts::kEnergy && r != artefacts::kCellPixels) return;
   if (artefacts::isFrameArtefact(r)) {
     // Without the source its frame artefacts are unknown: the pipeline's own check, with its
     // source, decides.

@@ -24,7 +24,8 @@ void TerrainGrid::reset(const GridGeometry& g) {
   z_range_valid_ = false;
 }
 
-void TerrainGrid::adoptLayers(const TerrainGrid& from) {
+void TerrainGrid::adoptLayers(const TerrainGrid& from, const std::vector<std::string>& names,
+                              bool labels) {
   const GridGeometry& g = from.geom_;
   auto text = [](const TerrainGrid& t) {
     const GridGeometry& x = t.geom_;
@@ -36,11 +37,20 @@ void TerrainGrid::adoptLayers(const TerrainGrid& from) {
       (g.centre_m - geom_.centre_m).cwiseAbs().maxCoeff() > 1e-6)
     throw std::invalid_argument("the grid received is " + text(from) + "; the run's is " +
                                 text(*this) + " (the config's grid)");
-  if (from.labels_.size() != cells())
+  for (const std::string& name : names) {
+    const auto it = from.layers_.find(name);
+    if (it == from.layers_.end())
+      throw std::invalid_argument("the grid received has no layer '" + name + "'");
+    if (it->second.size() != cells())
+      throw std::invalid_argument("layer '" + name + "' of the grid received has " +
+                                  std::to_string(it->second.size()) + " values for " +
+                                  std::to_string(cells()) + " cells");
+  }
+  if (labels && from.labels_.size() != cells())
     throw std::invalid_argument("the grid received has " + std::to_string(from.labels_.size()) +
                                 " labels for " + std::to_string(cells()) + " cells");
-  for (const auto& [name, layer] : from.layers_) layers_[name] = layer;
-  labels_ = from.labels_;
+  for (const std::string& name : names) layers_[name] = from.layers_.at(name);
+  if (labels) labels_ = from.labels_;
 }
 
 const TerrainGrid::ZRange& TerrainGrid::zRange(const PointCloud& cloud) {

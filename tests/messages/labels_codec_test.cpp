@@ -65,6 +65,24 @@ TEST(LabelsCodec, ClassAPointCarriesThatTheRunLacksIsAnErrorNamingIt) {
   }
 }
 
+// Ids the sender names no class for (a grid decoder lets labels without names through) are an
+// error naming the source, not an index past the names.
+TEST(LabelsCodec, AnIdWithoutAClassNameIsAnError) {
+  std::vector<LabelId> ids = {0, 1, 3};
+  try {
+    mapLabelsByName(ids, {"unknown", "road"}, LabelSet::defaults(), "chan G", "terrain_grid_t");
+    FAIL() << "mapped an id without a name";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("chan G: terrain_grid_t: label id 3 has no class name "
+                                         "(2 named)"),
+              std::string::npos)
+        << e.what();
+  }
+  std::vector<LabelId> none = {0, 1};
+  EXPECT_THROW(mapLabelsByName(none, {}, LabelSet::defaults(), "chan G", "terrain_grid_t"),
+               InputError);
+}
+
 TEST(LabelsCodec, BadInputIsRefused) {
   PointLabels t = someTruth();
   t.raw.pop_back();

@@ -30,6 +30,9 @@ class AtomicFileWriter {
   AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
 
   std::ostream& stream();
+  /// `bytes` written straight to the file after what stream() holds (no buffer made: a whole
+  /// file in one string); a failure is reported by commit() as the stream's are.
+  void write(std::string_view bytes);
   /// Bytes taken by stream() so far (buffered ones included).
   std::uint64_t bytes() const;
   /// Flushes, and throws std::runtime_error naming the path if a write failed (the temporary

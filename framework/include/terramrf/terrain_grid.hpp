@@ -54,10 +54,12 @@ class TerrainGrid {
   /// Resets the geometry and clears the labels and point lists, keeping their capacity for the
   /// next frame; drops every layer with its memory (the stages add theirs anew each frame).
   void reset(const GridGeometry& g);
-  /// Copies the layers and the label layer of `from` (a grid received from elsewhere,
-  /// Frame::grid) over this grid's, leaving its points as they are. Throws std::invalid_argument
-  /// naming both geometries if `from`'s rows, columns, cell size or centre (to 1 µm) differ.
-  void adoptLayers(const TerrainGrid& from);
+  /// Copies the layers `names` of `from` (a grid received from elsewhere, Frame::grid), and its
+  /// label layer if `labels`, over this grid's, leaving its points as they are; nothing else of
+  /// `from` is taken. Throws std::invalid_argument naming both geometries if `from`'s rows,
+  /// columns, cell size or centre (to 1 µm) differ, and naming the layer if `from` lacks one or
+  /// one's size is not the cell count.
+  void adoptLayers(const TerrainGrid& from, const std::vector<std::string>& names, bool labels);
 
   const GridGeometry& geometry() const { return geom_; }
   int rows() const { return rows_; }

@@ -73,7 +73,15 @@ void mapLabelsByName(std::vector<LabelId>& ids, const std::vector<std::string>& 
                      const LabelSet& labels, const std::string& source, const std::string& type) {
   std::vector<LabelId> to(names.size(), labels::kUnknown);
   std::vector<bool> used(names.size(), false);
-  for (LabelId l : ids) used[l] = true;
+  for (LabelId l : ids) {
+    // A class id the message names no class for cannot be mapped (a decoder may let labels
+    // without names through).
+    if (l >= names.size())
+      throw InputError(source, type + ": label id " + std::to_string(l) + " has no class name (" +
+                                   std::to_string(names.size()) +
+                                   " named); expected the sender's class names with its labels");
+    used[l] = true;
+  }
   for (std::size_t id = 1; id < names.size(); ++id) {
     const int mine = labels.find(names[id]);
     if (mine < 0 && used[id]) {

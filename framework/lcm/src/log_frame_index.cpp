@@ -42,12 +42,13 @@ void unusedNotes(std::vector<std::string>& out, const std::string& channel,
 constexpr std::size_t kPeekBytes = 4096;
 
 // The stamp of `e`, read with kPeekBytes of its message: read whole when the prefix was too
-// short to tell (a scan id or camera name longer than the prefix).
+// short to tell (a scan id or camera name longer than the prefix) in a message of a known type;
+// a foreign message is never read whole (no length of it would make it ours).
 std::optional<MessageStamp> stampOf(LcmLogReader& reader, LcmLogEvent& e) {
   std::optional<MessageStamp> s = peekMessageStamp(e.data.data(), e.data.size());
   const bool cut = static_cast<std::int64_t>(e.data.size()) < e.data_size;
   const bool camera_cut = s && s->camera.empty() && (s->type == "image_t" || s->type == "camera_info_t");
-  if (cut && (!s || camera_cut)) {
+  if (cut && (!s || camera_cut) && knownMessageType(e.data.data(), e.data.size())) {
     e = reader.readAt(e.offset);
     s = peekMessageStamp(e.data.data(), e.data.size());
   }

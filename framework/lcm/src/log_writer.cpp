@@ -102,7 +102,7 @@ LcmLogWriter::LcmLogWriter(const std::string& path, bool append) : impl_(std::ma
   // Its folder is made as every output's is (writeFileAtomic): `out/x.lcm` on a fresh clone.
   const std::filesystem::path parent = std::filesystem::path(path).parent_path();
   std::error_code ec;
-  if (!parent.empty() && !std::filesystem::is_directory(parent)) {
+  if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
     std::filesystem::create_directories(parent, ec);
     if (ec)
       throw std::runtime_error("cannot create folder '" + parent.string() + "' for LCM log '" +

@@ -9,6 +9,7 @@
 #include <terramrf_msgs/point_labels_t.hpp>
 #include <terramrf_msgs/pose_t.hpp>
 #include <terramrf_msgs/terrain_grid_t.hpp>
+#include <vector>
 
 namespace terramrf {
 namespace {
@@ -33,8 +34,8 @@ std::uint64_t readBigEndian(const std::uint8_t* p, int bytes) {
 
 }  // namespace
 
-std::optional<MessageStamp> peekMessageStamp(const void* data, std::size_t size) {
-  static const Known kKnown[] = {
+static const std::vector<Known>& knownTypes() {
+  static const std::vector<Known> kKnown = {
       known<terramrf_msgs::point_cloud_t>("point_cloud_t", true),
       known<terramrf_msgs::point_labels_t>("point_labels_t", true),
       known<terramrf_msgs::pose_t>("pose_t", true),
@@ -45,10 +46,23 @@ std::optional<MessageStamp> peekMessageStamp(const void* data, std::size_t size)
       known<terramrf_msgs::gps_t>("gps_t", false),
       known<terramrf_msgs::odometry_t>("odometry_t", false),
   };
+  return kKnown;
+}
+
+bool knownMessageType(const void* data, std::size_t size) {
+  if (!data || size < 8) return false;
+  const auto hash =
+      static_cast<std::int64_t>(readBigEndian(static_cast<const std::uint8_t*>(data), 8));
+  for (const Known& k : knownTypes())
+    if (k.hash == hash) return true;
+  return false;
+}
+
+std::optional<MessageStamp> peekMessageStamp(const void* data, std::size_t size) {
   const auto* p = static_cast<const std::uint8_t*>(data);
   if (!p || size < 16) return std::nullopt;
   const auto hash = static_cast<std::int64_t>(readBigEndian(p, 8));
-  for (const Known& k : kKnown) {
+  for (const Known& k : knownTypes()) {
     if (k.hash != hash) continue;
     MessageStamp s;
     s.type = k.name;

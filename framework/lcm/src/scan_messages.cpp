@@ -141,6 +141,11 @@ CameraImage camera(const ScanMessages& m, Decoded& d, const ScanOptions& o,
 std::shared_ptr<const TerrainGrid> receivedGrid(const ScanMessage& g, const ScanOptions& o,
                                                 const LabelSet& labels, const std::string& id) {
   DecodedGrid d = decodeGrid(g.bytes.data(), g.bytes.size(), g.source);
+  // Its cells must be the scan's: a grid in a map frame would put every value on another cell.
+  if (d.header.coordinate_frame != "lidar")
+    throw InputError(g.source, "grid of scan '" + id + "' in frame '" + d.header.coordinate_frame +
+                                   "'; expected \"lidar\", the frame of the scan's points, "
+                                   "around which the run's grid is centred");
   auto grid = std::make_shared<TerrainGrid>(d.grid.geometry());
   for (const std::string& l : o.grid_layers) {
     const bool have = l == artefacts::kLabels ? d.has_labels : d.grid.has(l);

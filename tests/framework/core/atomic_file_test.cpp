@@ -100,6 +100,7 @@ TEST(AtomicFileWriter, StreamsPiecesOfAnySizeAndReplacesOnlyAtCommit) {
       }
     }
     EXPECT_EQ(w.bytes(), expected.size());
+    EXPECT_EQ(static_cast<std::uint64_t>(w.stream().tellp()), expected.size());
     EXPECT_EQ(readFile(p), "old");  // not yet
     w.commit();
   }
@@ -125,6 +126,20 @@ TEST(AtomicFileWriter, WithoutCommitNothingIsReplacedAndNoTemporaryStays) {
   EXPECT_EQ(readFile(p), "good");
   EXPECT_EQ(entries(d.str()), 1);
   EXPECT_THROW(w.commit(), std::runtime_error);
+
+  // A stream the writer put into a bad state (a negative count) is not committed either.
+  AtomicFileWriter bad(p);
+  bad.stream() << "partial";
+  bad.stream().write("x", -1);
+  try {
+    bad.commit();
+    FAIL() << "committed a stream in a bad state";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "cannot write output '" + p + "': a write to its stream failed");
+  }
+  EXPECT_EQ(readFile(p), "good");
+  EXPECT_EQ(entries(d.str()), 1);
 }
 
 // A disk that fills up while streaming (RLIMIT_FSIZE stands in for it: writes past the limit fail

@@ -114,6 +114,12 @@ TEST(Config, ASourceThatCannotBeMadeIsNotReportedAgainByTheReadsAfterIt) {
   const auto errs = errorsOf(f, text);
   EXPECT_TRUE(contains(errs, "no/such/log' does not exist")) << joined(errs);
   EXPECT_EQ(errs.size(), 1u) << joined(errs);
+  // What only stages make is still checked: an optimiser without an energy stage.
+  std::string no_energy_text = text;
+  const std::size_t mrf = no_energy_text.find("  - {name: mrf");
+  no_energy_text.erase(mrf, no_energy_text.find('\n', mrf) + 1 - mrf);
+  const auto no_energy = errorsOf(f, no_energy_text);
+  EXPECT_TRUE(contains(no_energy, "reads '@energy'")) << joined(no_energy);
   // Made, the same source satisfies the read; without its grid_layers the read is refused.
   EXPECT_TRUE(errorsOf(f, test::edited(text, "path: no/such/log, ", "")).empty());
   const auto without = errorsOf(

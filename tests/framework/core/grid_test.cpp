@@ -104,6 +104,48 @@ TEST(TerrainGrid, ZRangeIsEachCellsLowestHighestAndMeanPoint) {
   for (double v : r.mean) EXPECT_TRUE(std::isnan(v));
 }
 
+// A grid received from elsewhere (Frame::grid): the named layers and, on request, the labels;
+// nothing else, and only for the run's geometry and sizes.
+TEST(TerrainGrid, AdoptLayersTakesTheNamedLayersOfTheRunsGeometryOnly) {
+  GridGeometry g;
+  g.size_m = 4;
+  g.cell_m = 1;
+  TerrainGrid from(g);
+  from.add("a", 1.5f);
+  from.add("b", 2.5f);
+  from.labels().assign(from.cells(), labels::kRoad);
+  TerrainGrid mine(g);
+  mine.add("b", 9.f);
+  mine.adoptLayers(from, {"a"}, false);
+  EXPECT_EQ(mine.layer("a"), std::vector<float>(16, 1.5f));
+  EXPECT_EQ(mine.layer("b"), std::vector<float>(16, 9.f));  // not named: its own
+  EXPECT_EQ(mine.labels(), std::vector<LabelId>(16, labels::kUnknown));
+  mine.adoptLayers(from, {"a", "b"}, true);
+  EXPECT_EQ(mine.layer("b"), std::vector<float>(16, 2.5f));
+  EXPECT_EQ(mine.labels(), std::vector<LabelId>(16, labels::kRoad));
+
+  auto refused = [&](const TerrainGrid& other, const std::vector<std::string>& names,
+                     const std::string& why) {
+    TerrainGrid t(g);
+    try {
+      t.adoptLayers(other, names, false);
+      ADD_FAILURE() << "adopted: " << why;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+    EXPECT_TRUE(t.layerNames().empty());  // nothing taken
+  };
+  GridGeometry moved = g;
+  moved.centre_m = {0.5, 0};
+  TerrainGrid elsewhere(moved);
+  elsewhere.add("a", 1.f);
+  refused(elsewhere, {"a"}, "centred at (0.500000, 0.000000) m; the run's is 4 x 4 cells");
+  refused(from, {"a", "c"}, "has no layer 'c'");
+  TerrainGrid short_layer(g);
+  short_layer.add("a", 1.f).resize(5);
+  refused(short_layer, {"a"}, "layer 'a' of the grid received has 5 values for 16 cells");
+}
+
 TEST(TerrainGrid, ZRangeRejectsAnotherCloud) {
   TerrainGrid grid{GridGeometry{}};
   PointCloud pc, other;

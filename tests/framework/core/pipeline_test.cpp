@@ -1214,8 +1214,7 @@ TEST(Pipeline, ASourcesGridLayersAreTheFramesAndAFrameWithoutThemFails) {
     std::string t = test::ConfigFixture::validPipeline(source_params);
     t.erase(t.find("  - {name: hdiff"),
             std::string("  - {name: hdiff, type: height_difference}\n").size());
-    t.replace(t.find("outputs: []"), 11,
-              "outputs: [{type: grid_csv, params: {layers: [height_diff]}}]");
+    t.replace(t.find("outputs: []"), 11, "outputs: [{type: grid_csv}]");  // every layer
     return t;
   };
   auto run = [&](const std::string& name, const std::string& source_params) {
@@ -1244,6 +1243,8 @@ TEST(Pipeline, ASourcesGridLayersAreTheFramesAndAFrameWithoutThemFails) {
     const std::string csv = readFile(out + "/grid_csv/000002.csv");
     const std::string header = csv.substr(0, csv.find('\n'));
     ASSERT_NE(header.find("height_diff"), std::string::npos) << header;
+    // Only what the source declares: its grid's other layer stays behind.
+    EXPECT_EQ(header.find("undeclared"), std::string::npos) << header;
     std::istringstream rows(csv);
     std::string line;
     std::getline(rows, line);
@@ -1268,7 +1269,7 @@ TEST(Pipeline, ASourcesGridLayersAreTheFramesAndAFrameWithoutThemFails) {
     EXPECT_NE(res.summary.failed[0].second.find(
                   "synthetic/000000.bin: has no grid layer 'roughness', though source "
                   "'test_synthetic' (test_synthetic) declares that it writes it (layers "
-                  "received: height_diff)"),
+                  "received: height_diff, undeclared)"),
               std::string::npos)
         << res.summary.failed[0].second;
   }
@@ -1277,8 +1278,9 @@ TEST(Pipeline, ASourcesGridLayersAreTheFramesAndAFrameWithoutThemFails) {
         run("geometry", "{frames: 1, grid_layers: [height_diff], grid_cell_m: 0.25}");
     ASSERT_EQ(res.summary.failed.size(), 1u);
     EXPECT_NE(res.summary.failed[0].second.find(
-                  "synthetic/000000.bin: the grid received is 160 x 160 cells of 0.250000 m "
-                  "centred at (0.000000, 0.000000) m; the run's is 80 x 80 cells of 0.500000 m"),
+                  "synthetic/000000.bin: source 'test_synthetic' (test_synthetic): the grid "
+                  "received is 160 x 160 cells of 0.250000 m centred at (0.000000, 0.000000) m; "
+                  "the run's is 80 x 80 cells of 0.500000 m"),
               std::string::npos)
         << res.summary.failed[0].second;
   }

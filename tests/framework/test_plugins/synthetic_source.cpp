@@ -77,6 +77,9 @@ class SyntheticSource final : public Source {
       auto grid = std::make_shared<TerrainGrid>(g);
       for (std::size_t k = 0; k < grid_layers_.size(); ++k)
         if (grid_layers_[k][0] != '@') grid->add(grid_layers_[k], float(100 * k + i));
+      // Undeclared: must not reach the run's grid.
+      grid->add("undeclared", 1);
+      grid->labels().assign(grid->cells(), labels::kObstacle);
       f.grid = std::move(grid);
     }
     if (mode_ == "empty") return f;

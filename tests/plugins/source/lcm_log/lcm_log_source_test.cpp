@@ -179,6 +179,29 @@ TEST_F(LcmLogSourceTest, GridsMadeElsewhereComeWithTheirScans) {
               std::string::npos)
         << e.what();
   }
+  // A grid in another frame than the scan's is refused: its cells would be other cells.
+  {
+    LcmLogWriter w(log(), false);
+    TerrainGrid g(geom);
+    g.add("height_diff", 1);
+    put(w, "G", encodeGrid(g, labels_, {"m", "world", 0}));
+    put(w, "G_POINTS", cloud("m", 0.1));
+    w.close();
+  }
+  try {
+    make("points_channel: G_POINTS, grid_channel: G, grid_layers: [height_diff]")->read(0);
+    FAIL() << "a grid in the world frame was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("grid of scan 'm' in frame 'world'; expected \"lidar\""),
+              std::string::npos)
+        << e.what();
+  }
+  {
+    LcmLogWriter w(log(), false);
+    put(w, "G", grid("a", 0.5f, true));
+    put(w, "G_POINTS", cloud("a", 0.1));
+    w.close();
+  }
   // Without '@labels' the grid's labels stay behind.
   auto layers_only = make("points_channel: G_POINTS, grid_channel: G, grid_layers: [height_diff]");
   EXPECT_EQ(layers_only->read(0).grid->labels()[5], labels::kUnknown);

@@ -14,11 +14,12 @@
 #include "terramrf/errors.hpp"
 #include "terramrf/lcm/camera_codec.hpp"
 #include "terramrf/lcm/grid_publisher.hpp"
-#include "terramrf/lcm/sensor_codec.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
+#include "terramrf/lcm/sensor_codec.hpp"
 #include "terramrf/param_values.hpp"
 #include "terramrf/pipeline.hpp"
 #include "terramrf/registry.hpp"
+#include "terramrf/terrain_grid.hpp"
 #include "test_support.hpp"
 
 namespace terramrf {
@@ -54,10 +55,17 @@ Image camImage(int k) {
 /// stopped.
 class Publisher {
  public:
-  Publisher(const std::string& url, bool with_pose, bool with_camera = false) : pub_(url, "G") {
-    thread_ = std::thread([this, with_pose, with_camera] {
+  Publisher(const std::string& url, bool with_pose, bool with_camera = false,
+            bool with_grid = false)
+      : pub_(url, "G") {
+    thread_ = std::thread([this, with_pose, with_camera, with_grid] {
       for (int k = 0; !stop_; ++k) {
         MessageHeader h{"s" + std::to_string(k), "lidar", 0.1 * k};
+        if (with_grid) {  // a feature node's grid: height_diff = k in every cell
+          TerrainGrid g{GridGeometry{}};
+          g.add("height_diff", static_cast<float>(k));
+          pub_.publish(g, LabelSet::defaults(), h);
+        }
         if (with_pose) {
           PoseMessage p;
           p.header = {h.frame_id, "world", h.timestamp_s};
@@ -162,6 +170,33 @@ TEST_F(LcmSubscribeTest, ReceivesTheListedCamerasWithTheirCalibrations) {
   EXPECT_EQ(f->cameras[0].model.P, camModel().P);
   const int k = std::stoi(f->id.substr(1));
   EXPECT_EQ(f->cameras[0].image->data, camImage(k).data);
+}
+
+// A classifier node: each scan comes with the grid a feature node published for it (on the grid
+// publisher's own channel, before the points), its declared layers as sent.
+TEST_F(LcmSubscribeTest, ReceivesEachScansGridFromAFeatureNode) {
+  ctx_.grid = GridGeometry{};
+  auto src = make("{url: '" + url() +
+                  "', points_channel: G_POINTS, grid_channel: G, "
+                  "grid_layers: [height_diff], idle_timeout_s: 5, wait_s: 0.05}");
+  EXPECT_EQ(src->writes(), std::vector<std::string>{"height_diff"});
+  auto first = std::async(std::launch::async, [&] {
+    try {
+      return src->next();
+    } catch (const InputError& e) {  // the first scan's grid may precede the subscription
+      EXPECT_NE(std::string(e.what()).find("no terrain_grid_t on channel G"), std::string::npos)
+          << e.what();
+      return src->next();
+    }
+  });
+  Publisher pub(url(), false, false, true);
+  ASSERT_EQ(first.wait_for(std::chrono::seconds(20)), std::future_status::ready);
+  const std::optional<Frame> f = first.get();
+  pub.stop();
+  ASSERT_TRUE(f && f->grid);
+  const int k = std::stoi(f->id.substr(1));
+  EXPECT_EQ(f->grid->layerNames(), std::vector<std::string>{"height_diff"});
+  EXPECT_EQ(f->grid->layer("height_diff")[123], static_cast<float>(k));
 }
 
 // idle_timeout_s ends the stream when no cloud comes.

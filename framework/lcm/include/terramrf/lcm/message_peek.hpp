@@ -23,4 +23,8 @@ struct MessageStamp {
 /// damaged further on still fails when it is decoded.
 std::optional<MessageStamp> peekMessageStamp(const void* data, std::size_t size);
 
+/// True if the bytes start with the fingerprint of one of the terramrf_msgs types (8 bytes are
+/// enough): peekMessageStamp may then need more of the message, never otherwise.
+bool knownMessageType(const void* data, std::size_t size);
+
 }  // namespace terramrf
