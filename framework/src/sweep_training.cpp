@@ -210,8 +210,10 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
     extra.push_back(std::make_unique<StatsFeeder>(*stats, rec, progress, job.what + it->label));
     Pipeline p = assemble(reg, f0, *it, job.stages, {}, std::move(extra), model_dir);
     r.layer_origins = p.layer_origins;  // every item runs the same stages
-    // The features must be layers some stage writes.
+    // The features must be layers some stage writes, or the source brings made (Frame::grid:
+    // a log of another process's feature layers).
     std::set<std::string> written;
+    for (const auto& w : it->src->writes()) written.insert(w);
     for (const auto& s : p.stages)
       for (const auto& w : s->writes()) written.insert(w);
     for (const auto& f : job.features) {
@@ -223,7 +225,8 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
       fd.file = f0.file;
       fd.add(job.features_mark,
              (job.features_from_command_line ? "--features: feature '" : "feature '") + f +
-                 "' is not written by any stage (written: " + (have.empty() ? "none" : have) + ")");
+                 "' is not written by any stage or the source (written: " +
+                 (have.empty() ? "none" : have) + ")");
       fd.throwIfAny();
     }
     RunResult rr;

@@ -130,6 +130,21 @@ TEST(LcmConfigsE2E, RecordedLogReplaysToTheSameEvaluation) {
   ASSERT_EQ(cls.status, 0) << cls.out;
   EXPECT_NE(cls.out.find("5 of 5 frame(s) ok"), std::string::npos) << cls.out;
   EXPECT_EQ(a, terramrf::readFile(dir.str() + "/cls/evaluation/summary.json"));
+  // `train` on that node's config learns from the received layers: the same class Gaussians as
+  // learnt from the simulator with the feature stages themselves (only the provenance, and the
+  // feature origins the received layers do not carry, differ).
+  const Result tl = sh(test::cli() + " train " + test::sourceDir() +
+                       "/configs/lcm_classify.yaml --no-progress --data " + log + " --out " +
+                       dir.str() + "/from_log.yaml");
+  ASSERT_EQ(tl.status, 0) << tl.out;
+  const Result ts =
+      sh(test::cli() + " train " + record + " --no-progress --out " + dir.str() + "/from_sim.yaml");
+  ASSERT_EQ(ts.status, 0) << ts.out;
+  const YAML::Node from_log = YAML::LoadFile(dir.str() + "/from_log.yaml");
+  const YAML::Node from_sim = YAML::LoadFile(dir.str() + "/from_sim.yaml");
+  ASSERT_TRUE(from_log["classes"] && from_log["classes"].size() == 3u);
+  EXPECT_EQ(YAML::Dump(from_log["classes"]), YAML::Dump(from_sim["classes"]));
+  EXPECT_FALSE(from_log["feature_origins"]);
   for (const auto& e : std::filesystem::directory_iterator(dir.str() + "/rec/grid")) {
     const std::string name = e.path().filename().string();
     if (name.find("image_2") != std::string::npos) continue;  // cameras not read here

@@ -2091,7 +2091,8 @@ TEST(Train, AFeatureOfTheCommandLineThatNoStageWritesIsAnError) {
     FAIL() << "trained with a feature no stage writes";
   } catch (const ConfigError& e) {
     EXPECT_EQ(std::string(e.what()).find(config + ": --features: feature 'nope' is not written by "
-                                                  "any stage (written: height_diff)"),
+                                                  "any stage or the source (written: "
+                                                  "height_diff)"),
               0u)
         << e.what();
   }
