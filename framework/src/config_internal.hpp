@@ -149,7 +149,9 @@ void recordLayerOrigins(Plugin& stage, double cell_m, std::map<std::string, std:
 ///  - a read that nothing before it writes. The source's writes count from the first stage on;
 ///    before the grid is built only frame artefacts (artefacts::isFrameArtefact: the pose) exist;
 ///  - a read or write of anything but a frame artefact by an egomotion stage (the grid does not
-///    exist yet, and is built anew after it), and a source that declares one (it makes frames).
+///    exist yet, and is built anew after it), and a source that declares `@points`, `@energy` or
+///    `@cell_pixels` (the runner and stages make them; grid layers and `@labels` a source may
+///    bring made, as Frame::grid).
 class StageFlow {
  public:
   explicit StageFlow(Diags& d);
