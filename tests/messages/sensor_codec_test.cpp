@@ -80,6 +80,35 @@ TEST(PointCloudCodec, RejectsTimesOfWrongLength) {
   EXPECT_THROW(decodePointCloud(b.data(), b.size(), "PTS"), InputError);
 }
 
+// Lengths that lcm-gen 1.3's decoders trusted (messages/harden_decoders.cmake): a string length
+// of 0 read SIZE_MAX bytes (SIGSEGV, found by fuzzing a damaged log), a negative one moved the
+// read position back, and a huge point count allocated before the buffer was checked. Each is
+// now an InputError naming the source.
+TEST(PointCloudCodec, MalformedLengthsAreErrorsNotCrashes) {
+  PointCloud c;
+  c.push_back(1, 2, 3, 4, 5);
+  const MessageBytes good = encodePointCloud(c, {"a", "lidar", 0});
+  // hash (8), utime (8), frame_id: length (4) = 2, "a\0"; coordinate_frame: length (4) = 6,
+  // "lidar\0"; num_points (4).
+  auto withInt32 = [&](std::size_t at, std::int32_t v) {
+    MessageBytes b = good;
+    for (int k = 0; k < 4; ++k) b[at + k] = static_cast<std::uint8_t>(std::uint32_t(v) >> (24 - 8 * k));
+    return b;
+  };
+  ASSERT_EQ(good[19], 2);
+  ASSERT_EQ(good[35], 1);
+  for (const auto& [at, v] : std::vector<std::pair<std::size_t, std::int32_t>>{
+           {16, 0}, {16, -7}, {22, 0}, {32, -1}, {32, 0x7fffffff}}) {
+    const MessageBytes b = withInt32(at, v);
+    try {
+      decodePointCloud(b.data(), b.size(), "log event 3 (PTS)");
+      ADD_FAILURE() << "decoded with " << v << " at byte " << at;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("log event 3 (PTS)"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(ImageCodec, RoundTripRgbAndMono) {
   Image rgb(3, 2, 3);
   for (std::size_t i = 0; i < rgb.data.size(); ++i) rgb.data[i] = static_cast<uint8_t>(i * 7);

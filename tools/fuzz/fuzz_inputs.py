@@ -140,6 +140,24 @@ class Fuzzer:
                 b[self.rng.randrange(len(b))] = self.rng.randrange(256)
         return bytes(b)
 
+    def mutate_log(self, raw):
+        """An LCM log damaged as a disk, a killed writer or a bad sender would: bytes flipped
+        (in headers, lengths, or messages: a grid's layer count, a string's length), a cut at any
+        byte, a stretch removed or repeated, junk between events."""
+        rng = self.rng
+        op = rng.randrange(5)
+        if op == 0:
+            return self.flip_bytes(raw, 40)
+        if op == 1:
+            return raw[:rng.randrange(len(raw) + 1)]
+        a = rng.randrange(len(raw) + 1)
+        b = min(len(raw), a + rng.choice([1, 4, 28, 100, 4096, 100000]))
+        if op == 2:
+            return raw[:a] + raw[b:]
+        if op == 3:
+            return raw[:b] + raw[a:]
+        return raw[:a] + bytes(rng.randrange(256) for _ in range(rng.randrange(1, 64))) + raw[a:]
+
     def mutate_text(self, text):
         rng = self.rng
 
@@ -229,6 +247,8 @@ class Fuzzer:
                    else self.flip_bytes(raw, 30) if op == 1 else b'')
         elif ext in ('.pcd', '.ply'):
             out = self.mutate_cloud(raw, ext == '.ply')
+        elif ext == '.lcm':
+            out = self.mutate_log(raw)
         elif ext == '.yaml':
             out = self.mutate_yaml(raw.decode('utf-8', 'replace'))
         else:
@@ -267,6 +287,37 @@ class Fuzzer:
                              'label_map: %s/lm.yaml, use_poses: true}\n' % (case, case))
         return [s + '/velodyne/000000.bin', s + '/labels/000000.label', s + '/calib.txt',
                 s + '/poses.txt', case + '/lm.yaml', case + '/model.yaml']
+
+    def lcm_seed(self):
+        """Two scans of configs/lcm_record.yaml as an LCM log (points, labels, poses, samples,
+        camera images, grids), recorded once per run."""
+        d = os.path.join(self.work, 'lcm_seed')
+        log = os.path.join(d, 'seed.lcm')
+        if os.path.exists(log):
+            return log
+        os.makedirs(d, exist_ok=True)
+        text = open(os.path.join(CONFIGS, 'lcm_record.yaml')).read()
+        text = text.replace('file://out/lcm_demo.lcm', 'file://' + log)
+        text = text.replace('models/', os.path.join(CONFIGS, 'models') + '/')
+        open(d + '/record.yaml', 'w').write(text)
+        rc, out = self.run([self.bin, 'run', d + '/record.yaml', '--limit', '2', '--no-progress',
+                            '--out', d + '/out'], d)
+        if rc != 0 or not os.path.exists(log):
+            sys.exit('fuzz_inputs: recording the LCM seed log failed (%s):\n%s' % (rc, out))
+        return log
+
+    def scen_lcm(self, case):
+        """The recorded log read by configs/lcm_replay.yaml (every message kind, cameras
+        included) or by configs/lcm_classify.yaml (the grids' layers taken as they came)."""
+        log = case + '/run.lcm'
+        shutil.copy(self.lcm_seed(), log)
+        name = self.rng.choice(['lcm_replay.yaml', 'lcm_classify.yaml'])
+        text = open(os.path.join(CONFIGS, name)).read()
+        text, n = re.subn(r'(\n    path: ).*', r'\g<1>' + log, text)
+        assert n == 1, name
+        text = text.replace('models/', os.path.join(CONFIGS, 'models') + '/')
+        open(case + '/config.yaml', 'w').write(text)
+        return [log]
 
     def mesh_config(self, case, name, path):
         """configs/<name> (a textured-mesh run) reading its source from `path`."""
@@ -455,7 +506,7 @@ class Fuzzer:
 
 def main():
     modes = ['config-validate', 'config-run', 'sweep', 'train', 'compare', 'kitti', 'rellis', 'pcd',
-             'kitti-object']
+             'kitti-object', 'lcm']
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('modes', nargs='+', choices=modes, metavar='MODE',
                     help='what to mutate: ' + ', '.join(modes))
