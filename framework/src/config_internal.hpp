@@ -136,6 +136,9 @@ bool applyEntryParams(Plugin& plugin, const YAML::Node& e, const PluginContext& 
 /// `cell_m`, as PluginContext::layer_origins describes: flow YAML {stage: type, cell_m, params:
 /// {…}, inputs: {layer: origin}}, the inputs being the layers it reads that earlier stages wrote.
 void recordLayerOrigins(Plugin& stage, double cell_m, std::map<std::string, std::string>& origins);
+/// Records the origins source `s` knows of the grid layers it brings made (Source::layerOrigins,
+/// only layers it declares in writes()), so a model is checked against received layers too.
+void recordSourceOrigins(const Source& s, std::map<std::string, std::string>& origins);
 
 /// The check of a pipeline's plugins in the order they run, one for run configs (loadPipeline),
 /// for the pipelines that sweeps and train configs assemble (sweep_detail::assemble) and for a
@@ -160,6 +163,10 @@ class StageFlow {
   /// each run's source; a source that could not be made): reads of frame artefacts are then not
   /// judged.
   void source(const Source& s, const YAML::Mark& m);
+  /// Only the grid layers (and label layer) source `s` brings made, the source itself left
+  /// unjudged as when it is not known: a sweep's feature set checked against each of its items'
+  /// sources, whose frame artefacts each run's own check judges.
+  void sourceLayers(const Source& s);
   /// The next stage, `kind` being its plugin's kind; `m` is its entry.
   void stage(const Plugin& p, PluginKind kind, const YAML::Mark& m);
   /// An output, after every stage.

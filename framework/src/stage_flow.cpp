@@ -44,6 +44,13 @@ void StageFlow::source(const Source& s, const YAML::Mark& m) {
   }
 }
 
+void StageFlow::sourceLayers(const Source& s) {
+  for (const auto& w : s.writes())
+    if (!artefacts::isFrameArtefact(w) && w != artefacts::kPoints && w != artefacts::kEnergy &&
+        w != artefacts::kCellPixels)
+      addWrite(w);
+}
+
 void StageFlow::checkRead(const Plugin& p, const std::string& r, const YAML::Mark& m) {
   if (available_.count(r) || an_entry_failed_) return;
   if (source_failed_ && r != artefacts::kEnergy && r != artefacts::kCellPixels) return;

@@ -1,5 +1,6 @@
 // Reading sweep files and what train configs share with them: diagnostics with file positions,
 // grid/labels/plugin_path, the version; loadSweep validates a whole sweep before anything runs.
+#include <algorithm>
 #include <filesystem>
 #include <set>
 #include <sstream>
@@ -10,6 +11,7 @@
 #include "terramrf/param_values.hpp"
 #include "terramrf/roc.hpp"
 #include "terramrf/sweep.hpp"
+#include "terramrf/text_format.hpp"
 
 namespace terramrf {
 namespace fs = std::filesystem;
@@ -29,6 +31,55 @@ constexpr std::size_t kMaxCandidates = 64;
 /// The parameters of plugin `type` a sweep may set (`training:` for feature_stats, `energy:` and
 /// `select:`): those it declares, except the ones compare sets per feature set (`features`, and
 /// the `model` file). Empty if the type is not installed (the runs that need it say so).
+/// The order of feature set `f`'s stages and where its features come from, as a run of it on
+/// `item` checks them: the item's source may bring grid layers made elsewhere (an LCM log with
+/// `grid_layers`), the common stages and the set's stages write the rest. Without an item (the
+/// sweep is still being read, its sources are not made) layer reads and the features are not
+/// judged, only what no source can bring (`@energy`, `@cell_pixels`). Frame artefacts (`@pose`)
+/// are left to each run's check: a run over a source without poses fails, the others run.
+/// Problems of the stage entries themselves are reported where they are made.
+void checkSetFlow(const Sweep& s, const FeatureSet& f, const Item* item, PluginRegistry& reg,
+                  const PluginContext& ctx, Diags& d) {
+  const std::vector<PluginKind> stage_kinds = {PluginKind::kEgomotion, PluginKind::kFeature};
+  Diags quiet;
+  quiet.file = d.file;
+  std::set<std::string> written;
+  std::vector<std::pair<Made, YAML::Mark>> made;
+  for (const auto* list : {&s.common_stages, &f.stages})
+    for (const auto& e : *list) {
+      Made m = makePlugin(reg, e, "stages", stage_kinds, ctx, quiet, true);
+      if (!m.ok()) return;  // reported where the entry is read
+      for (const auto& w : m.plugin->writes()) written.insert(w);
+      made.emplace_back(std::move(m), e.Mark());
+    }
+  if (!quiet.list.empty()) return;
+  const Source* src = item ? item->src.get() : nullptr;
+  detail::StageFlow flow(d);
+  std::vector<std::string> brought;
+  if (src) {
+    flow.sourceLayers(*src);
+    for (const auto& w : src->writes())
+      if (w[0] != '@') brought.push_back(w);
+  } else {
+    flow.sourceFailed();
+  }
+  for (const auto& [m, mark] : made) flow.stage(*m.plugin, m.kind, mark);
+  if (!src) return;
+  const std::string what = "feature set '" + f.name + "'";
+  for (const auto& feat : f.features) {
+    if (written.count(feat) || std::count(brought.begin(), brought.end(), feat)) continue;
+    std::vector<std::string> have;
+    for (const auto& w : written)
+      if (w[0] != '@') have.push_back(w);
+    std::string msg =
+        what + ": feature '" + feat + "' is not written by any of its or the common stages";
+    if (!brought.empty())
+      msg += " nor brought by the source of " + item->described() +
+             " (brought: " + joinNames(brought) + ")";
+    d.add(f.features_mark, msg + " (written: " + joinNames(have) + ")");
+  }
+}
+
 std::vector<std::string> settableKeys(PluginRegistry& reg, const std::string& type) {
   std::vector<std::string> keys;
   if (type.empty() || !reg.find(type)) return keys;
@@ -528,37 +579,11 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
           d.add(v["model"].Mark(), what + ": model '" + f.model + "' does not exist");
       }
       // The stages' order and reads, as a run config's (a feature set's stages run after the
-      // common ones), and every feature must be written by a stage: checked when every stage
-      // type is installed. Problems of the common stages are the same for every set; Diags
-      // reports each once.
-      if (f.unavailable.empty() && s->common_unavailable.empty()) {
-        std::set<std::string> written;
-        Diags quiet;
-        quiet.file = path;
-        std::vector<std::pair<Made, YAML::Mark>> made;
-        for (const auto* list : {&s->common_stages, &f.stages})
-          for (const auto& e : *list) {
-            Made m = makePlugin(reg, e, "stages", stage_kinds, ctx, quiet, true);
-            if (m.ok())
-              for (const auto& w : m.plugin->writes()) written.insert(w);
-            made.emplace_back(std::move(m), e.Mark());
-          }
-        if (quiet.list.empty()) {
-          detail::StageFlow flow(d);
-          for (const auto& [m, mark] : made) flow.stage(*m.plugin, m.kind, mark);
-        }
-        if (quiet.list.empty())
-          for (const auto& feat : f.features)
-            if (!written.count(feat)) {
-              std::string have;
-              for (const auto& w : written)
-                if (w[0] != '@') have += (have.empty() ? "" : ", ") + w;
-              d.add(f.features_mark, what + ": feature '" + feat +
-                                         "' is not written by any of its or the common stages "
-                                         "(written: " +
-                                         (have.empty() ? "none" : have) + ")");
-            }
-      }
+      // common ones). Layer reads and the features' origins wait for the items' sources (below):
+      // a source may bring layers made elsewhere (Frame::grid). What only stages make is
+      // judged now.
+      if (f.unavailable.empty() && s->common_unavailable.empty())
+        checkSetFlow(*s, f, nullptr, reg, ctx, d);
       s->feature_sets.push_back(std::move(f));
     }
   } else {
@@ -840,6 +865,26 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   for (auto& fold : s->folds)
     for (auto& it : fold)
       prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true, s->frame_cache);
+  // Each feature set's stages and features against the sources of the items it runs on: items
+  // whose sources bring the same layers are checked once.
+  for (const FeatureSet& f : s->feature_sets) {
+    if (!f.unavailable.empty() || !s->common_unavailable.empty()) continue;
+    std::vector<const Item*> items;
+    if (f.model.empty()) {
+      const auto& train = f.train_group >= 0 ? s->train_groups[f.train_group] : s->train;
+      for (auto& it : train) items.push_back(it.get());
+    }
+    for (auto& it : s->validation) items.push_back(it.get());
+    for (auto& fold : s->folds)
+      for (auto& it : fold) items.push_back(it.get());
+    for (auto& it : s->test) items.push_back(it.get());
+    std::set<std::vector<std::string>> seen;
+    for (const Item* it : items) {
+      if (!it->src) continue;  // not installed (its runs are skipped) or reported
+      if (!seen.insert(it->src->writes()).second) continue;
+      checkSetFlow(*s, f, it, reg, ctx, d);
+    }
+  }
   std::set<std::string> used;
   for (auto& it : s->train) used.insert(it->dataset);
   for (auto& g : s->train_groups)

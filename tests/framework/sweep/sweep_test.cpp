@@ -650,6 +650,53 @@ optimisers: {icm: {type: icm}}
       << e.what();
 }
 
+// A source may bring grid layers made elsewhere (an LCM log with grid_layers): a feature set may
+// use them as features, and its stages may read them, with no stage writing them. Each item the
+// set runs on is checked against its own source; the error names the item and what it brings.
+TEST(SweepDiagnostics, FeaturesAndReadsMayComeFromTheItemsSources) {
+  test::TempDir dir;
+  const std::string head = "plugin_path: [" + std::string(TERRAMRF_TEST_PLUGIN_DIR) +
+                           "/synthetic_source]\n" + R"(version: 1
+datasets:
+  made: {type: test_synthetic, params: {frames: 3, grid_layers: [made_a, made_b]}}
+  bare: {type: test_synthetic, params: {frames: 1, spacing_m: 0.3}}
+split: {train: [{dataset: made, frames: [0, 1]}], test: [{dataset: made, frames: [2, 2]}]}
+optimisers: {icm: {type: icm}}
+feature_sets:
+)";
+  const std::string good = head + R"(  G:
+    stages: [{name: lt, type: log_transform, params: {input: made_b}}]
+    features: [made_a, log_made_b]
+)";
+  EXPECT_NO_THROW(planSweep(put(dir, "good.yaml", good), {test::pluginDir()}));
+
+  const std::string typo = test::edited(good, "features: [made_a,", "features: [made_c,");
+  const std::string typo_path = put(dir, "typo.yaml", typo);
+  ConfigError e = expectConfigError(typo_path);
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  EXPECT_EQ(e.diagnostics()[0].str(),
+            typo_path + ":" + test::positionOf(typo, "[made_c") +
+                ": feature set 'G': feature 'made_c' is not written by any of its or the common "
+                "stages nor brought by the source of made (frames 0-1) (brought: made_a, "
+                "made_b) (written: log_made_b)");
+
+  // A test item whose source brings no layers: its runs could not read them.
+  const std::string bare =
+      test::edited(good, "test: [{dataset: made, frames: [2, 2]}]", "test: [bare]");
+  const std::string bare_path = put(dir, "bare.yaml", bare);
+  e = expectConfigError(bare_path);
+  ASSERT_EQ(e.diagnostics().size(), 2u) << e.what();
+  EXPECT_EQ(e.diagnostics()[0].str(),
+            bare_path + ":" + test::positionOf(bare, "{name: lt") +
+                ": stage 'lt' (log_transform): reads 'made_b', which no earlier stage writes "
+                "(available here: @points)");
+  EXPECT_NE(e.diagnostics()[1].message.find(
+                "feature 'made_a' is not written by any of its or the common stages (written: "
+                "log_made_b)"),
+            std::string::npos)
+      << e.what();
+}
+
 // A feature set's stages run after common_stages, and the runner runs only the leading
 // egomotion stages before it builds the grid: one listed in a feature set after a common feature
 // stage ran after binning, and the pose and points it set never reached the grid. Run configs
