@@ -37,6 +37,9 @@ class CachedSource final : public Source {
   /// As the inner source: the cache itself is locked.
   bool concurrentReads() const override { return inner_->concurrentReads(); }
   std::vector<std::string> cameraNames() const override { return inner_->cameraNames(); }
+  std::map<std::string, std::string> layerOrigins() const override {
+    return inner_->layerOrigins();
+  }
 
   /// Counts once the sweep's runs are over (not locked).
   std::size_t hits() const { return hits_; }

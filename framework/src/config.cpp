@@ -495,6 +495,14 @@ void recordLayerOrigins(Plugin& stage, double cell_m, std::map<std::string, std:
     if (!w.empty() && w[0] != '@') origins[w] = em.c_str();
 }
 
+void recordSourceOrigins(const Source& s, std::map<std::string, std::string>& origins) {
+  const std::vector<std::string> declared = s.writes();
+  for (const auto& [layer, origin] : s.layerOrigins())
+    if (!layer.empty() && layer[0] != '@' &&
+        std::find(declared.begin(), declared.end(), layer) != declared.end())
+      origins[layer] = origin;
+}
+
 }  // namespace detail
 
 bool isSweepFile(const std::string& path) {
@@ -606,7 +614,10 @@ Pipeline loadPipeline(const std::string& config_path, const LoadOptions& options
 
   // stages + the order and read/write check
   detail::StageFlow flow(c);
-  if (p.source) flow.source(*p.source, root["source"].Mark());
+  if (p.source) {
+    flow.source(*p.source, root["source"].Mark());
+    detail::recordSourceOrigins(*p.source, p.layer_origins);
+  }
   // A source that failed may have been the one to bring layers made elsewhere (Frame::grid).
   else if (root["source"])
     flow.sourceFailed();

@@ -105,6 +105,7 @@ Pipeline assemble(PluginRegistry& reg, const Frame0& f0, Item& item,
   // The same order and read/write check as a run config's.
   detail::StageFlow flow(d);
   flow.source(*item.src, item.source.Mark().is_null() ? item.mark : item.source.Mark());
+  detail::recordSourceOrigins(*item.src, p.layer_origins);
   for (const auto& e : stage_entries) {
     Made m = makePlugin(
         reg, e, "stages",

@@ -125,6 +125,12 @@ class Source : public Plugin {
   /// images with them, so a frame that fails before it is read still has an earlier run's
   /// camera images removed (RunInfo::cameras).
   virtual std::vector<std::string> cameraNames() const { return {}; }
+  /// How each grid layer the source brings made (declared in writes()) was computed, as
+  /// PluginContext::layer_origins records it for stages (layer -> origin record), for the layers
+  /// whose origins came with them (an LCM log's layer_origins_t); empty when unknown. Asked
+  /// after configure(). The pipeline adds them to PluginContext::layer_origins, so a model is
+  /// checked against received layers as against computed ones.
+  virtual std::map<std::string, std::string> layerOrigins() const { return {}; }
 
   /// True if the frames come through next() rather than read(i). Asked after configure(), so
   /// one plugin may be either, as its parameters say (a log indexed in advance, or followed live).

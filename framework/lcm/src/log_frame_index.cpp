@@ -173,7 +173,8 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
   LcmLogReader reader(path);
   LogFrameIndex index;
   ByScan labels(ch.labels, "point_labels_t", path), pose(ch.pose, "pose_t", path),
-      truth(ch.truth_pose, "pose_t", path), grid(ch.grid, "terrain_grid_t", path);
+      truth(ch.truth_pose, "pose_t", path), grid(ch.grid, "terrain_grid_t", path),
+      origins(ch.grid_origins, "layer_origins_t", path);
   Samples imu{ch.imu, "imu_t"}, gps{ch.gps, "gps_t"}, odometry{ch.odometry, "odometry_t"};
   PerCamera images(ch.images, "image_t"), infos(ch.camera_info, "camera_info_t"),
       truths(ch.image_truth, "image_t");
@@ -181,7 +182,7 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
 
   const std::string* ours[] = {&ch.points,      &ch.labels,      &ch.pose,     &ch.truth_pose,
                                &ch.imu,         &ch.gps,         &ch.odometry, &ch.images,
-                               &ch.camera_info, &ch.image_truth, &ch.grid};
+                               &ch.camera_info, &ch.image_truth, &ch.grid,     &ch.grid_origins};
   while (std::optional<LcmLogEvent> e = reader.next(kPeekBytes)) {
     ++index.channel_events[e->channel];
     const std::string& c = e->channel;
@@ -226,21 +227,23 @@ LogFrameIndex indexLogFrames(const std::string& path, const LogChannels& ch) {
     if (!ch.camera_info.empty() && c == ch.camera_info) infos.add(*e, stamp);
     if (!ch.image_truth.empty() && c == ch.image_truth) truths.add(*e, stamp);
     if (!ch.grid.empty() && c == ch.grid) grid.add(*e, stamp);
+    if (!ch.grid_origins.empty() && c == ch.grid_origins) origins.add(*e, stamp);
   }
   index.skipped_bytes = reader.skippedBytes();
 
   for (LogFrame& f : index.frames) {
-    for (const ByScan* b : {&labels, &pose, &truth, &grid})
+    for (const ByScan* b : {&labels, &pose, &truth, &grid, &origins})
       if (f.error.empty()) f.error = b->conflict(f.id);
     f.labels = labels.take(f.id);
     f.pose = pose.take(f.id);
     f.truth_pose = truth.take(f.id);
     f.grid = grid.take(f.id);
+    f.grid_origins = origins.take(f.id);
     f.images = images.take(f.id);
     f.camera_infos = infos.take(f.id);
     f.image_truths = truths.take(f.id);
   }
-  for (const ByScan* b : {&labels, &pose, &truth, &grid})
+  for (const ByScan* b : {&labels, &pose, &truth, &grid, &origins})
     if (!b->channel().empty()) b->notes(index.notes);
   for (const PerCamera* p : {&images, &infos, &truths})
     if (!p->channel().empty()) p->notes(index.notes);

@@ -4,6 +4,7 @@
 #include <terramrf_msgs/gps_t.hpp>
 #include <terramrf_msgs/image_t.hpp>
 #include <terramrf_msgs/imu_t.hpp>
+#include <terramrf_msgs/layer_origins_t.hpp>
 #include <terramrf_msgs/odometry_t.hpp>
 #include <terramrf_msgs/point_cloud_t.hpp>
 #include <terramrf_msgs/point_labels_t.hpp>
@@ -42,6 +43,7 @@ static const std::vector<Known>& knownTypes() {
       known<terramrf_msgs::image_t>("image_t", true),
       known<terramrf_msgs::camera_info_t>("camera_info_t", true),
       known<terramrf_msgs::terrain_grid_t>("terrain_grid_t", true),
+      known<terramrf_msgs::layer_origins_t>("layer_origins_t", true),
       known<terramrf_msgs::imu_t>("imu_t", false),
       known<terramrf_msgs::gps_t>("gps_t", false),
       known<terramrf_msgs::odometry_t>("odometry_t", false),

@@ -2,6 +2,7 @@
 // asked, the scan's pose, ground truth, camera images with their calibrations, IMU/GPS/odometry
 // samples and points, so that a log it writes can be read back as a
 // source (lcm_log). Writes nothing to disk, except the LCM log a file:// URL names.
+#include <map>
 #include <memory>
 #include <set>
 #include <stdexcept>
@@ -12,6 +13,7 @@
 #include "terramrf/lcm/grid_publisher.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/log_writer.hpp"
+#include "terramrf/lcm/origins_codec.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
 #include "terramrf/plugin.hpp"
@@ -28,8 +30,9 @@ class LcmPublishOutput : public Output {
     d.add("channel", channel_, "channel of the terrain_grid_t messages");
     d.add("layers", layers_, "float layers to send; empty = every layer of the grid").unique();
     d.add("publish_grid", publish_grid_,
-          "publish the labelled grid (terrain_grid_t on <channel>); false records a source's "
-          "scans without classifying them (no stage needed before it)");
+          "publish the labelled grid (terrain_grid_t on <channel>), after how its layers were "
+          "computed (layer_origins_t on <channel>_ORIGINS); false records a source's scans "
+          "without classifying them (no stage needed before it)");
     d.add("publish_points", publish_points_,
           "also publish the scan's points as point_cloud_t on <channel>_POINTS");
     d.add("publish_pose", publish_pose_,
@@ -90,6 +93,7 @@ class LcmPublishOutput : public Output {
       }
     }
     if (ctx.labels) labels_ = *ctx.labels;
+    if (ctx.layer_origins) origins_ = *ctx.layer_origins;
   }
 
   std::vector<std::string> reads() const override {
@@ -119,7 +123,16 @@ class LcmPublishOutput : public Output {
     header.timestamp_s = ctx.frame->timestamp_s;
     const LabelSet& labels = ctx.labels ? *ctx.labels : labels_;
     const Frame& f = *ctx.frame;
-    if (publish_grid_) publisher_->publish(*ctx.grid, labels, header, layers_);
+    if (publish_grid_) {
+      // How the layers sent were computed, just before them: a receiver that takes them as they
+      // came (lcm_log's grid_layers) checks its model against these.
+      std::map<std::string, std::string> sent;
+      for (const std::string& l : layers_.empty() ? ctx.grid->layerNames() : layers_)
+        if (const auto it = origins_.find(l); it != origins_.end()) sent.insert(*it);
+      if (!sent.empty())
+        publisher_->publishForScan(channel_ + "_ORIGINS", encodeLayerOrigins(sent, header), header);
+      publisher_->publish(*ctx.grid, labels, header, layers_);
+    }
     // The points go last: a receiver assembling scans takes the cloud as the scan's end.
     if (publish_pose_) {
       if (const auto pose = framePoseMessage(f))
@@ -196,6 +209,7 @@ class LcmPublishOutput : public Output {
   std::string log_time_ = "wall";
 
   LabelSet labels_ = LabelSet::defaults();
+  std::map<std::string, std::string> origins_;  ///< how the run computes each layer
   std::unique_ptr<GridPublisher> publisher_;
 };
 

@@ -6,6 +6,7 @@
 // clouds out of time order when samples are read, refuse the log: docs/plugins/readers.md).
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -14,6 +15,7 @@
 #include "terramrf/errors.hpp"
 #include "terramrf/lcm/log_frame_index.hpp"
 #include "terramrf/lcm/log_reader.hpp"
+#include "terramrf/lcm/origins_codec.hpp"
 #include "terramrf/lcm/scan_channels.hpp"
 #include "terramrf/lcm/scan_messages.hpp"
 #include "terramrf/plugin.hpp"
@@ -28,12 +30,25 @@ class LcmLogSource : public Source {
         .required()
         .existingPath();
     declareScanChannels(d, sp_);
+    d.add("grid_origins_channel", origins_channel_,
+          "channel of the layer_origins_t saying how the grids' layers were computed (lcm_publish "
+          "sends them on <channel>_ORIGINS), matched to scans by frame_id; potts_gaussian checks "
+          "its model against them as against layers computed here. Empty = <grid_channel>_ORIGINS "
+          "when the log carries it (else the layers' origins are unknown and not checked)");
     d.add("drop_no_return", drop_no_return_, "drop points exactly at (0, 0, 0) (counted)");
   }
 
   void configure(const PluginContext& ctx) override {
     checkScanChannels(sp_);
     labels_ = ctx.labels ? *ctx.labels : LabelSet::defaults();
+    if (!origins_channel_.empty() && ch_.grid.empty())
+      throw ParamError("grid_origins_channel",
+                       "is " + origins_channel_ +
+                           ", but grid_channel is empty; the origins describe the layers of "
+                           "grids read from a grid channel");
+    ch_.grid_origins = !origins_channel_.empty() ? origins_channel_
+                       : ch_.grid.empty()        ? ""
+                                                 : ch_.grid + "_ORIGINS";
     try {
       index_ = indexLogFrames(log_, ch_);
     } catch (const InputError& e) {
@@ -51,7 +66,8 @@ class LcmLogSource : public Source {
         {"images_channel", &ch_.images},
         {"camera_info_channel", &ch_.camera_info},
         {"image_truth_channel", &ch_.image_truth},
-        {"grid_channel", &ch_.grid}};
+        {"grid_channel", &ch_.grid},
+        {"grid_origins_channel", &origins_channel_}};
     for (const auto& [param, channel] : asked) {
       if (channel->empty() || index_.channel_events.count(*channel)) continue;
       std::string have;
@@ -67,6 +83,15 @@ class LcmLogSource : public Source {
                                   (have.empty() ? "none, no whole event in the log" : have) +
                                   skipped);
     }
+    if (!ch_.grid_origins.empty() && !index_.channel_events.count(ch_.grid_origins)) {
+      // Not asked for by name, and absent: a log of another sender, or of an older TerraMRF.
+      std::fprintf(stderr,
+                   "lcm: %s: no layer_origins_t on %s: how the grids' layers were computed is "
+                   "unknown, so a model cannot be checked against them\n",
+                   log_.c_str(), ch_.grid_origins.c_str());
+      ch_.grid_origins.clear();
+    }
+    if (!ch_.grid_origins.empty()) readOrigins();
     for (const std::string& n : index_.notes)
       std::fprintf(stderr, "lcm: %s: %s\n", log_.c_str(), n.c_str());
     if (index_.skipped_bytes > 0)
@@ -81,6 +106,8 @@ class LcmLogSource : public Source {
 
   /// Every scan has a pose when a pose channel is read: one without fails (read()).
   std::vector<std::string> writes() const override { return scanWrites(sp_); }
+
+  std::map<std::string, std::string> layerOrigins() const override { return origins_; }
 
   std::size_t size() const override { return index_.frames.size(); }
   std::string frameId(std::size_t i) const override { return index_.frames.at(i).id; }
@@ -102,6 +129,13 @@ class LcmLogSource : public Source {
     if (lf.pose) m.pose = message(*lf.pose);
     if (lf.truth_pose) m.truth_pose = message(*lf.truth_pose);
     if (lf.grid) m.grid = message(*lf.grid);
+    // Its origins were compared with the log's at configure(): a scan without them could not be.
+    if (!ch_.grid_origins.empty() && !lf.grid_origins)
+      throw InputError(log_, "event " + std::to_string(lf.eventnum) + " (" + ch_.points +
+                                 "): no layer_origins_t on channel " + ch_.grid_origins +
+                                 " for scan '" + lf.id +
+                                 "'; the log carries them for other scans, so every scan needs "
+                                 "its own (how its layers were computed)");
     for (std::int64_t at : lf.imu) m.imu.push_back(message(at));
     for (std::int64_t at : lf.gps) m.gps.push_back(message(at));
     for (std::int64_t at : lf.odometry) m.odometry.push_back(message(at));
@@ -114,7 +148,53 @@ class LcmLogSource : public Source {
   }
 
  private:
+  /// The origins of the grid layers taken, from the first scan whose layer_origins_t decodes; a
+  /// scan whose message cannot be decoded, or describes a taken layer otherwise, fails alone
+  /// (LogFrame::error): one model cannot be right for both.
+  void readOrigins() {
+    LcmLogReader reader(log_);
+    std::string first_event;
+    bool have = false;
+    for (LogFrame& lf : index_.frames) {
+      if (!lf.grid_origins || !lf.error.empty()) continue;
+      const LcmLogEvent e = reader.readAt(*lf.grid_origins);
+      const std::string event = "event " + std::to_string(e.eventnum) + " (" + e.channel + ")";
+      DecodedLayerOrigins d;
+      try {
+        d = decodeLayerOrigins(e.data.data(), e.data.size(), event);
+      } catch (const InputError& err) {
+        lf.error = err.what();
+        continue;
+      }
+      std::map<std::string, std::string> taken;
+      for (const std::string& l : sp_.grid_layers)
+        if (const auto it = d.origins.find(l); it != d.origins.end()) taken.insert(*it);
+      if (!have) {
+        origins_ = std::move(taken);
+        first_event = event;
+        have = true;
+        continue;
+      }
+      if (taken == origins_) continue;
+      std::string which;
+      for (const std::string& l : sp_.grid_layers) {
+        const auto a = origins_.find(l), b = taken.find(l);
+        const bool in_a = a != origins_.end(), in_b = b != taken.end();
+        if (in_a != in_b || (in_a && a->second != b->second)) {
+          which = l;
+          break;
+        }
+      }
+      lf.error = event + ": layer '" + which + "' of scan '" + lf.id +
+                 "' was computed otherwise than the log's first scan's (" + first_event +
+                 "): the sender's stages changed during the recording, so one model cannot fit "
+                 "both";
+    }
+  }
+
   std::string log_;
+  std::string origins_channel_;
+  std::map<std::string, std::string> origins_;
   bool drop_no_return_ = true;
   ScanChannelParams sp_;
   LogChannels& ch_ = sp_.channels;

@@ -11,6 +11,7 @@
 #include "terramrf/lcm/grid_codec.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/log_writer.hpp"
+#include "terramrf/lcm/origins_codec.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
 #include "terramrf/param_values.hpp"
@@ -219,6 +220,96 @@ TEST_F(LcmLogSourceTest, GridsMadeElsewhereComeWithTheirScans) {
       EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
     }
   }
+}
+
+// The feature node publishes how its layers were computed (layer_origins_t on <channel>_ORIGINS);
+// the source hands those of the layers it takes to the pipeline (Source::layerOrigins), so
+// potts_gaussian checks its model against received layers. Every scan must bring its own, and
+// the same: a scan whose taken layers were computed otherwise, whose origins cannot be decoded
+// or that has none fails alone.
+TEST_F(LcmLogSourceTest, GridOriginsComeWithTheLayersAndScansDescribedOtherwiseFailAlone) {
+  GridGeometry geom;
+  ctx_.grid = geom;
+  auto grid = [&](const std::string& id) {
+    TerrainGrid g(geom);
+    g.add("height_diff", 1);
+    g.add("roughness", 2);
+    return encodeGrid(g, labels_, {id, "lidar", 0});
+  };
+  const std::map<std::string, std::string> first = {{"height_diff", "{stage: height_difference}"},
+                                                    {"roughness", "{stage: roughness, window: 2}"},
+                                                    {"other", "{stage: other}"}};
+  std::map<std::string, std::string> changed = first;
+  changed["roughness"] = "{stage: roughness, window: 3}";
+  changed.erase("other");
+  {
+    LcmLogWriter w(log(), false);
+    put(w, "G_ORIGINS", encodeLayerOrigins(first, {"a", "lidar", 0}));
+    put(w, "G", grid("a"));
+    put(w, "G_POINTS", cloud("a", 0.1));
+    put(w, "G_ORIGINS", encodeLayerOrigins(changed, {"b", "lidar", 0}));
+    put(w, "G", grid("b"));
+    put(w, "G_POINTS", cloud("b", 0.2));
+    put(w, "G", grid("c"));  // no origins
+    put(w, "G_POINTS", cloud("c", 0.3));
+    MessageBytes cut = encodeLayerOrigins(first, {"d", "lidar", 0});
+    cut.resize(cut.size() - 4);
+    put(w, "G_ORIGINS", cut);
+    put(w, "G", grid("d"));
+    put(w, "G_POINTS", cloud("d", 0.4));
+    w.close();
+  }
+  auto src =
+      make("points_channel: G_POINTS, grid_channel: G, grid_layers: [height_diff, roughness]");
+  EXPECT_EQ(src->layerOrigins(),
+            (std::map<std::string, std::string>{{"height_diff", "{stage: height_difference}"},
+                                                {"roughness", "{stage: roughness, window: 2}"}}));
+  EXPECT_NO_THROW(src->read(0));
+  const auto expectFails = [&](Source& s, std::size_t i, const std::string& what) {
+    try {
+      s.read(i);
+      ADD_FAILURE() << "scan " << i << " was read";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(log() + ": ", 0), 0u) << e.what();
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  expectFails(*src, 1,
+              "event 3 (G_ORIGINS): layer 'roughness' of scan 'b' was computed otherwise than "
+              "the log's first scan's (event 0 (G_ORIGINS)): the sender's stages changed during "
+              "the recording");
+  expectFails(*src, 2,
+              "(G_POINTS): no layer_origins_t on channel G_ORIGINS for scan 'c'; the log carries "
+              "them for other scans, so every scan needs its own");
+  expectFails(*src, 3, "event 8 (G_ORIGINS): ");
+  // Scan b differs only in a layer not taken: it is read.
+  auto hd = make("points_channel: G_POINTS, grid_channel: G, grid_layers: [height_diff]");
+  EXPECT_EQ(hd->layerOrigins().size(), 1u);
+  EXPECT_NO_THROW(hd->read(1));
+  // Named, the channel must be in the log; and it describes a grid channel's layers.
+  const std::pair<std::string, std::string> refused[] = {
+      {"grid_channel: G, grid_layers: [height_diff], grid_origins_channel: NOPE",
+       "parameter 'grid_origins_channel': '" + log() + "' has no event on channel NOPE"},
+      {"grid_origins_channel: G_ORIGINS",
+       "parameter 'grid_origins_channel': is G_ORIGINS, but grid_channel is empty"}};
+  for (const auto& [params, expected] : refused) {
+    try {
+      make("points_channel: G_POINTS, " + params);
+      ADD_FAILURE() << params << " accepted";
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  }
+  // A log without origins (another sender): the layers' origins are unknown, nothing fails.
+  {
+    LcmLogWriter w(log(), false);
+    put(w, "G", grid("a"));
+    put(w, "G_POINTS", cloud("a", 0.1));
+    w.close();
+  }
+  auto unknown = make("points_channel: G_POINTS, grid_channel: G, grid_layers: [height_diff]");
+  EXPECT_TRUE(unknown->layerOrigins().empty());
+  EXPECT_NO_THROW(unknown->read(0));
 }
 
 TEST_F(LcmLogSourceTest, WithoutAPoseChannelItWritesNoPose) {

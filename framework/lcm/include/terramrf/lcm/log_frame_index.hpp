@@ -24,6 +24,7 @@ struct LogChannels {
   std::string images, camera_info;
   std::string image_truth;  ///< image_t of per-pixel ground truth (mono8 class ids), optional
   std::string grid;         ///< terrain_grid_t of layers made elsewhere, by frame_id, optional
+  std::string grid_origins;  ///< layer_origins_t of those grids' layers, by frame_id, optional
 };
 
 /// Where one scan's messages are in the log (byte offsets of their events).
@@ -33,13 +34,13 @@ struct LogFrame {
   std::int64_t utime = 0;
   std::int64_t eventnum = 0;   ///< the cloud's event number (for messages)
   std::int64_t points = 0;
-  std::optional<std::int64_t> labels, pose, truth_pose, grid;
+  std::optional<std::int64_t> labels, pose, truth_pose, grid, grid_origins;
   /// Samples with a time after the previous scan's cloud, up to and including this one's.
   std::vector<std::int64_t> imu, gps, odometry;
   /// Its images and camera calibrations, in log order.
   std::vector<std::int64_t> images, camera_infos, image_truths;
-  /// Why this scan cannot be read, "" if it can: two labels, poses or grids name it. Reading it
-  /// fails with this (the scan alone, not the log).
+  /// Why this scan cannot be read, "" if it can: two labels, poses, grids or origins name it.
+  /// Reading it fails with this (the scan alone, not the log).
   std::string error;
 };
 
