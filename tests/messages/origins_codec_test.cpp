@@ -54,6 +54,14 @@ TEST(OriginsCodec, BadMessagesAreInputErrorsNamingTheSource) {
   m.layer_names = {"roughness", "height_diff"};
   m.origins[1] = "";
   expectError(m, "layer 1 ('height_diff') has an empty name or origin");
+  m.origins[1] = "{stage: height_difference";  // cut: not YAML
+  expectError(m,
+              "the origin of layer 'height_diff' is not a stage's record (a YAML map with "
+              "'stage'): '{stage: height_difference'");
+  m.origins[1] = "[1, 2]";
+  expectError(m, "the origin of layer 'height_diff' is not a stage's record");
+  m.origins[1] = "{cell_m: 0.5}";
+  expectError(m, "the origin of layer 'height_diff' is not a stage's record");
   // Another message type, and cut bytes.
   const MessageBytes good = encodeLayerOrigins(kOrigins, {"a", "lidar", 0});
   EXPECT_THROW(decodeLayerOrigins(MessageBytes(good.begin(), good.end() - 5)), InputError);

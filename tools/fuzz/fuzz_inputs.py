@@ -68,13 +68,12 @@ class Fuzzer:
                 os.remove(link)
             if not os.path.lexists(link):
                 os.symlink(self.data, link)
-            # configs/lcm_replay.yaml and lcm_classify.yaml read the log configs/lcm_record.yaml
-            # writes (out/ of the working folder, the tree here): record one scan so that they
-            # have their log.
+            # configs/lcm_replay.yaml, lcm_classify.yaml and sweeps/lcm_layers.yaml read the log
+            # configs/lcm_record.yaml writes (out/ of the working folder, the tree here): record
+            # it so that they have their log (all five scans: the sweep splits them 0-2 / 3-4).
             tree = os.path.dirname(self.configs)
-            rc, out = self.run([self.bin, 'run', 'configs/lcm_record.yaml', '--limit', '1',
-                                '--no-progress', '--out', os.path.join(tree, 'out', 'record')],
-                               tree)
+            rc, out = self.run([self.bin, 'run', 'configs/lcm_record.yaml', '--no-progress',
+                                '--out', os.path.join(tree, 'out', 'record')], tree)
             if rc != 0:
                 # Not fatal here: lcm_replay.yaml's control case then fails and is flagged, as
                 # any seed that cannot run.

@@ -1,5 +1,7 @@
 #include "terramrf/lcm/origins_codec.hpp"
 
+#include <yaml-cpp/yaml.h>
+
 #include <limits>
 #include <stdexcept>
 #include <terramrf_msgs/layer_origins_t.hpp>
@@ -8,6 +10,21 @@
 #include "terramrf/errors.hpp"
 
 namespace terramrf {
+namespace {
+
+/// True if `origin` is a stage's record: a YAML map naming its stage. The pipeline parses the
+/// origins of the layers a stage reads into that stage's own record, and a model compares them
+/// key by key, so a damaged one is refused with its message rather than met as a YAML error.
+bool isOriginRecord(const std::string& origin) {
+  try {
+    const YAML::Node n = YAML::Load(origin);
+    return n.IsMap() && n["stage"] && n["stage"].IsScalar();
+  } catch (const YAML::Exception&) {
+    return false;
+  }
+}
+
+}  // namespace
 
 MessageBytes encodeLayerOrigins(const std::map<std::string, std::string>& origins,
                                 const MessageHeader& header) {
@@ -41,6 +58,11 @@ DecodedLayerOrigins decodeLayerOrigins(const void* data, std::size_t size,
     if (layer.empty() || m.origins[k].empty())
       throw InputError(source, "layer_origins_t: layer " + std::to_string(k) + " ('" + layer +
                                    "') has an empty name or origin");
+    if (!isOriginRecord(m.origins[k]))
+      throw InputError(source, "layer_origins_t: the origin of layer '" + layer +
+                                   "' is not a stage's record (a YAML map with 'stage'): '" +
+                                   m.origins[k].substr(0, 120) +
+                                   (m.origins[k].size() > 120 ? "…'" : "'"));
     if (!out.origins.emplace(layer, m.origins[k]).second)
       throw InputError(source, "layer_origins_t: layer '" + layer + "' is named twice");
   }

@@ -13,6 +13,7 @@
 #include "terramrf/lcm/camera_codec.hpp"
 #include "terramrf/lcm/grid_codec.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
+#include "terramrf/lcm/origins_codec.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
 
@@ -118,6 +119,50 @@ TEST_F(LcmPublishTest, WhatIsPublishedDecodesToTheGrid) {
   ASSERT_EQ(pc.cloud.size(), 1u);
   EXPECT_EQ(pc.cloud.z[0], 0.3f);
   EXPECT_EQ(pc.cloud.ring[0], 12);
+}
+
+// How the run computed the layers sent goes out just before each grid (layer_origins_t on
+// <channel>_ORIGINS), for the layers sent only; a run that knows no origins sends none.
+TEST_F(LcmPublishTest, LayerOriginsPrecedeEachGridForTheLayersSent) {
+  const std::map<std::string, std::string> origins = {
+      {"height", "{stage: height_difference, cell_m: 0.5}"},
+      {"slope", "{stage: slope, cell_m: 0.5}"},
+      {"elsewhere", "{stage: other}"}};
+  const auto events = [&](const std::string& extra, const std::map<std::string, std::string>* o) {
+    const std::string log = dir.str() + "/o.lcmlog";
+    PluginContext c = pctx();
+    c.layer_origins = o;
+    auto out = test::makeOutput("lcm_publish",
+                                "{url: 'file://" + log + "?mode=w', channel: G" + extra + "}", c);
+    EXPECT_TRUE(out);
+    std::vector<std::pair<std::string, MessageBytes>> ev;
+    if (!out) return ev;
+    out->begin(info());
+    out->write(ctx());
+    out->write(ctx());
+    out->end(RunSummary{});
+    lcm::LogFile file(log, "r");
+    while (const lcm::LogEvent* e = file.readNextEvent()) {
+      const auto* p = static_cast<const uint8_t*>(e->data);
+      ev.emplace_back(e->channel, MessageBytes(p, p + e->datalen));
+    }
+    return ev;
+  };
+  auto ev = events("", &origins);
+  ASSERT_EQ(ev.size(), 4u);
+  EXPECT_EQ(ev[0].first, "G_ORIGINS");
+  EXPECT_EQ(ev[1].first, "G");
+  EXPECT_EQ(ev[2].first, "G_ORIGINS");
+  const DecodedLayerOrigins d = decodeLayerOrigins(ev[0].second);
+  EXPECT_EQ(d.header.frame_id, "000005");
+  EXPECT_EQ(d.origins, (std::map<std::string, std::string>{{"height", origins.at("height")},
+                                                           {"slope", origins.at("slope")}}));
+  ev = events(", layers: [height]", &origins);
+  ASSERT_EQ(ev.size(), 4u);
+  EXPECT_EQ(decodeLayerOrigins(ev[0].second).origins.size(), 1u);
+  ev = events("", nullptr);
+  ASSERT_EQ(ev.size(), 2u);
+  EXPECT_EQ(ev[0].first, "G");
 }
 
 // With publish_pose and publish_truth the scan's pose, ground-truth pose and per-point classes
