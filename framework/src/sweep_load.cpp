@@ -2,6 +2,7 @@
 // grid/labels/plugin_path, the version; loadSweep validates a whole sweep before anything runs.
 #include <algorithm>
 #include <filesystem>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -28,18 +29,22 @@ const std::vector<std::string> kSweepKeys = {
 /// validation runs per feature set).
 constexpr std::size_t kMaxCandidates = 64;
 
-/// The parameters of plugin `type` a sweep may set (`training:` for feature_stats, `energy:` and
-/// `select:`): those it declares, except the ones compare sets per feature set (`features`, and
-/// the `model` file). Empty if the type is not installed (the runs that need it say so).
+/// How a feature set's stages and features are checked (checkSetFlow).
+enum class SetFlowCheck {
+  kNoSource,    ///< while the sweep is read: only what no source can bring (`@energy`, …)
+  kStagesOnly,  ///< no item's source could be made: the stages must write every feature
+  kItem,        ///< against the source of one item the set runs on
+};
+
 /// The order of feature set `f`'s stages and where its features come from, as a run of it on
-/// `item` checks them: the item's source may bring grid layers made elsewhere (an LCM log with
-/// `grid_layers`), the common stages and the set's stages write the rest. Without an item (the
-/// sweep is still being read, its sources are not made) layer reads and the features are not
-/// judged, only what no source can bring (`@energy`, `@cell_pixels`). Frame artefacts (`@pose`)
-/// are left to each run's check: a run over a source without poses fails, the others run.
-/// Problems of the stage entries themselves are reported where they are made.
-void checkSetFlow(const Sweep& s, const FeatureSet& f, const Item* item, PluginRegistry& reg,
-                  const PluginContext& ctx, Diags& d) {
+/// `item` checks them (kItem): the item's source may bring grid layers made elsewhere (an LCM log
+/// with `grid_layers`), the common stages and the set's stages write the rest. With
+/// `name_item` (the set's items differ in what their sources bring) each problem says which
+/// item's runs it is in. Frame artefacts (`@pose`) are left to each run's check: a run over a
+/// source without poses fails, the others run. Problems of the stage entries themselves are
+/// reported where they are made, and problems already reported are not repeated.
+void checkSetFlow(const Sweep& s, const FeatureSet& f, SetFlowCheck how, const Item* item,
+                  bool name_item, PluginRegistry& reg, const PluginContext& ctx, Diags& d) {
   const std::vector<PluginKind> stage_kinds = {PluginKind::kEgomotion, PluginKind::kFeature};
   Diags quiet;
   quiet.file = d.file;
@@ -53,33 +58,50 @@ void checkSetFlow(const Sweep& s, const FeatureSet& f, const Item* item, PluginR
       made.emplace_back(std::move(m), e.Mark());
     }
   if (!quiet.list.empty()) return;
-  const Source* src = item ? item->src.get() : nullptr;
-  detail::StageFlow flow(d);
+  const Source* src = how == SetFlowCheck::kItem ? item->src.get() : nullptr;
   std::vector<std::string> brought;
-  if (src) {
-    flow.sourceLayers(*src);
+  if (src)
     for (const auto& w : src->writes())
       if (w[0] != '@') brought.push_back(w);
-  } else {
-    flow.sourceFailed();
-  }
+  const std::string in_runs =
+      name_item && src ? " (in the runs on " + item->described() + ", whose source brings " +
+                             (brought.empty() ? "no layers" : joinNames(brought)) + ")"
+                       : "";
+  Diags local;
+  local.file = d.file;
+  detail::StageFlow flow(local);
+  if (src) flow.sourceLayers(*src);
+  if (how == SetFlowCheck::kNoSource) flow.sourceFailed();
   for (const auto& [m, mark] : made) flow.stage(*m.plugin, m.kind, mark);
-  if (!src) return;
-  const std::string what = "feature set '" + f.name + "'";
-  for (const auto& feat : f.features) {
-    if (written.count(feat) || std::count(brought.begin(), brought.end(), feat)) continue;
-    std::vector<std::string> have;
-    for (const auto& w : written)
-      if (w[0] != '@') have.push_back(w);
-    std::string msg =
-        what + ": feature '" + feat + "' is not written by any of its or the common stages";
-    if (!brought.empty())
-      msg += " nor brought by the source of " + item->described() +
-             " (brought: " + joinNames(brought) + ")";
-    d.add(f.features_mark, msg + " (written: " + joinNames(have) + ")");
+  if (how != SetFlowCheck::kNoSource) {
+    const std::string what = "feature set '" + f.name + "'";
+    for (const auto& feat : f.features) {
+      if (written.count(feat) || std::count(brought.begin(), brought.end(), feat)) continue;
+      std::vector<std::string> have;
+      for (const auto& w : written)
+        if (w[0] != '@') have.push_back(w);
+      std::string msg =
+          what + ": feature '" + feat + "' is not written by any of its or the common stages";
+      if (!brought.empty())
+        msg += " nor brought by the source of " + item->described() +
+               " (brought: " + joinNames(brought) + ")";
+      local.add(f.features_mark, msg + " (written: " + joinNames(have) + ")");
+    }
+  }
+  for (Diagnostic x : local.list) {
+    const auto same = [&](const Diagnostic& y) {
+      return y.line == x.line && y.column == x.column && y.stage == x.stage && y.type == x.type &&
+             y.message == x.message;
+    };
+    if (std::any_of(d.list.begin(), d.list.end(), same)) continue;  // said already
+    if (x.message.find(" nor brought by the source of ") == std::string::npos) x.message += in_runs;
+    if (!std::any_of(d.list.begin(), d.list.end(), same)) d.list.push_back(std::move(x));
   }
 }
 
+/// The parameters of plugin `type` a sweep may set (`training:` for feature_stats, `energy:` and
+/// `select:`): those it declares, except the ones compare sets per feature set (`features`, and
+/// the `model` file). Empty if the type is not installed (the runs that need it say so).
 std::vector<std::string> settableKeys(PluginRegistry& reg, const std::string& type) {
   std::vector<std::string> keys;
   if (type.empty() || !reg.find(type)) return keys;
@@ -583,7 +605,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
       // a source may bring layers made elsewhere (Frame::grid). What only stages make is
       // judged now.
       if (f.unavailable.empty() && s->common_unavailable.empty())
-        checkSetFlow(*s, f, nullptr, reg, ctx, d);
+        checkSetFlow(*s, f, SetFlowCheck::kNoSource, nullptr, false, reg, ctx, d);
       s->feature_sets.push_back(std::move(f));
     }
   } else {
@@ -865,25 +887,34 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   for (auto& fold : s->folds)
     for (auto& it : fold)
       prepareItem(*it, reg, s->f0, s->output_dir, limit, d, true, s->frame_cache);
-  // Each feature set's stages and features against the sources of the items it runs on: items
-  // whose sources bring the same layers are checked once.
+  // Each feature set's stages and features against the sources of the items it runs on (its
+  // training items unless it brings its model, validation or folds when select: chooses for it,
+  // the test items): items whose sources bring the same layers are checked once.
   for (const FeatureSet& f : s->feature_sets) {
     if (!f.unavailable.empty() || !s->common_unavailable.empty()) continue;
     std::vector<const Item*> items;
     if (f.model.empty()) {
-      const auto& train = f.train_group >= 0 ? s->train_groups[f.train_group] : s->train;
-      for (auto& it : train) items.push_back(it.get());
+      for (const auto& it : trainItems(*s, f)) items.push_back(it.get());
+      if (selectsFor(candidatesFor(s->select, f))) {
+        for (const auto& it : s->validation) items.push_back(it.get());
+        for (const auto& fold : s->folds)
+          for (const auto& it : fold) items.push_back(it.get());
+      }
     }
-    for (auto& it : s->validation) items.push_back(it.get());
-    for (auto& fold : s->folds)
-      for (auto& it : fold) items.push_back(it.get());
-    for (auto& it : s->test) items.push_back(it.get());
-    std::set<std::vector<std::string>> seen;
-    for (const Item* it : items) {
-      if (!it->src) continue;  // not installed (its runs are skipped) or reported
-      if (!seen.insert(it->src->writes()).second) continue;
-      checkSetFlow(*s, f, it, reg, ctx, d);
-    }
+    for (const auto& it : s->test) items.push_back(it.get());
+    std::map<std::vector<std::string>, const Item*> by_writes;
+    for (const Item* it : items)
+      if (it->src) by_writes.emplace(it->src->writes(), it);  // else not installed, or reported
+    bool any_brought = false;
+    for (const auto& [writes, it] : by_writes)
+      for (const auto& w : writes) any_brought |= w[0] != '@';
+    const bool name_item = by_writes.size() > 1 || any_brought;
+    if (by_writes.empty())
+      checkSetFlow(*s, f, SetFlowCheck::kStagesOnly, nullptr, false, reg, ctx, d);
+    // In the order the items are listed, for messages that follow the file.
+    for (const Item* it : items)
+      if (it->src && by_writes.at(it->src->writes()) == it)
+        checkSetFlow(*s, f, SetFlowCheck::kItem, it, name_item, reg, ctx, d);
   }
   std::set<std::string> used;
   for (auto& it : s->train) used.insert(it->dataset);

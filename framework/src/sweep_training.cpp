@@ -194,6 +194,7 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
   for (const Item* it : job.items) info.frames += it->count;
   stats->begin(info);
 
+  std::string origins_from;  // the item whose layer origins the model records
   for (Item* it : job.items) {
     TrainedItem rec;
     rec.label = it->label;
@@ -209,7 +210,29 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
     std::vector<std::unique_ptr<Output>> extra;
     extra.push_back(std::make_unique<StatsFeeder>(*stats, rec, progress, job.what + it->label));
     Pipeline p = assemble(reg, f0, *it, job.stages, {}, std::move(extra), model_dir);
-    r.layer_origins = p.layer_origins;  // every item runs the same stages
+    // Every item runs the same stages, but items' sources may bring layers with origins of
+    // their own (logs of other senders): a feature computed two ways cannot make one model, and
+    // one whose origin some item does not know is recorded as unknown (not checked).
+    if (it == job.items.front()) {
+      r.layer_origins = p.layer_origins;
+      origins_from = it->label;
+    } else {
+      for (const auto& f : job.features) {
+        const auto mine = p.layer_origins.find(f);
+        const auto so_far = r.layer_origins.find(f);
+        if (so_far == r.layer_origins.end()) continue;
+        if (mine == p.layer_origins.end()) {
+          r.layer_origins.erase(so_far);
+        } else if (mine->second != so_far->second) {
+          throw std::runtime_error("training items '" + origins_from + "' and '" + it->label +
+                                   "' bring feature '" + f + "' computed otherwise (" +
+                                   so_far->second + " against " + mine->second +
+                                   "); one model cannot fit both: train on data whose layers "
+                                   "were computed alike; no model written (" +
+                                   job.model_path + " is left as it was)");
+        }
+      }
+    }
     // The features must be layers some stage writes, or the source brings made (Frame::grid:
     // a log of another process's feature layers).
     std::set<std::string> written;

@@ -686,15 +686,64 @@ feature_sets:
   const std::string bare_path = put(dir, "bare.yaml", bare);
   e = expectConfigError(bare_path);
   ASSERT_EQ(e.diagnostics().size(), 2u) << e.what();
-  EXPECT_EQ(e.diagnostics()[0].str(),
-            bare_path + ":" + test::positionOf(bare, "{name: lt") +
-                ": stage 'lt' (log_transform): reads 'made_b', which no earlier stage writes "
-                "(available here: @points)");
-  EXPECT_NE(e.diagnostics()[1].message.find(
-                "feature 'made_a' is not written by any of its or the common stages (written: "
-                "log_made_b)"),
+  EXPECT_EQ(
+      e.diagnostics()[0].str(),
+      bare_path + ":" + test::positionOf(bare, "{name: lt") +
+          ": stage 'lt' (log_transform): reads 'made_b', which no earlier stage writes "
+          "(available here: @points) (in the runs on bare (all frames), whose source brings no "
+          "layers)");
+  EXPECT_EQ(e.diagnostics()[1].message,
+            "feature set 'G': feature 'made_a' is not written by any of its or the common "
+            "stages (written: log_made_b) (in the runs on bare (all frames), whose source brings "
+            "no layers)");
+
+  // Validation items are checked only for the sets select: chooses for: without select: the
+  // validation item's source, which brings no layers, is never run with this set.
+  const std::string val = test::edited(good, "test: [{dataset: made, frames: [2, 2]}]}",
+                                       "test: [{dataset: made, frames: [2, 2]}], validation: "
+                                       "[bare]}");
+  EXPECT_NO_THROW(planSweep(put(dir, "val.yaml", val), {test::pluginDir()}));
+  // With select: it is, and refused.
+  e = expectConfigError(
+      put(dir, "val_select.yaml", val + "select: {training: {components: [1, 2]}}\n"));
+  EXPECT_NE(std::string(e.what()).find(
+                "(in the runs on bare (all frames), whose source brings no layers)"),
             std::string::npos)
       << e.what();
+}
+
+// Training items whose sources bring a feature with different origins (logs of two senders
+// configured otherwise) cannot make one model: training fails naming both items and the feature.
+// Alike, the model records the origin; where one item does not know it, it records none.
+TEST(SweepTraining, ItemsThatBringAFeatureComputedOtherwiseMakeNoModel) {
+  test::TempDir dir;
+  const auto sweep = [&](const std::string& second_origin) {
+    return "plugin_path: [" + std::string(TERRAMRF_TEST_PLUGIN_DIR) + "/synthetic_source]\n" +
+           R"(version: 1
+datasets:
+  one: {type: test_synthetic, params: {frames: 1, grid_layers: [made_a], layer_origin: '{stage: x, window: 1}'}}
+  two: {type: test_synthetic, params: {frames: 1, spacing_m: 0.2, grid_layers: [made_a], layer_origin: ')" +
+           second_origin + R"('}}
+  tst: {type: test_synthetic, params: {frames: 1, spacing_m: 0.3, grid_layers: [made_a], layer_origin: '{stage: x, window: 1}'}}
+split: {train: [one, two], test: [tst]}
+optimisers: {icm: {type: icm}}
+feature_sets:
+  G: {stages: [], features: [made_a], min_sigma: [1]}
+)";
+  };
+  std::ostringstream log;
+  SweepResult r =
+      runQuiet(put(dir, "two.yaml", sweep("{stage: x, window: 2}")), dir.str() + "/o1", log);
+  EXPECT_NE(log.str().find("training items 'one' and 'two' bring feature 'made_a' computed "
+                           "otherwise ({stage: x, window: 1} against {stage: x, window: 2})"),
+            std::string::npos)
+      << log.str();
+  EXPECT_FALSE(fs::exists(dir.str() + "/o1/models/G.yaml"));
+  std::ostringstream log2;
+  r = runQuiet(put(dir, "same.yaml", sweep("{stage: x, window: 1}")), dir.str() + "/o2", log2);
+  YAML::Node model = YAML::LoadFile(dir.str() + "/o2/models/G.yaml");
+  ASSERT_TRUE(model["feature_origins"]) << log2.str();
+  EXPECT_EQ(model["feature_origins"]["made_a"]["window"].as<int>(), 1);
 }
 
 // A feature set's stages run after common_stages, and the runner runs only the leading

@@ -2,6 +2,7 @@
 // told to fail, so the runner's skip-and-report path and config checks are testable without data.
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <random>
 
@@ -41,6 +42,8 @@ class SyntheticSource final : public Source {
         .unit("m")
         .range(0, 10);
     d.add("gridless_frames", gridless_, "indices of frames that come without that grid");
+    d.add("layer_origin", layer_origin_,
+          "origin record said of every grid layer (Source::layerOrigins); empty = unknown");
   }
   void configure(const PluginContext& ctx) override { run_grid_ = ctx.grid; }
   std::vector<std::string> writes() const override {
@@ -48,6 +51,13 @@ class SyntheticSource final : public Source {
     w.insert(w.end(), grid_layers_.begin(), grid_layers_.end());
     if (poses_ || truth_pose_) w.push_back(artefacts::kPose);
     return w;
+  }
+  std::map<std::string, std::string> layerOrigins() const override {
+    std::map<std::string, std::string> o;
+    if (!layer_origin_.empty())
+      for (const std::string& l : grid_layers_)
+        if (l[0] != '@') o[l] = layer_origin_;
+    return o;
   }
   std::size_t size() const override { return static_cast<std::size_t>(frames_); }
   std::string frameId(std::size_t i) const override {
@@ -123,6 +133,7 @@ class SyntheticSource final : public Source {
   bool poses_ = false;
   std::vector<std::string> declared_writes_;
   std::vector<std::string> grid_layers_;
+  std::string layer_origin_;
   double grid_cell_m_ = 0;
   std::vector<double> gridless_;
   GridGeometry run_grid_;
