@@ -1,5 +1,6 @@
 #pragma once
 #include <Eigen/Geometry>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -77,6 +78,11 @@ struct Frame {
   /// after it (an energy and an optimiser) use them as if computed here. Its geometry must be
   /// the run's. Null when the source made none (every reader of files).
   std::shared_ptr<const TerrainGrid> grid;
+  /// How the layers of `grid` were computed, where they came with it (layer -> origin record, as
+  /// PluginContext::layer_origins; an LCM sender's layer_origins_t): an energy checks its model
+  /// against them per frame, for sources that cannot know them before the first frame (a live
+  /// stream). Empty when unknown.
+  std::map<std::string, std::string> layer_origins;
 };
 
 /// Camera `i` of `f` as outputs name it in file names: its model's name, or "camera<i>" when it

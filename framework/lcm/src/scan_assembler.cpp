@@ -78,7 +78,7 @@ void ScanAssembler::evictHeld() {
 
 std::size_t ScanAssembler::bytes(const Held& h) {
   std::size_t n = 0;
-  for (const auto* m : {&h.labels, &h.pose, &h.truth_pose, &h.grid})
+  for (const auto* m : {&h.labels, &h.pose, &h.truth_pose, &h.grid, &h.grid_origins})
     if (*m) n += (*m)->bytes.size();
   for (const auto* v : {&h.cameras.images, &h.cameras.infos, &h.cameras.truths})
     for (const ScanMessage& m : *v) n += m.bytes.size();
@@ -113,8 +113,8 @@ void ScanAssembler::place(std::optional<ScanMessage> Held::*held_slot,
 
 std::size_t ScanAssembler::messages(const Held& h) {
   return std::size_t(h.labels.has_value()) + h.pose.has_value() + h.truth_pose.has_value() +
-         h.grid.has_value() + h.cameras.images.size() + h.cameras.infos.size() +
-         h.cameras.truths.size();
+         h.grid.has_value() + h.grid_origins.has_value() + h.cameras.images.size() +
+         h.cameras.infos.size() + h.cameras.truths.size();
 }
 
 void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, std::size_t size,
@@ -123,7 +123,7 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
   const bool read = channel == ch.points || channel == ch.labels || channel == ch.pose ||
                     channel == ch.truth_pose || channel == ch.imu || channel == ch.gps ||
                     channel == ch.odometry || channel == ch.images || channel == ch.camera_info ||
-                    channel == ch.image_truth || channel == ch.grid;
+                    channel == ch.image_truth || channel == ch.grid || channel == ch.grid_origins;
   if (channel.empty() || !read) return;
   const std::optional<MessageStamp> stamp = peekMessageStamp(data, size);
   const std::string type = stamp ? stamp->type : "";
@@ -141,6 +141,7 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
       w.scan.pose = std::move(held->second.pose);
       w.scan.truth_pose = std::move(held->second.truth_pose);
       w.scan.grid = std::move(held->second.grid);
+      w.scan.grid_origins = std::move(held->second.grid_origins);
       w.error = held->second.error;
       held_bytes_ -= bytes(held->second);
       w.cameras = std::move(held->second.cameras);
@@ -169,7 +170,8 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
   const bool pose = type == "pose_t" && channel == ch.pose;
   const bool truth = type == "pose_t" && channel == ch.truth_pose;
   const bool grid = type == "terrain_grid_t" && channel == ch.grid;
-  if ((labels || pose || truth || grid) && stamp->frame_id.empty()) {
+  const bool origins = type == "layer_origins_t" && channel == ch.grid_origins;
+  if ((labels || pose || truth || grid || origins) && stamp->frame_id.empty()) {
     ++counts_.unnamed;
     return;
   }
@@ -189,6 +191,10 @@ void ScanAssembler::add(const std::string& channel, const std::uint8_t* data, st
     return place(&Held::truth_pose, &ScanMessages::truth_pose, type, stamp->frame_id,
                  std::move(m));
   if (grid) return place(&Held::grid, &ScanMessages::grid, type, stamp->frame_id, std::move(m));
+  // Not waited for: lcm_publish sends them before the grid, so they are there when it is.
+  if (origins)
+    return place(&Held::grid_origins, &ScanMessages::grid_origins, type, stamp->frame_id,
+                 std::move(m));
   const int kind = type == "imu_t" && channel == ch.imu           ? 0
                    : type == "gps_t" && channel == ch.gps         ? 1
                    : type == "odometry_t" && channel == ch.odometry ? 2

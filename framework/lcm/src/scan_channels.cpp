@@ -52,6 +52,17 @@ void declareScanChannels(ParamDecl& d, ScanChannelParams& p) {
         "computed here (e.g. [height_diff, log_roughness]); '@labels' takes their label layer "
         "too (classes mapped by name; for outputs of another process's classification)")
       .unique();
+  d.add("grid_origins_channel", p.grid_origins_channel,
+        "channel of the layer_origins_t saying how those grids' layers were computed (lcm_publish "
+        "sends one before each grid, on <channel>_ORIGINS), matched to scans by frame_id; the "
+        "energy checks its model against them as against layers computed here. Empty = "
+        "<grid_channel>_ORIGINS (lcm_log: when the log carries it; else the layers' origins are "
+        "unknown and not checked)");
+}
+
+std::string gridOriginsChannel(const ScanChannelParams& p) {
+  if (!p.grid_origins_channel.empty()) return p.grid_origins_channel;
+  return p.channels.grid.empty() ? "" : p.channels.grid + "_ORIGINS";
 }
 
 void checkScanChannels(const ScanChannelParams& p) {
@@ -83,6 +94,11 @@ void checkScanChannels(const ScanChannelParams& p) {
                                          std::to_string(p.grid_layers.size()) +
                                          " layer(s); expected the channel of their grids (e.g. "
                                          "TERRAMRF_GRID)");
+  if (!p.grid_origins_channel.empty() && ch.grid.empty())
+    throw ParamError("grid_origins_channel",
+                     "is " + p.grid_origins_channel +
+                         ", but grid_channel is empty; the origins describe the layers of grids "
+                         "read from a grid channel");
   for (const std::string& l : p.grid_layers)
     if (l.empty() || (l[0] == '@' && l != artefacts::kLabels))
       throw ParamError("grid_layers", "lists '" + l + "'; expected layer names, or '" +

@@ -11,6 +11,7 @@
 #include "terramrf/lcm/grid_codec.hpp"
 #include "terramrf/lcm/labels_codec.hpp"
 #include "terramrf/lcm/message_peek.hpp"
+#include "terramrf/lcm/origins_codec.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
 #include "terramrf/plugin.hpp"
@@ -217,6 +218,12 @@ Frame frameFromMessages(const ScanMessages& m, const ScanOptions& o) {
   }
   if (m.grid) {
     f.grid = receivedGrid(*m.grid, o, labels, f.id);
+    if (m.grid_origins) {
+      const ScanMessage& g = *m.grid_origins;
+      const DecodedLayerOrigins d = decodeLayerOrigins(g.bytes.data(), g.bytes.size(), g.source);
+      for (const std::string& l : o.grid_layers)
+        if (const auto it = d.origins.find(l); it != d.origins.end()) f.layer_origins.insert(*it);
+    }
   } else if (!o.grid_channel.empty()) {
     throw InputError(m.points.source, "no terrain_grid_t on channel " + o.grid_channel +
                                           " for scan '" + f.id +

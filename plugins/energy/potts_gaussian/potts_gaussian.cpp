@@ -21,6 +21,7 @@
 
 #include "feature_origins.hpp"
 #include "gaussian_model.hpp"
+#include "terramrf/errors.hpp"
 #include "terramrf/plugin.hpp"
 
 namespace terramrf {
@@ -153,6 +154,8 @@ class PottsGaussian final : public Stage {
   std::vector<std::string> writes() const override { return {artefacts::kEnergy}; }
 
   void process(FrameContext& ctx) override {
+    if (check_origins_ && ctx.frame && !ctx.frame->layer_origins.empty())
+      checkFrameOrigins(*ctx.frame);
     TerrainGrid& g = *ctx.grid;
     EnergyModel& em = ctx.energy;
     const int K = static_cast<int>(active_.size());
@@ -277,6 +280,33 @@ class PottsGaussian final : public Stage {
                                     " was learnt on features computed otherwise than here:" + why +
                                     "\n    retrain it with these stages, or give them the model's "
                                     "parameters (check_feature_origins: false uses it anyway)");
+  }
+
+  /// Layers that came with the frame computed elsewhere, with their origins (a live stream's,
+  /// unknown at configure()): the frame fails if its features were computed otherwise than the
+  /// model's.
+  void checkFrameOrigins(const Frame& f) const {
+    std::string why;
+    for (const auto& feat : features_) {
+      const auto learnt = model_.feature_origins.find(feat);
+      const auto got = f.layer_origins.find(feat);
+      if (learnt == model_.feature_origins.end() || got == f.layer_origins.end() ||
+          learnt->second == got->second)
+        continue;
+      for (const auto& d : originDifferences(learnt->second, got->second))
+        why += "\n    feature '" + feat + "': " + d;
+    }
+    if (!why.empty())
+      throw InputError(f.source_path,
+                       "scan '" + f.id +
+                           "': its layers came computed otherwise "
+                           "than model " +
+                           model_path_ +
+                           " was learnt on (\"here\": "
+                           "as the sender computed them):" +
+                           why +
+                           "\n    run the sender with the model's stages, or retrain "
+                           "(check_feature_origins: false uses it anyway)");
   }
 
   /// Cap of eq. 11's energy per cell and class: finite, and far above any sum of real terms.

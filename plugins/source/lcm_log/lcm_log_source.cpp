@@ -30,25 +30,13 @@ class LcmLogSource : public Source {
         .required()
         .existingPath();
     declareScanChannels(d, sp_);
-    d.add("grid_origins_channel", origins_channel_,
-          "channel of the layer_origins_t saying how the grids' layers were computed (lcm_publish "
-          "sends them on <channel>_ORIGINS), matched to scans by frame_id; potts_gaussian checks "
-          "its model against them as against layers computed here. Empty = <grid_channel>_ORIGINS "
-          "when the log carries it (else the layers' origins are unknown and not checked)");
     d.add("drop_no_return", drop_no_return_, "drop points exactly at (0, 0, 0) (counted)");
   }
 
   void configure(const PluginContext& ctx) override {
     checkScanChannels(sp_);
     labels_ = ctx.labels ? *ctx.labels : LabelSet::defaults();
-    if (!origins_channel_.empty() && ch_.grid.empty())
-      throw ParamError("grid_origins_channel",
-                       "is " + origins_channel_ +
-                           ", but grid_channel is empty; the origins describe the layers of "
-                           "grids read from a grid channel");
-    ch_.grid_origins = !origins_channel_.empty() ? origins_channel_
-                       : ch_.grid.empty()        ? ""
-                                                 : ch_.grid + "_ORIGINS";
+    ch_.grid_origins = gridOriginsChannel(sp_);
     try {
       index_ = indexLogFrames(log_, ch_);
     } catch (const InputError& e) {
@@ -67,7 +55,7 @@ class LcmLogSource : public Source {
         {"camera_info_channel", &ch_.camera_info},
         {"image_truth_channel", &ch_.image_truth},
         {"grid_channel", &ch_.grid},
-        {"grid_origins_channel", &origins_channel_}};
+        {"grid_origins_channel", &sp_.grid_origins_channel}};
     for (const auto& [param, channel] : asked) {
       if (channel->empty() || index_.channel_events.count(*channel)) continue;
       std::string have;
@@ -129,8 +117,10 @@ class LcmLogSource : public Source {
     if (lf.pose) m.pose = message(*lf.pose);
     if (lf.truth_pose) m.truth_pose = message(*lf.truth_pose);
     if (lf.grid) m.grid = message(*lf.grid);
-    // Its origins were compared with the log's at configure(): a scan without them could not be.
-    if (!ch_.grid_origins.empty() && !lf.grid_origins)
+    if (lf.grid_origins) m.grid_origins = message(*lf.grid_origins);
+    // Its origins were compared with the log's at configure(): a scan without them could not be
+    // (unless no layer taken has an origin to compare).
+    if (!ch_.grid_origins.empty() && !origins_.empty() && !lf.grid_origins)
       throw InputError(log_, "event " + std::to_string(lf.eventnum) + " (" + ch_.points +
                                  "): no layer_origins_t on channel " + ch_.grid_origins +
                                  " for scan '" + lf.id +
@@ -193,7 +183,6 @@ class LcmLogSource : public Source {
   }
 
   std::string log_;
-  std::string origins_channel_;
   std::map<std::string, std::string> origins_;
   bool drop_no_return_ = true;
   ScanChannelParams sp_;

@@ -81,6 +81,7 @@ class LcmSubscribeSource : public StreamSource {
                                            "(a batch: indexed, read ahead, usable by compare "
                                            "and train)");
     checkScanChannels(sp_);
+    ch_.grid_origins = gridOriginsChannel(sp_);
     if (wake_[0] < 0)
       throw std::runtime_error("lcm_subscribe: cannot make the pipe that lets Ctrl-C end a wait: " +
                                std::string(std::strerror(errno)));
@@ -142,8 +143,9 @@ class LcmSubscribeSource : public StreamSource {
     } catch (const std::exception& e) {
       fail(e.what());
     }
-    std::vector<std::string> channels = {ch_.points, ch_.labels, ch_.pose,     ch_.truth_pose,
-                                         ch_.imu,    ch_.gps,    ch_.odometry, ch_.grid};
+    std::vector<std::string> channels = {ch_.points,     ch_.labels, ch_.pose,
+                                         ch_.truth_pose, ch_.imu,    ch_.gps,
+                                         ch_.odometry,   ch_.grid,   ch_.grid_origins};
     if (!sp_.cameras.empty()) {
       channels.push_back(ch_.images);
       channels.push_back(ch_.camera_info);

@@ -4,6 +4,7 @@
 #include <fstream>
 
 #include "plugin_harness.hpp"
+#include "terramrf/errors.hpp"
 
 namespace terramrf {
 
@@ -480,6 +481,43 @@ TEST(PottsGaussian, AModelLearntOnFeaturesComputedOtherwiseIsRefused) {
   EXPECT_NO_THROW(h.make("potts_gaussian", "{model: " + m + ", features: [f]}"));
   h.layer_origins = &here;
   EXPECT_NO_THROW(h.make("potts_gaussian", "{model: " + writeModel(d) + ", features: [f]}"));
+}
+
+// Layers received with their origins from a live stream (Frame::layer_origins, unknown when the
+// stage is configured) are checked per frame: a scan whose feature came computed otherwise fails,
+// naming the scan and the difference; the same origins, or none, run.
+TEST(PottsGaussian, AFrameWhoseLayersCameComputedOtherwiseFails) {
+  test::TempDir d;
+  const std::string learnt = "{stage: roughness, params: {layer: f, window: 2}}";
+  const std::string m = d.str() + "/m.yaml";
+  std::ofstream(m) << "feature_origins:\n  f: " << learnt << "\n"
+                   << "classes:\n"
+                      "  road:     {f: {mean: 0.0, sigma: 0.1}}\n"
+                      "  rough:    {f: {mean: 1.0, sigma: 0.5}}\n"
+                      "  obstacle: {f: {mean: 5.0, sigma: 2.0}}\n";
+  test::StageHarness h;
+  h.frame.id = "000007";
+  h.frame.source_path = "udpm://239.255.76.67:7667";
+  h.bin();
+  h.grid.add("f", 0.5f);
+  auto s = h.make("potts_gaussian", "{model: " + m + ", features: [f]}");
+  EXPECT_NO_THROW(s->process(h.ctx));  // no origins came
+  h.frame.layer_origins["f"] = learnt;
+  EXPECT_NO_THROW(s->process(h.ctx));
+  h.frame.layer_origins["f"] = "{stage: roughness, params: {layer: f, window: 3}}";
+  try {
+    s->process(h.ctx);
+    FAIL() << "a frame of layers computed otherwise was classified";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "udpm://239.255.76.67:7667");
+    const std::string what = e.what();
+    for (const char* want : {"scan '000007': its layers came computed otherwise than model ",
+                             "feature 'f': window: 3 here, 2 in the model"})
+      EXPECT_NE(what.find(want), std::string::npos) << want << "\n" << what;
+  }
+  EXPECT_NO_THROW(
+      h.make("potts_gaussian", "{model: " + m + ", features: [f], check_feature_origins: false}")
+          ->process(h.ctx));
 }
 
 // Cell sizes are named as a config gives them. The record holds yaml-cpp's emission of the

@@ -14,6 +14,7 @@
 #include "terramrf/errors.hpp"
 #include "terramrf/lcm/camera_codec.hpp"
 #include "terramrf/lcm/grid_publisher.hpp"
+#include "terramrf/lcm/origins_codec.hpp"
 #include "terramrf/lcm/pose_codec.hpp"
 #include "terramrf/lcm/sensor_codec.hpp"
 #include "terramrf/param_values.hpp"
@@ -64,6 +65,12 @@ class Publisher {
         if (with_grid) {  // a feature node's grid: height_diff = k in every cell
           TerrainGrid g{GridGeometry{}};
           g.add("height_diff", static_cast<float>(k));
+          // How it was computed, before it, as lcm_publish sends it.
+          pub_.publishForScan(
+              "G_ORIGINS",
+              encodeLayerOrigins(
+                  {{"height_diff", "{stage: height_difference}"}, {"other", "{stage: other}"}}, h),
+              h);
           pub_.publish(g, LabelSet::defaults(), h);
         }
         if (with_pose) {
@@ -197,6 +204,10 @@ TEST_F(LcmSubscribeTest, ReceivesEachScansGridFromAFeatureNode) {
   const int k = std::stoi(f->id.substr(1));
   EXPECT_EQ(f->grid->layerNames(), std::vector<std::string>{"height_diff"});
   EXPECT_EQ(f->grid->layer("height_diff")[123], static_cast<float>(k));
+  // Its layers' origins came with it (<grid_channel>_ORIGINS by default), those of the layers
+  // taken only: the energy checks them per scan.
+  EXPECT_EQ(f->layer_origins,
+            (std::map<std::string, std::string>{{"height_diff", "{stage: height_difference}"}}));
 }
 
 // idle_timeout_s ends the stream when no cloud comes.

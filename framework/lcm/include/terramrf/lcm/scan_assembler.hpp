@@ -5,7 +5,9 @@
 //
 // A scan starts with its point cloud. Labels and poses are matched to it by frame_id, whether
 // they came before it (held, up to `max_held` scans' worth) or after (within `wait_s`); samples by
-// time, as in a log (those since the scan before, up to its own time). A scan is ready once it
+// time, as in a log (those since the scan before, up to its own time). A grid's layer origins
+// (channels.grid_origins) are matched like labels but not waited for: the sender puts them
+// before the grid. A scan is ready once it
 // has everything its channels promise, or when its wait has run out; scans leave in the order
 // their clouds came.
 #include <cstddef>
@@ -97,7 +99,7 @@ class ScanAssembler {
     std::string error;  ///< two labels or poses for it
   };
   struct Held {
-    std::optional<ScanMessage> labels, pose, truth_pose, grid;
+    std::optional<ScanMessage> labels, pose, truth_pose, grid, grid_origins;
     Cameras cameras;
     std::string error;
   };

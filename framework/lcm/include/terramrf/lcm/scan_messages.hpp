@@ -26,6 +26,7 @@ struct ScanMessages {
   std::vector<ScanMessage> images, camera_infos;  ///< image_t and camera_info_t, any order
   std::vector<ScanMessage> image_truths;           ///< image_t of per-pixel truth (optional)
   std::optional<ScanMessage> grid;  ///< terrain_grid_t of layers made elsewhere (optional)
+  std::optional<ScanMessage> grid_origins;  ///< layer_origins_t of that grid's layers (optional)
 };
 
 struct ScanOptions {
@@ -53,7 +54,8 @@ struct ScanOptions {
 /// that cannot be decoded or does not fit, and the scan's pose channel if it lacks a required pose.
 /// With a grid channel, Frame::grid holds `options.grid_layers` of the scan's terrain_grid_t
 /// (and its label layer, classes mapped by name): a grid without one of them, or a scan without
-/// a grid, is an error naming the message or the channel.
+/// a grid, is an error naming the message or the channel. The origins of those layers that came
+/// with it (layer_origins_t) go to Frame::layer_origins; a damaged one is an error naming it.
 Frame frameFromMessages(const ScanMessages& messages, const ScanOptions& options);
 
 /// The dropping above, on its own: for a frame whose points came from elsewhere.
