@@ -62,6 +62,10 @@ TEST(OriginsCodec, BadMessagesAreInputErrorsNamingTheSource) {
   expectError(m, "the origin of layer 'height_diff' is not a stage's record");
   m.origins[1] = "{cell_m: 0.5}";
   expectError(m, "the origin of layer 'height_diff' is not a stage's record");
+  m.origins[1] = "{stage: height_difference, cell_m: x}";
+  expectError(m, "the origin of layer 'height_diff' is not a stage's record");
+  m.origins[1] = "{stage: height_difference, params: [1]}";
+  expectError(m, "the origin of layer 'height_diff' is not a stage's record");
   // Another message type, and cut bytes.
   const MessageBytes good = encodeLayerOrigins(kOrigins, {"a", "lidar", 0});
   EXPECT_THROW(decodeLayerOrigins(MessageBytes(good.begin(), good.end() - 5)), InputError);

@@ -18,7 +18,15 @@ namespace {
 bool isOriginRecord(const std::string& origin) {
   try {
     const YAML::Node n = YAML::Load(origin);
-    return n.IsMap() && n["stage"] && n["stage"].IsScalar();
+    if (!n.IsMap() || !n["stage"] || !n["stage"].IsScalar()) return false;
+    // What a model's comparison reads as a number or walks as maps (feature_origins).
+    if (n["cell_m"]) n["cell_m"].as<double>();
+    for (const char* k : {"params", "inputs"})
+      if (n[k] && !n[k].IsMap()) return false;
+    if (n["inputs"])
+      for (const auto& in : n["inputs"])
+        if (!in.second.IsMap()) return false;
+    return true;
   } catch (const YAML::Exception&) {
     return false;
   }

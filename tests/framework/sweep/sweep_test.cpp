@@ -710,6 +710,25 @@ feature_sets:
                 "(in the runs on bare (all frames), whose source brings no layers)"),
             std::string::npos)
       << e.what();
+
+  // Training items: a set's own train: list is checked, and none for a set that brings its
+  // model (it is not trained).
+  const std::string own_train =
+      test::edited(good, "    features: [made_a, log_made_b]\n",
+                   "    features: [made_a, log_made_b]\n    train: [bare]\n");
+  e = expectConfigError(put(dir, "own_train.yaml", own_train));
+  EXPECT_NE(std::string(e.what()).find("(in the runs on bare (all frames), whose source brings "
+                                       "no layers)"),
+            std::string::npos)
+      << e.what();
+  const std::string model = dir.str() + "/given_model.yaml";
+  std::ofstream(model) << "classes: {}\n";
+  const std::string given =
+      test::edited(test::edited(good, "split: {train: [{dataset: made, frames: [0, 1]}], ",
+                                "split: {train: [bare], "),
+                   "    features: [made_a, log_made_b]\n",
+                   "    features: [made_a, log_made_b]\n    model: " + model + "\n");
+  EXPECT_NO_THROW(planSweep(put(dir, "given.yaml", given), {test::pluginDir()}));
 }
 
 // Training items whose sources bring a feature with different origins (logs of two senders

@@ -19,8 +19,9 @@ struct DecodedLayerOrigins {
   std::map<std::string, std::string> origins;  ///< layer -> origin record
 };
 
-/// Decodes a layer_origins_t. Throws InputError (file = `source`) if the bytes are not one, or a
-/// layer is named twice, or a name or origin is empty.
+/// Decodes a layer_origins_t. Throws InputError (file = `source`) if the bytes are not one, a
+/// layer is named twice, a name or origin is empty, or an origin is no stage's record (a YAML
+/// map with a `stage`, a numeric `cell_m` and `params`/`inputs` maps where given).
 DecodedLayerOrigins decodeLayerOrigins(const void* data, std::size_t size,
                                        const std::string& source = "layer_origins_t");
 inline DecodedLayerOrigins decodeLayerOrigins(const MessageBytes& bytes,
