@@ -427,6 +427,19 @@ TEST(PottsGaussian, DefaultClassesAreTheLabelSetsAndARepeatIsRefused) {
 
 namespace terramrf {
 
+namespace {
+/// A model of feature f (three classes) learnt on f computed as `origin` says, in `d`.
+std::string modelWithOrigin(const test::TempDir& d, const std::string& origin) {
+  const std::string m = d.str() + "/m.yaml";
+  std::ofstream(m) << "feature_origins:\n  f: " << origin << "\n"
+                   << "classes:\n"
+                      "  road:     {f: {mean: 0.0, sigma: 0.1}}\n"
+                      "  rough:    {f: {mean: 1.0, sigma: 0.5}}\n"
+                      "  obstacle: {f: {mean: 5.0, sigma: 2.0}}\n";
+  return m;
+}
+}  // namespace
+
 // A model records how each feature was computed; run with features computed otherwise (another
 // parameter, here or in an input's stage, or another stage), it is refused, naming each
 // difference. Same origins, a model that records none, or check_feature_origins: false: used.
@@ -438,12 +451,7 @@ TEST(PottsGaussian, AModelLearntOnFeaturesComputedOtherwiseIsRefused) {
       "{stage: log_transform, params: {input: roughness, offset: 0.001}, "
       "inputs: {roughness: " +
       rough + "}}";
-  const std::string m = d.str() + "/m.yaml";
-  std::ofstream(m) << "feature_origins:\n  f: " << learnt << "\n"
-                   << "classes:\n"
-                      "  road:     {f: {mean: 0.0, sigma: 0.1}}\n"
-                      "  rough:    {f: {mean: 1.0, sigma: 0.5}}\n"
-                      "  obstacle: {f: {mean: 5.0, sigma: 2.0}}\n";
+  const std::string m = modelWithOrigin(d, learnt);
   test::StageHarness h;
   std::map<std::string, std::string> here{{"f", learnt}};
   h.layer_origins = &here;
@@ -489,12 +497,7 @@ TEST(PottsGaussian, AModelLearntOnFeaturesComputedOtherwiseIsRefused) {
 TEST(PottsGaussian, AFrameWhoseLayersCameComputedOtherwiseFails) {
   test::TempDir d;
   const std::string learnt = "{stage: roughness, params: {layer: f, window: 2}}";
-  const std::string m = d.str() + "/m.yaml";
-  std::ofstream(m) << "feature_origins:\n  f: " << learnt << "\n"
-                   << "classes:\n"
-                      "  road:     {f: {mean: 0.0, sigma: 0.1}}\n"
-                      "  rough:    {f: {mean: 1.0, sigma: 0.5}}\n"
-                      "  obstacle: {f: {mean: 5.0, sigma: 2.0}}\n";
+  const std::string m = modelWithOrigin(d, learnt);
   test::StageHarness h;
   h.frame.id = "000007";
   h.frame.source_path = "udpm://239.255.76.67:7667";

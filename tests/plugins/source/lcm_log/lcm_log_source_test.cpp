@@ -74,6 +74,18 @@ class LcmLogSourceTest : public ::testing::Test {
     put(w, "G_POINTS", cloud("b", 0.2));
     w.close();
   }
+  /// Each {params, expected}: the source with points_channel G_POINTS and `params` is refused,
+  /// its message holding `expected`.
+  void expectRefused(const std::vector<std::pair<std::string, std::string>>& cases) {
+    for (const auto& [params, expected] : cases) {
+      try {
+        make("points_channel: G_POINTS, " + params);
+        ADD_FAILURE() << params << " accepted";
+      } catch (const std::exception& e) {
+        EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+      }
+    }
+  }
   const std::string kAll =
       "points_channel: G_POINTS, labels_channel: G_LABELS, pose_channel: G_POSE, "
       "truth_pose_channel: G_TRUTH_POSE, imu_channel: IMU";
@@ -207,19 +219,12 @@ TEST_F(LcmLogSourceTest, GridsMadeElsewhereComeWithTheirScans) {
   auto layers_only = make("points_channel: G_POINTS, grid_channel: G, grid_layers: [height_diff]");
   EXPECT_EQ(layers_only->read(0).grid->labels()[5], labels::kUnknown);
   // A grid channel without layers, and layers without a channel, are refused.
-  const std::pair<std::string, std::string> refused[] = {
+  const std::vector<std::pair<std::string, std::string>> refused = {
       {"grid_channel: G", "parameter 'grid_layers': is empty, but grid_channel is G"},
       {"grid_layers: [height_diff]", "parameter 'grid_channel': is empty, but grid_layers lists 1"},
       {"grid_channel: G, grid_layers: ['@energy']",
        "parameter 'grid_layers': lists '@energy'; expected layer names, or '@labels'"}};
-  for (const auto& [params, expected] : refused) {
-    try {
-      make("points_channel: G_POINTS, " + params);
-      ADD_FAILURE() << params << " accepted";
-    } catch (const std::exception& e) {
-      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
-    }
-  }
+  expectRefused(refused);
 }
 
 // The feature node publishes how its layers were computed (layer_origins_t on <channel>_ORIGINS);
@@ -287,19 +292,12 @@ TEST_F(LcmLogSourceTest, GridOriginsComeWithTheLayersAndScansDescribedOtherwiseF
   EXPECT_EQ(hd->layerOrigins().size(), 1u);
   EXPECT_NO_THROW(hd->read(1));
   // Named, the channel must be in the log; and it describes a grid channel's layers.
-  const std::pair<std::string, std::string> refused[] = {
+  const std::vector<std::pair<std::string, std::string>> refused = {
       {"grid_channel: G, grid_layers: [height_diff], grid_origins_channel: NOPE",
        "parameter 'grid_origins_channel': '" + log() + "' has no event on channel NOPE"},
       {"grid_origins_channel: G_ORIGINS",
        "parameter 'grid_origins_channel': is G_ORIGINS, but grid_channel is empty"}};
-  for (const auto& [params, expected] : refused) {
-    try {
-      make("points_channel: G_POINTS, " + params);
-      ADD_FAILURE() << params << " accepted";
-    } catch (const std::exception& e) {
-      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
-    }
-  }
+  expectRefused(refused);
   // A log without origins (another sender): the layers' origins are unknown, nothing fails.
   {
     LcmLogWriter w(log(), false);
