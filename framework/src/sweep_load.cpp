@@ -31,9 +31,8 @@ constexpr std::size_t kMaxCandidates = 64;
 
 /// How a feature set's stages and features are checked (checkSetFlow).
 enum class SetFlowCheck {
-  kNoSource,    ///< while the sweep is read: only what no source can bring (`@energy`, …)
-  kStagesOnly,  ///< no item's source could be made: the stages must write every feature
-  kItem,        ///< against the source of one item the set runs on
+  kNoSource,  ///< while the sweep is read: only what no source can bring (`@energy`, …)
+  kItem,      ///< against the source of one item the set runs on
 };
 
 /// The order of feature set `f`'s stages and where its features come from, as a run of it on
@@ -909,8 +908,8 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
     for (const auto& [writes, it] : by_writes)
       for (const auto& w : writes) any_brought |= w[0] != '@';
     const bool name_item = by_writes.size() > 1 || any_brought;
-    if (by_writes.empty())
-      checkSetFlow(*s, f, SetFlowCheck::kStagesOnly, nullptr, false, reg, ctx, d);
+    // No item's source made (not installed: its runs are skipped; or it failed, reported):
+    // what the sources would bring is unknown, so nothing more is judged, as for run configs.
     // In the order the items are listed, for messages that follow the file.
     for (const Item* it : items)
       if (it->src && by_writes.at(it->src->writes()) == it)

@@ -729,6 +729,17 @@ feature_sets:
                    "    features: [made_a, log_made_b]\n",
                    "    features: [made_a, log_made_b]\n    model: " + model + "\n");
   EXPECT_NO_THROW(planSweep(put(dir, "given.yaml", given), {test::pluginDir()}));
+
+  // A source that cannot be made (its log is missing) is the one error: what it would bring is
+  // unknown, so the features are not judged on top of it.
+  const std::string missing = test::edited(
+      good, "  made: {type: test_synthetic, params: {frames: 3, grid_layers: [made_a, made_b]}}",
+      "  made: {type: lcm_log, params: {path: " + dir.str() +
+          "/none.lcm, points_channel: P, grid_channel: G, grid_layers: [made_a, made_b]}}");
+  e = expectConfigError(put(dir, "missing.yaml", missing));
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  EXPECT_NE(e.diagnostics()[0].message.find("none.lcm' does not exist"), std::string::npos)
+      << e.what();
 }
 
 // Training items whose sources bring a feature with different origins (logs of two senders
