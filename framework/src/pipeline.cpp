@@ -312,7 +312,8 @@ void noteCloudOutsideGrid(const Frame& f, const TerrainGrid& g, RunResult& res, 
       << (inside ? "nearly " : "")
       << "every cell stays unknown. Is the cloud in a map frame (e.g. UTM)? The grid needs it in "
          "the sensor frame: give a PCD the sensor's pose as its VIEWPOINT, use recentre: auto of "
-         "semantickitti, or store the points relative to the sensor\n";
+         "semantickitti or pointcloud_file (a scan shifted by up to kilometres), or store the "
+         "points relative to the sensor\n";
 }
 
 /// "stage '<name>' (<type>): ", as the config's errors name a stage.

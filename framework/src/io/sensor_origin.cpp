@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,35 @@ void translateXY(PointCloud& cloud, double dx_m, double dy_m) {
   const float dx = static_cast<float>(dx_m), dy = static_cast<float>(dy_m);
   for (auto& v : cloud.x) v += dx;
   for (auto& v : cloud.y) v += dy;
+}
+
+bool recentreOnSensor(Frame& f, double min_shift_m, const std::string& reader) {
+  const SensorOriginEstimate est = estimateSensorOrigin(f.points);
+  if (!est.ok) {
+    // Asked for and not done: the scan may be off-centre, and the grid, ring recovery and
+    // features would all see it there. Said, like the shift when it is applied.
+    std::fprintf(stderr,
+                 "%s: %s: recentre: auto could not estimate the sensor origin (%s); the cloud is "
+                 "left as stored\n",
+                 reader.c_str(), f.source_path.c_str(), est.note.c_str());
+    return false;
+  }
+  // Within the estimate's accuracy of (0, 0): deliberately left alone, silently.
+  if (est.origin_m.norm() < min_shift_m) return false;
+  const Eigen::Vector2d shift = -est.origin_m;
+  translateXY(f.points, shift.x(), shift.y());
+  // Camera projections and the poses stay valid for the moved points.
+  Eigen::Isometry3d undo = Eigen::Isometry3d::Identity();
+  undo.translation() = Eigen::Vector3d(-shift.x(), -shift.y(), 0);
+  for (auto& cam : f.cameras) cam.model.T_camera_lidar = cam.model.T_camera_lidar * undo;
+  if (f.pose) f.pose = *f.pose * undo;
+  if (f.truth_pose) f.truth_pose = *f.truth_pose * undo;
+  std::fprintf(stderr,
+               "%s: frame %s: sensor origin estimated at (%.2f, %.2f) m from the innermost ground "
+               "ring; cloud shifted by (%.2f, %.2f) m\n",
+               reader.c_str(), f.id.c_str(), est.origin_m.x(), est.origin_m.y(), shift.x(),
+               shift.y());
+  return true;
 }
 
 SensorOriginEstimate estimateSensorOrigin(const PointCloud& c) {

@@ -23,6 +23,7 @@
 #include "terramrf/io/label_map.hpp"
 #include "terramrf/io/natural_order.hpp"
 #include "terramrf/io/ring_recovery.hpp"
+#include "terramrf/io/sensor_origin.hpp"
 #include "terramrf/params.hpp"
 #include "terramrf/plugin.hpp"
 
@@ -299,6 +300,16 @@ class PointCloudFileSource : public Source {
     d.add("ring_z_offset_m", ring_z_offset_m_, "laser origin above the cloud origin")
         .unit("m")
         .range(-5, 5);
+    d.add("recentre", recentre_,
+          "none, or auto: estimate the sensor origin from the innermost ground ring and move the "
+          "cloud (and its pose) so the sensor is at (0, 0), for a scan stored shifted from its "
+          "sensor without a VIEWPOINT (a PLY, or a PCD of a map crop); applied after a "
+          "VIEWPOINT")
+        .choices({"none", "auto"});
+    d.add("recentre_min_m", recentre_min_m_,
+          "auto recentring only applies shifts longer than this (the estimate is good to ~0.3 m)")
+        .unit("m")
+        .range(0, 1000);
   }
 
   void configure(const PluginContext& ctx) override {
@@ -501,6 +512,8 @@ class PointCloudFileSource : public Source {
         }
       }
     }
+    // Before ring recovery, which reads elevations around the sensor.
+    if (recentre_ == "auto") recentreOnSensor(f, recentre_min_m_, "pointcloud_file");
     if (!f_ring) {
       f.points.ring.clear();
       if (ring_method_ != "none") recoverRings(f.points, ring_options_);
@@ -540,6 +553,8 @@ class PointCloudFileSource : public Source {
   std::string ring_method_ = "none";
   int rings_ = 64;
   double ring_z_offset_m_ = 0.0;
+  std::string recentre_ = "none";
+  double recentre_min_m_ = 1.0;
 
   std::vector<std::string> files_;
   LabelSet labels_;

@@ -20,12 +20,6 @@
 namespace terramrf {
 namespace {
 
-std::string fmt(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.2f", v);
-  return b;
-}
-
 class SemanticKittiSource : public Source {
  public:
   void declare(ParamDecl& d) override {
@@ -202,7 +196,7 @@ class SemanticKittiSource : public Source {
     const bool rings_from_file = ring_method_ == "auto" && std::filesystem::exists(ring_file);
     if (rings_from_file) readKittiRings(ring_file, f.source_path, info, f.points);
 
-    if (recentre_ == "auto") recentreFrame(f);
+    if (recentre_ == "auto") recentreOnSensor(f, recentre_min_m_, "semantickitti");
     if (ring_method_ != "none" && !rings_from_file) {
       const RingRecoveryStats st = recoverRings(f.points, ring_options_);
       if (st.method != RingMethod::kScanOrder && !warned_ring_fallback_ && !f.points.empty()) {
@@ -233,34 +227,6 @@ class SemanticKittiSource : public Source {
       calib_ = std::make_unique<KittiCalib>(readKittiCalib(path));
     }
     return *calib_;
-  }
-
-  void recentreFrame(Frame& f) {
-    const SensorOriginEstimate est = estimateSensorOrigin(f.points);
-    if (!est.ok) {
-      // Asked for and not done: the scan may be off-centre, and the grid, ring recovery and
-      // features would all see it there. Said on stderr, like the shift when it is applied.
-      std::fprintf(stderr,
-                   "semantickitti: %s: recentre: auto could not estimate the sensor origin (%s); "
-                   "the cloud is left as stored\n",
-                   f.source_path.c_str(), est.note.c_str());
-      return;
-    }
-    // Within the estimate's accuracy of (0, 0): deliberately left alone, silently.
-    if (est.origin_m.norm() < recentre_min_m_) return;
-    const Eigen::Vector2d shift = -est.origin_m;
-    translateXY(f.points, shift.x(), shift.y());
-    // Keep camera projections and the pose valid for the moved points.
-    Eigen::Isometry3d undo = Eigen::Isometry3d::Identity();
-    undo.translation() = Eigen::Vector3d(-shift.x(), -shift.y(), 0);
-    for (auto& cam : f.cameras) cam.model.T_camera_lidar = cam.model.T_camera_lidar * undo;
-    if (f.pose) f.pose = *f.pose * undo;
-    if (f.truth_pose) f.truth_pose = *f.truth_pose * undo;
-    std::fprintf(stderr,
-                 "semantickitti: frame %s: sensor origin estimated at (%s, %s) m from the "
-                 "innermost ground ring; cloud shifted by (%s, %s) m\n",
-                 f.id.c_str(), fmt(est.origin_m.x()).c_str(), fmt(est.origin_m.y()).c_str(),
-                 fmt(shift.x()).c_str(), fmt(shift.y()).c_str());
   }
 
   std::string path_;

@@ -198,7 +198,8 @@ TEST(Pipeline, ACloudOutsideTheGridIsWarnedAboutWithBothExtents) {
         "(synthetic/000000.bin): the cloud spans x [512335.0, 512355.0], y [5812335.0, "
         "5812355.0], z [-1.7, -0.3] m, the grid x [-20, 20], y [-20, 20] m around the sensor, so "
         "every cell stays unknown. Is the cloud in a map frame (e.g. UTM)?",
-        "give a PCD the sensor's pose as its VIEWPOINT, use recentre: auto of semantickitti, or "
+        "give a PCD the sensor's pose as its VIEWPOINT, use recentre: auto of semantickitti or "
+        "pointcloud_file (a scan shifted by up to kilometres), or "
         "store the points relative to the sensor",
         "warning: frame 000001: 0 of "})
     EXPECT_NE(text.find(want), std::string::npos) << want << "\n" << text;

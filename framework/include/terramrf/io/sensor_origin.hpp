@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <string>
 
+#include "terramrf/frame.hpp"
 #include "terramrf/point_cloud.hpp"
 
 namespace terramrf {
@@ -23,5 +24,13 @@ SensorOriginEstimate estimateSensorOrigin(const PointCloud& cloud);
 
 /// Adds (dx, dy) [m] to every point.
 void translateXY(PointCloud& cloud, double dx_m, double dy_m);
+
+/// A reader's `recentre: auto`: moves frame `f`'s points so that the sensor origin its cloud
+/// shows (estimateSensorOrigin) is at (0, 0), and its cameras' extrinsics, pose and truth pose
+/// with them, so each still takes the points where it did. A shift shorter than `min_shift_m`
+/// is left alone silently (the estimate is good to ~0.3 m). Says on stderr, prefixed by
+/// `reader`, the shift made, or that none could be estimated and why (the cloud is then left
+/// as stored). Returns whether the points moved.
+bool recentreOnSensor(Frame& f, double min_shift_m, const std::string& reader);
 
 }  // namespace terramrf

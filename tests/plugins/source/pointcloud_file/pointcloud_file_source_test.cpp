@@ -392,6 +392,53 @@ TEST_F(PointCloudFileTest, Ply) {
   expectKPoints(f);
 }
 
+// recentre: auto puts the sensor of a scan stored shifted from it (no VIEWPOINT: a PLY) back at
+// (0, 0), before ring recovery: Open3D-ML's scan 000700, whose sensor sits near (0.0, -100.1)
+// (PROVENANCE.md), read as a binary PLY. A cloud whose origin cannot be estimated is left as
+// stored, and stderr says so naming the file.
+TEST_F(PointCloudFileTest, RecentreAutoPutsTheSensorOfAShiftedScanAtTheOrigin) {
+  test::TempDir dir;
+  const std::string bin =
+      test::dataPath("semantickitti_o3dml_demo/converted_semantickitti") + "/velodyne/000700.bin";
+  std::ifstream in(bin, std::ios::binary);
+  std::vector<float> xyzi;
+  for (float v; in.read(reinterpret_cast<char*>(&v), sizeof v);) xyzi.push_back(v);
+  ASSERT_EQ(xyzi.size(), 4u * 85962u);
+  std::vector<Pt> pts;
+  for (std::size_t k = 0; k + 3 < xyzi.size(); k += 4)
+    pts.push_back({xyzi[k], xyzi[k + 1], xyzi[k + 2], xyzi[k + 3], 0, 0});
+  const std::string file = dir.str() + "/000700.ply";
+  pcl::PLYWriter w;
+  ASSERT_EQ(w.write(file, makeCloud(pts, false, false), Eigen::Vector4f::Zero(),
+                    Eigen::Quaternionf::Identity(), /*binary=*/true, /*use_camera=*/false),
+            0);
+  const Frame raw = make("{path: " + file + "}")->read(0);
+  testing::internal::CaptureStderr();
+  const Frame rec = make("{path: " + file + ", recentre: auto, ring_method: elevation}")->read(0);
+  const std::string said = testing::internal::GetCapturedStderr();
+  ASSERT_EQ(rec.points.size(), raw.points.size());
+  EXPECT_NEAR(rec.points.x[0] - raw.points.x[0], 0.0, 0.5);
+  EXPECT_NEAR(rec.points.y[0] - raw.points.y[0], 100.1, 0.5);
+  EXPECT_NE(said.find("pointcloud_file: frame 000700: sensor origin estimated at"),
+            std::string::npos)
+      << said;
+  // Rings recovered around the sensor, not around the file's origin 100 m away.
+  EXPECT_TRUE(rec.points.hasRing());
+  // Too few points to find the sensor: left as stored, said.
+  const std::string tiny = dir.str() + "/tiny.ply";
+  ASSERT_EQ(w.write(tiny, makeCloud(kPoints, false, false), Eigen::Vector4f::Zero(),
+                    Eigen::Quaternionf::Identity(), true, false),
+            0);
+  testing::internal::CaptureStderr();
+  const Frame t = make("{path: " + tiny + ", recentre: auto}")->read(0);
+  const std::string why = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(t.points.x, make("{path: " + tiny + "}")->read(0).points.x);
+  EXPECT_NE(why.find("pointcloud_file: " + tiny +
+                     ": recentre: auto could not estimate the sensor origin (too few points"),
+            std::string::npos)
+      << why;
+}
+
 TEST_F(PointCloudFileTest, PlainXyzAndProjectClassLabels) {
   test::TempDir dir;
   std::vector<Pt> pts{{1, 1, 1, 0, 0, 2}, {2, 2, 2, 0, 0, 3}};
