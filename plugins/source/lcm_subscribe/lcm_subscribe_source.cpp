@@ -104,7 +104,22 @@ class LcmSubscribeSource : public StreamSource {
       const double now = steadyNow();
       if (std::optional<ScanAssembler::Ready> r = assembler_->pop(now)) {
         if (!r->scan) throw InputError(r->error_source, r->error);
-        return frameFromMessages(*r->scan, scanOptions(sp_, labels_, drop_no_return_, url_));
+        Frame f = frameFromMessages(*r->scan, scanOptions(sp_, labels_, drop_no_return_, url_));
+        // Once the stream has brought origins for the layers taken, a scan without them could
+        // not be checked against the model: it fails, as in a log. Before that (the first scan
+        // after subscribing may have missed its own) it runs unchecked.
+        if (f.grid && !ch_.grid_origins.empty()) {
+          if (!f.layer_origins.empty()) {
+            origins_seen_ = true;
+          } else if (origins_seen_) {
+            throw InputError(r->scan->points.source,
+                             "no layer_origins_t on channel " + ch_.grid_origins + " for scan '" +
+                                 f.id +
+                                 "'; the stream has carried them for earlier scans, so every "
+                                 "scan needs its own (how its layers were computed)");
+          }
+        }
+        return f;
       }
       if (idle_timeout_s_ > 0 && now - last_cloud_s_ >= idle_timeout_s_) {
         assembler_->flush();
@@ -265,6 +280,7 @@ class LcmSubscribeSource : public StreamSource {
   std::string url_ = "udpm://239.255.76.67:7667?ttl=0";
   ScanChannelParams sp_;
   LogChannels& ch_ = sp_.channels;
+  bool origins_seen_ = false;  ///< a scan brought origins of the layers taken
   double wait_s_ = 0.5;
   double idle_timeout_s_ = 0;
   int queue_scans_ = 16;

@@ -57,20 +57,21 @@ Image camImage(int k) {
 class Publisher {
  public:
   Publisher(const std::string& url, bool with_pose, bool with_camera = false,
-            bool with_grid = false)
+            bool with_grid = false, bool odd_scans_without_origins = false)
       : pub_(url, "G") {
-    thread_ = std::thread([this, with_pose, with_camera, with_grid] {
+    thread_ = std::thread([this, with_pose, with_camera, with_grid, odd_scans_without_origins] {
       for (int k = 0; !stop_; ++k) {
         MessageHeader h{"s" + std::to_string(k), "lidar", 0.1 * k};
         if (with_grid) {  // a feature node's grid: height_diff = k in every cell
           TerrainGrid g{GridGeometry{}};
           g.add("height_diff", static_cast<float>(k));
           // How it was computed, before it, as lcm_publish sends it.
-          pub_.publishForScan(
-              "G_ORIGINS",
-              encodeLayerOrigins(
-                  {{"height_diff", "{stage: height_difference}"}, {"other", "{stage: other}"}}, h),
-              h);
+          if (!odd_scans_without_origins || k % 2 == 0)
+            pub_.publishForScan("G_ORIGINS",
+                                encodeLayerOrigins({{"height_diff", "{stage: height_difference}"},
+                                                    {"other", "{stage: other}"}},
+                                                   h),
+                                h);
           pub_.publish(g, LabelSet::defaults(), h);
         }
         if (with_pose) {
@@ -212,6 +213,36 @@ TEST_F(LcmSubscribeTest, ReceivesEachScansGridFromAFeatureNode) {
   ASSERT_TRUE(g && g->grid);
   EXPECT_EQ(g->layer_origins,
             (std::map<std::string, std::string>{{"height_diff", "{stage: height_difference}"}}));
+}
+
+// Once the stream has brought a scan's layer origins, a scan without its own fails (it could not
+// be checked against the model), naming the channel; the others run.
+TEST_F(LcmSubscribeTest, AScanWithoutItsOriginsFailsOnceTheStreamHasCarriedThem) {
+  ctx_.grid = GridGeometry{};
+  auto src = make("{url: '" + url() +
+                  "', points_channel: G_POINTS, grid_channel: G, "
+                  "grid_layers: [height_diff], idle_timeout_s: 5, wait_s: 0.05}");
+  int with = 0, refused = 0;
+  auto taken = std::async(std::launch::async, [&] {
+    for (int n = 0; n < 8; ++n) {
+      try {
+        const std::optional<Frame> f = src->next();
+        if (f && !f->layer_origins.empty()) ++with;
+      } catch (const InputError& e) {
+        const std::string what = e.what();
+        if (what.find("no layer_origins_t on channel G_ORIGINS for scan 's") != std::string::npos &&
+            what.find("the stream has carried them for earlier scans") != std::string::npos)
+          ++refused;
+        else if (what.find("no terrain_grid_t on channel G") == std::string::npos)
+          ADD_FAILURE() << what;  // only the first scan's grid may precede the subscription
+      }
+    }
+  });
+  Publisher pub(url(), false, false, true, /*odd_scans_without_origins=*/true);
+  ASSERT_EQ(taken.wait_for(std::chrono::seconds(20)), std::future_status::ready);
+  pub.stop();
+  EXPECT_GE(with, 3);
+  EXPECT_GE(refused, 3);
 }
 
 // idle_timeout_s ends the stream when no cloud comes.
