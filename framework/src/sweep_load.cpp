@@ -892,27 +892,33 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
   for (const FeatureSet& f : s->feature_sets) {
     if (!f.unavailable.empty() || !s->common_unavailable.empty()) continue;
     std::vector<const Item*> items;
-    if (f.model.empty()) {
+    if (f.model.empty())
       for (const auto& it : trainItems(*s, f)) items.push_back(it.get());
-      if (selectsFor(candidatesFor(s->select, f))) {
-        for (const auto& it : s->validation) items.push_back(it.get());
-        for (const auto& fold : s->folds)
-          for (const auto& it : fold) items.push_back(it.get());
-      }
+    // A set with its own model is still scored there when select: chooses its energy.
+    if (selectsFor(candidatesFor(s->select, f))) {
+      for (const auto& it : s->validation) items.push_back(it.get());
+      for (const auto& fold : s->folds)
+        for (const auto& it : fold) items.push_back(it.get());
     }
     for (const auto& it : s->test) items.push_back(it.get());
+    // By the layers they bring (frame artefacts such as '@pose' are judged per run).
+    const auto broughtBy = [](const Item& it) {
+      std::vector<std::string> b;
+      for (const auto& w : it.src->writes())
+        if (w[0] != '@') b.push_back(w);
+      return b;
+    };
     std::map<std::vector<std::string>, const Item*> by_writes;
     for (const Item* it : items)
-      if (it->src) by_writes.emplace(it->src->writes(), it);  // else not installed, or reported
+      if (it->src) by_writes.emplace(broughtBy(*it), it);  // else not installed, or reported
     bool any_brought = false;
-    for (const auto& [writes, it] : by_writes)
-      for (const auto& w : writes) any_brought |= w[0] != '@';
+    for (const auto& [brought, it] : by_writes) any_brought |= !brought.empty();
     const bool name_item = by_writes.size() > 1 || any_brought;
     // No item's source made (not installed: its runs are skipped; or it failed, reported):
     // what the sources would bring is unknown, so nothing more is judged, as for run configs.
     // In the order the items are listed, for messages that follow the file.
     for (const Item* it : items)
-      if (it->src && by_writes.at(it->src->writes()) == it)
+      if (it->src && by_writes.at(broughtBy(*it)) == it)
         checkSetFlow(*s, f, SetFlowCheck::kItem, it, name_item, reg, ctx, d);
   }
   std::set<std::string> used;

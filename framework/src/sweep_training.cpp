@@ -194,7 +194,8 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
   for (const Item* it : job.items) info.frames += it->count;
   stats->begin(info);
 
-  std::string origins_from;  // the item whose layer origins the model records
+  // Per feature, the first item whose source or stages said how it is computed, and how.
+  std::map<std::string, std::pair<std::string, std::string>> first_origin;
   for (Item* it : job.items) {
     TrainedItem rec;
     rec.label = it->label;
@@ -213,25 +214,22 @@ TrainResult runTraining(TrainJob& job, PluginRegistry& reg, Progress& progress, 
     // Every item runs the same stages, but items' sources may bring layers with origins of
     // their own (logs of other senders): a feature computed two ways cannot make one model, and
     // one whose origin some item does not know is recorded as unknown (not checked).
-    if (it == job.items.front()) {
-      r.layer_origins = p.layer_origins;
-      origins_from = it->label;
-    } else {
-      for (const auto& f : job.features) {
-        const auto mine = p.layer_origins.find(f);
-        const auto so_far = r.layer_origins.find(f);
-        if (so_far == r.layer_origins.end()) continue;
-        if (mine == p.layer_origins.end()) {
-          r.layer_origins.erase(so_far);
-        } else if (mine->second != so_far->second) {
-          throw std::runtime_error("training items '" + origins_from + "' and '" + it->label +
-                                   "' bring feature '" + f + "' computed otherwise (" +
-                                   so_far->second + " against " + mine->second +
-                                   "); one model cannot fit both: train on data whose layers "
-                                   "were computed alike; no model written (" +
-                                   job.model_path + " is left as it was)");
-        }
+    if (it == job.items.front()) r.layer_origins = p.layer_origins;
+    for (const auto& f : job.features) {
+      const auto mine = p.layer_origins.find(f);
+      if (mine == p.layer_origins.end()) {
+        r.layer_origins.erase(f);  // unknown for some of the data: recorded as unknown
+        continue;
       }
+      // Compared with the first item that knew it, even after another item did not.
+      const auto [first, fresh] = first_origin.try_emplace(f, it->label, mine->second);
+      if (!fresh && first->second.second != mine->second)
+        throw std::runtime_error("training items '" + first->second.first + "' and '" + it->label +
+                                 "' bring feature '" + f + "' computed otherwise (" +
+                                 first->second.second + " against " + mine->second +
+                                 "); one model cannot fit both: train on data whose layers were "
+                                 "computed alike; no model written (" +
+                                 job.model_path + " is left as it was)");
     }
     // The features must be layers some stage writes, or the source brings made (Frame::grid:
     // a log of another process's feature layers).

@@ -112,6 +112,12 @@ class PottsGaussian final : public Stage {
                     " (the model was made for other features)");
     }
     if (check_origins_ && ctx.layer_origins) checkFeatureOrigins(*ctx.layer_origins);
+    // Per frame, only the features whose origins the run did not know here (a live stream's
+    // received layers): a known one was checked above, and a stage may have rewritten a
+    // received layer, whose origin a frame would then still give as the sender's.
+    frame_checked_.clear();
+    for (const auto& f : features_)
+      if (!ctx.layer_origins || !ctx.layer_origins->count(f)) frame_checked_.push_back(f);
     cost_.assign(active_.size(), 0.f);
     for (std::size_t k = 0; k < class_cost_.size(); ++k) cost_[k] = static_cast<float>(class_cost_[k]);
     // Precompute per class, component and feature: 1/(2σ²), log(√(2π)σ), and −log(weight).
@@ -287,7 +293,7 @@ class PottsGaussian final : public Stage {
   /// model's.
   void checkFrameOrigins(const Frame& f) const {
     std::string why;
-    for (const auto& feat : features_) {
+    for (const auto& feat : frame_checked_) {
       const auto learnt = model_.feature_origins.find(feat);
       const auto got = f.layer_origins.find(feat);
       if (learnt == model_.feature_origins.end() || got == f.layer_origins.end() ||
@@ -314,6 +320,7 @@ class PottsGaussian final : public Stage {
 
   std::string model_path_;
   std::vector<std::string> features_;
+  std::vector<std::string> frame_checked_;  ///< features whose origins each frame may bring
   std::vector<std::string> classes_param_;  ///< as configured; empty = the label set's classes
   std::vector<std::string> classes_;        ///< the classes in use, in unary order
   double alpha_ = 1.0;

@@ -304,7 +304,8 @@ class PointCloudFileSource : public Source {
           "none, or auto: estimate the sensor origin from the innermost ground ring and move the "
           "cloud (and its pose) so the sensor is at (0, 0), for a scan stored shifted from its "
           "sensor without a VIEWPOINT (a PLY, or a PCD of a map crop); applied after a "
-          "VIEWPOINT")
+          "VIEWPOINT. Not for clouds at UTM-sized coordinates: stored as float they have lost "
+          "their detail before any shift (give such a PCD its VIEWPOINT)")
         .choices({"none", "auto"});
     d.add("recentre_min_m", recentre_min_m_,
           "auto recentring only applies shifts longer than this (the estimate is good to ~0.3 m)")

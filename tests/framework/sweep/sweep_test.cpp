@@ -774,6 +774,26 @@ feature_sets:
   YAML::Node model = YAML::LoadFile(dir.str() + "/o2/models/G.yaml");
   ASSERT_TRUE(model["feature_origins"]) << log2.str();
   EXPECT_EQ(model["feature_origins"]["made_a"]["window"].as<int>(), 1);
+  // An item between them that does not know the origin: the model records none, and the two
+  // that know it otherwise are still told apart.
+  const auto withUnknown = [&](const std::string& second_origin) {
+    std::string t = sweep(second_origin);
+    t = test::edited(t, "  tst:",
+                     "  none: {type: test_synthetic, params: {frames: 1, spacing_m: 0.25, "
+                     "grid_layers: [made_a]}}\n  tst:");
+    return test::edited(t, "train: [one, two]", "train: [one, none, two]");
+  };
+  std::ostringstream log3;
+  runQuiet(put(dir, "unknown.yaml", withUnknown("{stage: x, window: 2}")), dir.str() + "/o3", log3);
+  EXPECT_NE(log3.str().find("training items 'one' and 'two' bring feature 'made_a' computed "
+                            "otherwise"),
+            std::string::npos)
+      << log3.str();
+  std::ostringstream log4;
+  runQuiet(put(dir, "unknown_same.yaml", withUnknown("{stage: x, window: 1}")), dir.str() + "/o4",
+           log4);
+  model = YAML::LoadFile(dir.str() + "/o4/models/G.yaml");
+  EXPECT_FALSE(model["feature_origins"] && model["feature_origins"]["made_a"]) << log4.str();
 }
 
 // A feature set's stages run after common_stages, and the runner runs only the leading

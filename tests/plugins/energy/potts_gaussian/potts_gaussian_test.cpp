@@ -521,6 +521,11 @@ TEST(PottsGaussian, AFrameWhoseLayersCameComputedOtherwiseFails) {
   EXPECT_NO_THROW(
       h.make("potts_gaussian", "{model: " + m + ", features: [f], check_feature_origins: false}")
           ->process(h.ctx));
+  // Known when the stage was configured (a stage of this run rewrote the received layer): checked
+  // then, against the run's origin, and not against the sender's that the frame still gives.
+  std::map<std::string, std::string> run_origins{{"f", learnt}};
+  h.layer_origins = &run_origins;
+  EXPECT_NO_THROW(h.make("potts_gaussian", "{model: " + m + ", features: [f]}")->process(h.ctx));
 }
 
 // Cell sizes are named as a config gives them. The record holds yaml-cpp's emission of the
