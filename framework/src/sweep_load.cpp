@@ -29,6 +29,14 @@ const std::vector<std::string> kSweepKeys = {
 /// validation runs per feature set).
 constexpr std::size_t kMaxCandidates = 64;
 
+/// The grid layers source `s` brings made (its writes() but frame artefacts such as '@pose').
+std::vector<std::string> broughtLayers(const Source& s) {
+  std::vector<std::string> b;
+  for (const auto& w : s.writes())
+    if (w[0] != '@') b.push_back(w);
+  return b;
+}
+
 /// How a feature set's stages and features are checked (checkSetFlow).
 enum class SetFlowCheck {
   kNoSource,  ///< while the sweep is read: only what no source can bring (`@energy`, …)
@@ -58,10 +66,7 @@ void checkSetFlow(const Sweep& s, const FeatureSet& f, SetFlowCheck how, const I
     }
   if (!quiet.list.empty()) return;
   const Source* src = how == SetFlowCheck::kItem ? item->src.get() : nullptr;
-  std::vector<std::string> brought;
-  if (src)
-    for (const auto& w : src->writes())
-      if (w[0] != '@') brought.push_back(w);
+  const std::vector<std::string> brought = src ? broughtLayers(*src) : std::vector<std::string>{};
   const std::string in_runs =
       name_item && src ? " (in the runs on " + item->described() + ", whose source brings " +
                              (brought.empty() ? "no layers" : joinNames(brought)) + ")"
@@ -72,6 +77,7 @@ void checkSetFlow(const Sweep& s, const FeatureSet& f, SetFlowCheck how, const I
   if (src) flow.sourceLayers(*src);
   if (how == SetFlowCheck::kNoSource) flow.sourceFailed();
   for (const auto& [m, mark] : made) flow.stage(*m.plugin, m.kind, mark);
+  for (Diagnostic& x : local.list) x.message += in_runs;
   if (how != SetFlowCheck::kNoSource) {
     const std::string what = "feature set '" + f.name + "'";
     for (const auto& feat : f.features) {
@@ -84,16 +90,16 @@ void checkSetFlow(const Sweep& s, const FeatureSet& f, SetFlowCheck how, const I
       if (!brought.empty())
         msg += " nor brought by the source of " + item->described() +
                " (brought: " + joinNames(brought) + ")";
-      local.add(f.features_mark, msg + " (written: " + joinNames(have) + ")");
+      msg += " (written: " + joinNames(have) + ")";
+      local.add(f.features_mark, brought.empty() ? msg + in_runs : msg);
     }
   }
-  for (Diagnostic x : local.list) {
+  // Said already: at load (without a source), or for another set sharing the common stages.
+  for (Diagnostic& x : local.list) {
     const auto same = [&](const Diagnostic& y) {
       return y.line == x.line && y.column == x.column && y.stage == x.stage && y.type == x.type &&
-             y.message == x.message;
+             (y.message == x.message || y.message + in_runs == x.message);
     };
-    if (std::any_of(d.list.begin(), d.list.end(), same)) continue;  // said already
-    if (x.message.find(" nor brought by the source of ") == std::string::npos) x.message += in_runs;
     if (!std::any_of(d.list.begin(), d.list.end(), same)) d.list.push_back(std::move(x));
   }
 }
@@ -902,15 +908,9 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
     }
     for (const auto& it : s->test) items.push_back(it.get());
     // By the layers they bring (frame artefacts such as '@pose' are judged per run).
-    const auto broughtBy = [](const Item& it) {
-      std::vector<std::string> b;
-      for (const auto& w : it.src->writes())
-        if (w[0] != '@') b.push_back(w);
-      return b;
-    };
     std::map<std::vector<std::string>, const Item*> by_writes;
     for (const Item* it : items)
-      if (it->src) by_writes.emplace(broughtBy(*it), it);  // else not installed, or reported
+      if (it->src) by_writes.emplace(broughtLayers(*it->src), it);  // else not installed/reported
     bool any_brought = false;
     for (const auto& [brought, it] : by_writes) any_brought |= !brought.empty();
     const bool name_item = by_writes.size() > 1 || any_brought;
@@ -918,7 +918,7 @@ std::unique_ptr<Sweep> loadSweep(const std::string& path, PluginRegistry& reg,
     // what the sources would bring is unknown, so nothing more is judged, as for run configs.
     // In the order the items are listed, for messages that follow the file.
     for (const Item* it : items)
-      if (it->src && by_writes.at(broughtBy(*it)) == it)
+      if (it->src && by_writes.at(broughtLayers(*it->src)) == it)
         checkSetFlow(*s, f, SetFlowCheck::kItem, it, name_item, reg, ctx, d);
   }
   std::set<std::string> used;
